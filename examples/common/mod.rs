@@ -1,0 +1,115 @@
+//! Shared setup of the windowed examples: window, orbit camera, lights, ground, and the screenshot
+//! mode used by CI and the README.
+//!
+//! Screenshot mode: set `BEVY_CLOTH_SCREENSHOT=path/to/file.png` (and optionally
+//! `BEVY_CLOTH_SCREENSHOT_FRAMES`, default 90). Time then advances by exactly 1/60 s per frame, so
+//! the picture is the same on every machine; after that many frames the window is saved and the app
+//! exits.
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
+use bevy::time::TimeUpdateStrategy;
+use bevy::window::WindowResolution;
+use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};
+
+/// Window, camera, lights, ground and screenshot mode for an example scene.
+pub struct ExamplePlugin {
+    /// Window title.
+    pub title: &'static str,
+    /// Point the camera orbits.
+    pub focus: Vec3,
+    /// Initial camera position.
+    pub eye: Vec3,
+}
+
+#[derive(Resource)]
+struct ScreenshotMode {
+    path: String,
+    frames: u32,
+}
+
+impl Plugin for ExamplePlugin {
+    fn build(&self, app: &mut App) {
+        app.add_plugins(DefaultPlugins.set(WindowPlugin {
+            primary_window: Some(Window {
+                title: self.title.into(),
+                resolution: WindowResolution::new(1280, 720),
+                ..default()
+            }),
+            ..default()
+        }))
+        .add_plugins(PanOrbitCameraPlugin)
+        .insert_resource(ClearColor(Color::srgb(0.62, 0.72, 0.82)));
+        let (focus, eye) = (self.focus, self.eye);
+        app.add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut materials: ResMut<Assets<StandardMaterial>>| {
+                commands.spawn((
+                    Transform::from_translation(eye).looking_at(focus, Vec3::Y),
+                    PanOrbitCamera { focus, ..default() },
+                ));
+                commands.spawn((
+                    DirectionalLight {
+                        illuminance: 9_000.0,
+                        shadows_enabled: true,
+                        ..default()
+                    },
+                    Transform::from_xyz(3.0, 6.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+                ));
+                commands.spawn((
+                    Mesh3d(meshes.add(Plane3d::default().mesh().size(12.0, 12.0))),
+                    MeshMaterial3d(materials.add(StandardMaterial {
+                        base_color: Color::srgb(0.35, 0.38, 0.36),
+                        perceptual_roughness: 1.0,
+                        ..default()
+                    })),
+                ));
+            },
+        );
+        if let Ok(path) = std::env::var("BEVY_CLOTH_SCREENSHOT") {
+            let frames = std::env::var("BEVY_CLOTH_SCREENSHOT_FRAMES")
+                .ok()
+                .and_then(|f| f.parse().ok())
+                .unwrap_or(90);
+            app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+                1.0 / 60.0,
+            )))
+            .insert_resource(Time::<Fixed>::from_hz(60.0))
+            .insert_resource(ScreenshotMode { path, frames })
+            .add_systems(Update, take_screenshot);
+        }
+    }
+}
+
+fn take_screenshot(mut commands: Commands, mode: Res<ScreenshotMode>, mut frame: Local<u32>) {
+    *frame += 1;
+    if *frame != mode.frames {
+        return;
+    }
+    let path = mode.path.clone();
+    commands.spawn(Screenshot::primary_window()).observe(
+        move |captured: On<ScreenshotCaptured>, mut exit: MessageWriter<AppExit>| {
+            save_to_disk(path.clone())(captured);
+            exit.write(AppExit::Success);
+        },
+    );
+}
+
+/// A two-sided material with the fabric texture.
+#[allow(dead_code)]
+pub fn fabric(
+    asset_server: &AssetServer,
+    materials: &mut Assets<StandardMaterial>,
+) -> Handle<StandardMaterial> {
+    materials.add(StandardMaterial {
+        base_color_texture: Some(asset_server.load("textures/fabric.png")),
+        perceptual_roughness: 0.9,
+        cull_mode: None,
+        double_sided: true,
+        ..default()
+    })
+}

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Everything CI checks, in one command: system packages, formatting, lints, all tests (headless),
+# docs, the windowed examples rendered to screenshots under Xvfb, and the screenshot checks.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+export CARGO_INCREMENTAL=0 CARGO_TERM_COLOR=never
+log=target/test-all.log
+mkdir -p target
+: > "$log"
+step() { echo; echo "==> $*"; }
+
+step "cargo fmt --check"
+cargo fmt --all -- --check
+step "cargo clippy (all targets, all features, -D warnings)"
+cargo clippy --all-targets --all-features -- -D warnings
+step "cargo test (headless)"
+cargo test 2>&1 | tee -a "$log"
+step "cargo doc (all features, warnings are errors)"
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --all-features
+step "screenshots of the windowed examples (Xvfb + lavapipe)"
+bash scripts/screenshots.sh
+step "screenshot checks"
+cargo test --test screenshots -- --ignored 2>&1 | tee -a "$log"
+
+step "summary"
+awk '/^test result:/ { p += $4; f += $6; i += $8 } END {
+  printf "all test binaries: %d passed, %d failed, %d ignored\n", p, f, i }' "$log"
+grep -q "^test result: FAILED" "$log" && exit 1
+echo "OK"

@@ -1,0 +1,226 @@
+//! The ECS-facing types a game spawns and edits: [`Cloth`], [`ClothConfig`], [`ClothPins`], and the
+//! read-only [`ClothState`] / [`ClothInvalid`] the plugin attaches. No formulas live here: the
+//! solver is in [`crate::sim`].
+
+use bevy::asset::Handle;
+use bevy::ecs::prelude::*;
+use bevy::math::Vec3;
+use bevy::mesh::Mesh;
+use bevy::reflect::prelude::*;
+use bevy::transform::components::Transform;
+
+use crate::error::ClothError;
+use crate::sim::{ClothSim, GridSpec, SolverSettings};
+
+/// Where a cloth's particles and triangles come from.
+#[derive(Debug, Clone, PartialEq, Reflect)]
+pub enum ClothSource {
+    /// The canonical grid cloth (see [`GridSpec`]); the plugin creates its mesh.
+    Grid(GridSpec),
+    /// A triangle-list mesh asset: one particle per vertex. The plugin copies the mesh into a new
+    /// asset that it then deforms, so other users of the handle are not affected; the copy keeps the
+    /// vertex count, index buffer and every other attribute.
+    Mesh(Handle<Mesh>),
+}
+
+/// A simulated cloth. Spawn it with a [`Transform`] that places the rest shape in the world; the
+/// plugin builds the simulation on the next frame and adds a `Mesh3d` showing it (give the entity a
+/// material to render it).
+///
+/// Replacing this component rebuilds the cloth from scratch.
+///
+/// # Example
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+///
+/// fn spawn(mut commands: Commands) {
+///     commands.spawn((
+///         Cloth::grid(GridSpec::new(32, 32, 0.05)),
+///         ClothPins::new([0, 31]),
+///         Transform::from_xyz(0.0, 2.0, 0.0),
+///     ));
+/// }
+/// # bevy::ecs::system::assert_is_system(spawn);
+/// ```
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+#[require(ClothConfig, ClothPins, Transform)]
+pub struct Cloth {
+    /// The rest shape.
+    pub source: ClothSource,
+}
+
+impl Cloth {
+    /// A grid cloth.
+    pub fn grid(spec: GridSpec) -> Self {
+        Self {
+            source: ClothSource::Grid(spec),
+        }
+    }
+
+    /// A cloth from a triangle-list mesh asset.
+    pub fn from_mesh(mesh: Handle<Mesh>) -> Self {
+        Self {
+            source: ClothSource::Mesh(mesh),
+        }
+    }
+}
+
+/// Runtime-editable settings of one cloth. Changes apply at the next fixed step.
+///
+/// # Example
+/// ```
+/// use bevy_cloth::prelude::*;
+///
+/// let config = ClothConfig {
+///     solver: SolverSettings { substeps: 30, damping: 1.0, ..Default::default() },
+///     ..Default::default()
+/// };
+/// assert!(config.solver.validate().is_ok());
+/// ```
+#[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct ClothConfig {
+    /// Integrator, substeps, stiffness, mass, damping and gravity.
+    pub solver: SolverSettings,
+    /// Display the state interpolated between the last two fixed steps, so motion is smooth at any
+    /// frame rate (it lags real time by at most one step). Off: show the latest step.
+    pub interpolate: bool,
+}
+
+impl Default for ClothConfig {
+    fn default() -> Self {
+        Self {
+            solver: SolverSettings::default(),
+            interpolate: true,
+        }
+    }
+}
+
+/// What a pinned particle is held to.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub enum PinAnchor {
+    /// The particle's rest position under the cloth entity's own transform: move the cloth entity
+    /// and its pinned particles follow.
+    Rest,
+    /// A fixed point in world space.
+    World(Vec3),
+    /// A point fixed to another entity: `offset` in that entity's local space, followed through its
+    /// `GlobalTransform`. If the entity disappears, the pin holds its last position.
+    Entity {
+        /// The entity to follow.
+        entity: Entity,
+        /// Offset in the entity's local space.
+        offset: Vec3,
+    },
+}
+
+/// One pinned particle.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct ClothPin {
+    /// Particle index (for grids, `j * nx + i`).
+    pub particle: u32,
+    /// What it is held to.
+    pub anchor: PinAnchor,
+}
+
+/// The pinned particles of a cloth. Edit it at runtime to pin, release or re-pin; released
+/// particles keep their velocity, newly pinned ones travel to their anchor over one step.
+///
+/// # Example
+/// ```
+/// use bevy_cloth::prelude::*;
+///
+/// let mut pins = ClothPins::new([0, 15]);
+/// pins.unpin(15);
+/// assert!(pins.is_pinned(0) && !pins.is_pinned(15));
+/// ```
+#[derive(Component, Debug, Clone, Default, PartialEq, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct ClothPins {
+    /// The pins, at most one per particle.
+    pub pins: Vec<ClothPin>,
+}
+
+impl ClothPins {
+    /// Pins the given particles to their rest positions (anchored to the cloth's transform).
+    pub fn new(particles: impl IntoIterator<Item = u32>) -> Self {
+        let mut pins = Self::default();
+        for p in particles {
+            pins.pin(p, PinAnchor::Rest);
+        }
+        pins
+    }
+
+    /// Pins a particle, replacing any earlier pin of it.
+    pub fn pin(&mut self, particle: u32, anchor: PinAnchor) -> &mut Self {
+        self.unpin(particle);
+        self.pins.push(ClothPin { particle, anchor });
+        self
+    }
+
+    /// Releases a particle (no effect if it is not pinned).
+    pub fn unpin(&mut self, particle: u32) -> &mut Self {
+        self.pins.retain(|p| p.particle != particle);
+        self
+    }
+
+    /// Releases every particle.
+    pub fn release_all(&mut self) {
+        self.pins.clear();
+    }
+
+    /// Whether a particle is pinned.
+    pub fn is_pinned(&self, particle: u32) -> bool {
+        self.pins.iter().any(|p| p.particle == particle)
+    }
+}
+
+/// The running simulation of a cloth, attached by the plugin. Read it for particle positions and
+/// statistics; change the cloth through [`Cloth`], [`ClothConfig`] and [`ClothPins`].
+#[derive(Component, Debug)]
+pub struct ClothState {
+    pub(crate) sim: ClothSim,
+    pub(crate) mesh: Handle<Mesh>,
+    /// Render positions (world space) after the previous and the latest step.
+    pub(crate) render_prev: Vec<Vec3>,
+    pub(crate) render_curr: Vec<Vec3>,
+    /// Render normals after the previous and the latest step.
+    pub(crate) normals_prev: Vec<Vec3>,
+    pub(crate) normals_curr: Vec<Vec3>,
+    /// Pin targets resolved this tick, in the order of [`ClothPins::pins`] (scratch buffer).
+    pub(crate) pin_targets: Vec<Vec3>,
+    /// Set when stepping failed; the cloth is then stopped.
+    pub(crate) failure: Option<ClothError>,
+    /// Whether the mesh must be written this frame.
+    pub(crate) dirty: bool,
+}
+
+impl ClothState {
+    /// The simulation (positions, velocities, settings, statistics).
+    pub fn sim(&self) -> &ClothSim {
+        &self.sim
+    }
+
+    /// Current particle positions in world space, in particle index order.
+    pub fn positions(&self) -> &[Vec3] {
+        self.sim.positions()
+    }
+
+    /// Number of fixed steps this cloth has taken.
+    pub fn steps(&self) -> u64 {
+        self.sim.steps()
+    }
+
+    /// The mesh asset the plugin writes.
+    pub fn mesh(&self) -> &Handle<Mesh> {
+        &self.mesh
+    }
+}
+
+/// Marks a cloth that could not be built or was stopped, with the reason. The plugin logs the error
+/// once and skips the cloth; fixing the cause (replacing [`Cloth`], editing [`ClothConfig`] or
+/// [`ClothPins`]) makes it try again.
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct ClothInvalid(pub ClothError);

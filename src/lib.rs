@@ -1,0 +1,51 @@
+//! # bevy_cloth
+//!
+//! Real-time mass-spring cloth for [Bevy](https://bevyengine.org) 0.19. Add [`ClothPlugin`], spawn
+//! an entity with a [`Cloth`], and the plugin simulates it in `FixedUpdate` and renders it through an
+//! ordinary `Mesh3d` that it updates in place every frame.
+//!
+//! ```
+//! use bevy::prelude::*;
+//! use bevy_cloth::prelude::*;
+//!
+//! let mut app = App::new();
+//! app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
+//!     .add_plugins((bevy::mesh::MeshPlugin, ClothPlugin::default()))
+//!     .add_systems(Startup, |mut commands: Commands| {
+//!         // A 1 m × 1 m sheet of 21 × 21 particles, pinned at two corners, 2 m above the origin.
+//!         commands.spawn((
+//!             Cloth::grid(GridSpec::new(21, 21, 0.05)),
+//!             ClothPins::new([0, 20]),
+//!             Transform::from_xyz(0.0, 2.0, 0.0),
+//!         ));
+//!     });
+//! app.finish();
+//! app.cleanup();
+//! app.update();
+//! ```
+//!
+//! Layers (see the repository's DESIGN notes): [`sim`] is the engine-free solver (plain data, every
+//! formula); [`components`] and [`plugin`] are the thin ECS layer; [`render`](crate::ClothState)
+//! writes meshes. Feature `render` brings Bevy's renderer for the windowed examples, `egui` the
+//! inspector panel.
+
+pub mod components;
+pub mod error;
+pub mod plugin;
+mod render;
+pub mod scene;
+pub mod sim;
+
+pub use components::*;
+pub use error::ClothError;
+pub use plugin::{ClothPlugin, ClothSystems};
+
+/// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
+pub mod prelude {
+    pub use crate::components::{
+        Cloth, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource, ClothState, PinAnchor,
+    };
+    pub use crate::error::ClothError;
+    pub use crate::plugin::{ClothPlugin, ClothSystems};
+    pub use crate::sim::{GridPlane, GridSpec, Integrator, SolverSettings, Stiffness};
+}

@@ -1,0 +1,414 @@
+//! [`ClothPlugin`]: scheduling, the [`ClothSystems`] sets and the thin systems that move data between
+//! the ECS and [`crate::sim`]. Systems gather inputs into plain data, call the solver and write
+//! meshes; they hold no formulas.
+
+use bevy::app::{App, FixedUpdate, Plugin, PostUpdate};
+use bevy::asset::{AssetEventSystems, Assets};
+use bevy::ecs::intern::Interned;
+use bevy::ecs::prelude::*;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::log::error;
+use bevy::math::Vec3;
+use bevy::mesh::{Mesh, Mesh3d};
+use bevy::time::{Fixed, Time};
+use bevy::transform::TransformSystems;
+use bevy::transform::components::GlobalTransform;
+
+use crate::components::*;
+use crate::error::ClothError;
+use crate::render;
+use crate::sim::{ClothModel, ClothSim, compute_normals};
+
+/// System sets of the cloth pipeline, public so games can order their own systems around them.
+///
+/// In the plugin's simulation schedule (default [`FixedUpdate`]), chained in this order:
+/// - [`Prepare`](Self::Prepare): apply edited configs and pin sets, and resolve pin anchors (rest,
+///   world, or another entity's `GlobalTransform`) into targets for this step.
+/// - [`Step`](Self::Step): advance every cloth by the schedule's time step (substeps inside), in
+///   parallel across cloths.
+/// - [`Subdivide`](Self::Subdivide): compute the render positions and normals of the new state.
+///
+/// In [`PostUpdate`], after transform propagation and before asset events (so that bounds and GPU
+/// buffers follow the same frame), chained:
+/// - [`Build`](Self::Build): build new or replaced cloths, and report failures (each once, as
+///   [`ClothInvalid`]).
+/// - [`Writeback`](Self::Writeback): write positions and normals into each cloth's `Mesh` in place,
+///   interpolated between the last two steps when [`ClothConfig::interpolate`] is on.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ClothSystems {
+    /// Apply edits and gather pin targets.
+    Prepare,
+    /// Step the solvers.
+    Step,
+    /// Produce render positions and normals.
+    Subdivide,
+    /// Create and rebuild cloths; report failures.
+    Build,
+    /// Write meshes.
+    Writeback,
+}
+
+/// Adds cloth simulation to an app.
+///
+/// # Example
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+///
+/// App::new()
+///     .add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
+///     .add_plugins((bevy::mesh::MeshPlugin, ClothPlugin::default()));
+/// ```
+#[derive(Debug, Clone)]
+pub struct ClothPlugin {
+    /// The schedule that steps the simulation, [`FixedUpdate`] by default. With any other
+    /// schedule the step uses that schedule's `Time` delta and display interpolation is off.
+    pub schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl Default for ClothPlugin {
+    fn default() -> Self {
+        Self {
+            schedule: FixedUpdate.intern(),
+        }
+    }
+}
+
+impl ClothPlugin {
+    /// Steps cloths in `schedule` instead of [`FixedUpdate`].
+    pub fn in_schedule(schedule: impl ScheduleLabel) -> Self {
+        Self {
+            schedule: schedule.intern(),
+        }
+    }
+}
+
+/// Whether the simulation runs in [`FixedUpdate`] (so that display interpolation makes sense).
+#[derive(Resource, Debug, Clone, Copy)]
+struct SteppedInFixedUpdate(bool);
+
+impl Plugin for ClothPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<Cloth>()
+            .register_type::<ClothConfig>()
+            .register_type::<ClothPins>()
+            .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
+            .configure_sets(
+                self.schedule,
+                (
+                    ClothSystems::Prepare,
+                    ClothSystems::Step,
+                    ClothSystems::Subdivide,
+                )
+                    .chain(),
+            )
+            .configure_sets(
+                PostUpdate,
+                (ClothSystems::Build, ClothSystems::Writeback)
+                    .chain()
+                    .after(TransformSystems::Propagate)
+                    .before(AssetEventSystems),
+            )
+            .add_systems(
+                self.schedule,
+                (
+                    (apply_edits, resolve_pin_targets)
+                        .chain()
+                        .in_set(ClothSystems::Prepare),
+                    step_cloths.in_set(ClothSystems::Step),
+                    update_render_buffers.in_set(ClothSystems::Subdivide),
+                )
+                    .run_if(any_with_component::<ClothState>),
+            )
+            .add_systems(
+                PostUpdate,
+                (
+                    build_cloths.in_set(ClothSystems::Build),
+                    write_meshes
+                        .in_set(ClothSystems::Writeback)
+                        .run_if(any_with_component::<ClothState>),
+                ),
+            );
+    }
+}
+
+/// Where each pin should be at the end of this step.
+fn resolve_pin_targets(
+    mut cloths: Query<(&ClothPins, &GlobalTransform, &mut ClothState), Without<ClothInvalid>>,
+    anchors: Query<&GlobalTransform>,
+) {
+    for (pins, transform, mut state) in &mut cloths {
+        let state = &mut *state;
+        for (pin, target) in pins.pins.iter().zip(state.pin_targets.iter_mut()) {
+            let resolved = match pin.anchor {
+                PinAnchor::Rest => state
+                    .sim
+                    .model()
+                    .rest_positions
+                    .get(pin.particle as usize)
+                    .map(|p| transform.transform_point(*p)),
+                PinAnchor::World(p) => Some(p),
+                PinAnchor::Entity { entity, offset } => {
+                    anchors.get(entity).ok().map(|g| g.transform_point(offset))
+                }
+            };
+            // A vanished anchor entity leaves the pin where it was.
+            if let Some(p) = resolved {
+                *target = p;
+            }
+        }
+        state.sim.move_pins(state.pin_targets.iter().copied());
+    }
+}
+
+/// Advances every running cloth by one step of the schedule's clock, in parallel across cloths.
+fn step_cloths(time: Res<Time>, mut cloths: Query<&mut ClothState, Without<ClothInvalid>>) {
+    let dt = time.delta_secs();
+    if dt <= 0.0 {
+        return;
+    }
+    cloths.par_iter_mut().for_each(|mut state| {
+        if state.failure.is_none()
+            && let Err(e) = state.sim.step(dt)
+        {
+            state.failure = Some(e);
+        }
+    });
+}
+
+/// Keeps the last two render states (positions and normals) for display interpolation.
+fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<ClothInvalid>>) {
+    cloths.par_iter_mut().for_each(|mut state| {
+        if state.failure.is_some() {
+            return;
+        }
+        let s = &mut *state;
+        std::mem::swap(&mut s.render_prev, &mut s.render_curr);
+        std::mem::swap(&mut s.normals_prev, &mut s.normals_curr);
+        s.render_curr.copy_from_slice(s.sim.positions());
+        compute_normals(
+            &s.render_curr,
+            &s.sim.model().triangles,
+            &mut s.normals_curr,
+        );
+        s.dirty = true;
+    });
+}
+
+/// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. A bad edit
+/// stops the cloth (reported by [`build_cloths`]).
+fn apply_edits(
+    mut cloths: Query<
+        (
+            Ref<ClothConfig>,
+            Ref<ClothPins>,
+            &GlobalTransform,
+            &mut ClothState,
+        ),
+        Without<ClothInvalid>,
+    >,
+) {
+    for (config, pins, transform, mut state) in &mut cloths {
+        if state.failure.is_some() || !(config.is_changed() || pins.is_changed()) {
+            continue;
+        }
+        let mut result = Ok(());
+        if config.is_changed() {
+            result = state.sim.set_settings(config.solver);
+        }
+        if result.is_ok() && pins.is_changed() {
+            result = apply_pins(&mut state, &pins, transform);
+        }
+        state.failure = result.err();
+    }
+}
+
+type BuildQuery<'a> = (
+    Entity,
+    Ref<'a, Cloth>,
+    Ref<'a, ClothConfig>,
+    Ref<'a, ClothPins>,
+    &'a GlobalTransform,
+    Option<&'a mut ClothState>,
+    Has<ClothInvalid>,
+);
+
+/// Builds new and replaced cloths (and invalid ones that were edited), and turns failures into
+/// [`ClothInvalid`], logged once per failure.
+fn build_cloths(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut cloths: Query<BuildQuery>,
+) {
+    for (entity, cloth, config, pins, transform, mut state, invalid) in &mut cloths {
+        let edited = cloth.is_changed() || config.is_changed() || pins.is_changed();
+        let failure = state
+            .as_mut()
+            .filter(|s| s.failure.is_some())
+            .and_then(|s| s.failure.take());
+        // New, replaced, waiting for its mesh asset, or edited after being invalid.
+        let rebuild = match &state {
+            Some(_) => cloth.is_changed(),
+            None => !invalid || edited,
+        };
+        let result = match failure {
+            Some(e) => Err(e),
+            None if rebuild => {
+                build_state(&cloth, &config, &pins, transform, &mut meshes).map(|built| {
+                    if let Some((state, mesh)) = built {
+                        commands
+                            .entity(entity)
+                            .remove::<ClothInvalid>()
+                            .insert((state, Mesh3d(mesh)));
+                    }
+                })
+            }
+            None => Ok(()),
+        };
+        if let Err(e) = result {
+            error!("cloth {entity}: {e}; the cloth is skipped until it is edited");
+            commands
+                .entity(entity)
+                .remove::<ClothState>()
+                .insert(ClothInvalid(e));
+        }
+    }
+}
+
+/// Builds the simulation and mesh of a cloth. `Ok(None)` means its mesh asset is not loaded yet.
+fn build_state(
+    cloth: &Cloth,
+    config: &ClothConfig,
+    pins: &ClothPins,
+    transform: &GlobalTransform,
+    meshes: &mut Assets<Mesh>,
+) -> Result<Option<(ClothState, bevy::asset::Handle<Mesh>)>, ClothError> {
+    let (model, mesh) = match &cloth.source {
+        ClothSource::Grid(spec) => {
+            let model = ClothModel::grid(spec)?;
+            let mesh = render::mesh_for_model(&model);
+            (model, mesh)
+        }
+        ClothSource::Mesh(handle) => {
+            let Some(source) = meshes.get(handle) else {
+                return Ok(None);
+            };
+            let model = render::model_from_mesh(source)?;
+            (model, render::prepare_user_mesh(source.clone()))
+        }
+    };
+    let sim = ClothSim::new(model, config.solver, |p| transform.transform_point(p))?;
+    let positions = sim.positions().to_vec();
+    let mut normals = vec![Vec3::Y; positions.len()];
+    compute_normals(&positions, &sim.model().triangles, &mut normals);
+    let mut state = ClothState {
+        sim,
+        mesh: meshes.add(mesh),
+        render_prev: positions.clone(),
+        render_curr: positions,
+        normals_prev: normals.clone(),
+        normals_curr: normals,
+        pin_targets: Vec::new(),
+        failure: None,
+        dirty: true,
+    };
+    apply_pins(&mut state, pins, transform)?;
+    let handle = state.mesh.clone();
+    Ok(Some((state, handle)))
+}
+
+/// Replaces the pin set of a running cloth, each pin starting at its anchor's current position.
+fn apply_pins(
+    state: &mut ClothState,
+    pins: &ClothPins,
+    transform: &GlobalTransform,
+) -> Result<(), ClothError> {
+    let model = state.sim.model();
+    let current = state.sim.positions();
+    state.pin_targets.clear();
+    for pin in &pins.pins {
+        let index = pin.particle as usize;
+        let Some(rest) = model.rest_positions.get(index) else {
+            return Err(ClothError::PinOutOfRange {
+                index: pin.particle,
+                count: model.particle_count(),
+            });
+        };
+        state.pin_targets.push(match pin.anchor {
+            PinAnchor::Rest => transform.transform_point(*rest),
+            PinAnchor::World(p) => p,
+            // Resolved in `Prepare`; until then the particle stays where it is.
+            PinAnchor::Entity { .. } => current[index],
+        });
+    }
+    let targets: Vec<(u32, Vec3)> = pins
+        .pins
+        .iter()
+        .map(|p| p.particle)
+        .zip(state.pin_targets.iter().copied())
+        .collect();
+    state.sim.set_pins(targets)
+}
+
+/// Writes each changed cloth's render state into its mesh, in the entity's local space.
+fn write_meshes(
+    fixed: Res<SteppedInFixedUpdate>,
+    time: Res<Time<Fixed>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut cloths: Query<
+        (Entity, &ClothConfig, Ref<GlobalTransform>, &mut ClothState),
+        Without<ClothInvalid>,
+    >,
+) {
+    let fraction = if fixed.0 {
+        time.overstep_fraction()
+    } else {
+        1.0
+    };
+    for (entity, config, transform, mut state) in &mut cloths {
+        let interpolating = config.interpolate && fraction < 1.0;
+        if !(state.dirty || interpolating || transform.is_changed()) {
+            continue;
+        }
+        let Some(mut mesh) = meshes.get_mut(&state.mesh) else {
+            continue;
+        };
+        let alpha = if config.interpolate { fraction } else { 1.0 };
+        let world_to_local = transform.affine().inverse();
+        let s = &*state;
+        if let Err(e) = render::write_mesh(
+            &mut mesh,
+            &world_to_local,
+            (&s.render_prev, &s.render_curr),
+            (&s.normals_prev, &s.normals_curr),
+            alpha,
+        ) {
+            error!("cloth {entity}: {e}");
+        }
+        state.dirty = false;
+    }
+}
+
+/// A windowless app ready for cloths: `MinimalPlugins`, transforms, assets, meshes and
+/// [`ClothPlugin`], with a fixed step of `dt` seconds and manual time so that every `update()` runs
+/// exactly one fixed step. It has already been updated once (Bevy's first update has zero delta).
+/// A cloth spawned now is built at the end of the next `update()` (after that update's fixed step),
+/// so it starts at rest and steps from the update after.
+///
+/// Used by the tests, benchmarks and `cloth_cli`; servers and tools can use it too.
+pub fn headless_app(dt: f32) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        bevy::MinimalPlugins,
+        bevy::transform::TransformPlugin,
+        bevy::asset::AssetPlugin::default(),
+        bevy::mesh::MeshPlugin,
+        ClothPlugin::default(),
+    ))
+    .insert_resource(Time::<Fixed>::from_seconds(dt as f64))
+    .insert_resource(bevy::time::TimeUpdateStrategy::FixedTimesteps(1));
+    app.finish();
+    app.cleanup();
+    app.update();
+    app
+}

@@ -1,0 +1,146 @@
+//! Render meshes of cloths: building the `Mesh` asset once when a cloth is created, reading a user's
+//! mesh as a cloth source, and writing simulated positions and normals into the existing attribute
+//! buffers in place every frame (no new buffers).
+
+use bevy::asset::RenderAssetUsages;
+use bevy::math::{Affine3A, Vec2, Vec3};
+use bevy::mesh::{Indices, Mesh, MeshAccessError, PrimitiveTopology, VertexAttributeValues};
+
+use crate::error::ClothError;
+use crate::sim::ClothModel;
+
+/// A triangle-list mesh of the cloth's rest shape with positions, normals, UVs and indices, usable
+/// in both worlds so it can be rewritten every frame.
+pub(crate) fn mesh_for_model(model: &ClothModel) -> Mesh {
+    let mut normals = vec![Vec3::Y; model.particle_count()];
+    crate::sim::compute_normals(&model.rest_positions, &model.triangles, &mut normals);
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, to_arrays(&model.rest_positions))
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, to_arrays(&normals))
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_UV_0,
+        model.uvs.iter().map(|u| u.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_indices(Indices::U32(model.triangles.clone()))
+}
+
+fn to_arrays(v: &[Vec3]) -> Vec<[f32; 3]> {
+    v.iter().map(|p| p.to_array()).collect()
+}
+
+fn mesh_error(what: impl Into<String>) -> ClothError {
+    ClothError::InvalidMesh { what: what.into() }
+}
+
+fn access(e: MeshAccessError) -> ClothError {
+    mesh_error(format!("cannot be read: {e}"))
+}
+
+/// Builds a cloth model from a user's triangle-list mesh (one particle per vertex).
+pub(crate) fn model_from_mesh(mesh: &Mesh) -> Result<ClothModel, ClothError> {
+    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+        return Err(mesh_error(format!(
+            "must be a TriangleList, got {:?}",
+            mesh.primitive_topology()
+        )));
+    }
+    let positions: Vec<Vec3> = match mesh
+        .try_attribute_option(Mesh::ATTRIBUTE_POSITION)
+        .map_err(access)?
+    {
+        Some(VertexAttributeValues::Float32x3(p)) => {
+            p.iter().map(|p| Vec3::from_array(*p)).collect()
+        }
+        Some(other) => {
+            return Err(mesh_error(format!(
+                "positions must be Float32x3, got {:?}",
+                other.enum_variant_name()
+            )));
+        }
+        None => return Err(mesh_error("has no vertex positions")),
+    };
+    let uvs: Option<Vec<Vec2>> = match mesh
+        .try_attribute_option(Mesh::ATTRIBUTE_UV_0)
+        .map_err(access)?
+    {
+        Some(VertexAttributeValues::Float32x2(uv)) => {
+            Some(uv.iter().map(|u| Vec2::from_array(*u)).collect())
+        }
+        _ => None,
+    };
+    let indices: Vec<u32> = match mesh.try_indices_option().map_err(access)? {
+        Some(Indices::U32(i)) => i.clone(),
+        Some(Indices::U16(i)) => i.iter().map(|&i| i as u32).collect(),
+        None => return Err(mesh_error("has no index buffer")),
+    };
+    ClothModel::from_mesh(&positions, uvs.as_deref(), &indices, 3)
+}
+
+/// The same mesh with positions and normals present as `Float32x3` (normals added if missing), ready
+/// to be rewritten in place.
+pub(crate) fn prepare_user_mesh(mut mesh: Mesh) -> Mesh {
+    mesh.asset_usage = RenderAssetUsages::default();
+    let count = mesh.count_vertices();
+    let has_normals = matches!(
+        mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL),
+        Ok(Some(VertexAttributeValues::Float32x3(n))) if n.len() == count
+    );
+    if !has_normals {
+        mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0, 1.0, 0.0]; count]);
+    }
+    mesh
+}
+
+/// Writes world-space `positions` and `normals` (blended as `prev + (curr - prev) * alpha`) into
+/// the mesh's existing position and normal buffers, in the local space given by `world_to_local`.
+/// Fails without writing if the buffers are missing or have the wrong size.
+pub(crate) fn write_mesh(
+    mesh: &mut Mesh,
+    world_to_local: &Affine3A,
+    positions: (&[Vec3], &[Vec3]),
+    normals: (&[Vec3], &[Vec3]),
+    alpha: f32,
+) -> Result<(), ClothError> {
+    let normal_matrix = world_to_local.matrix3.inverse().transpose();
+    write_attribute(mesh, Mesh::ATTRIBUTE_POSITION, positions, alpha, |p| {
+        world_to_local.transform_point3(p)
+    })?;
+    write_attribute(mesh, Mesh::ATTRIBUTE_NORMAL, normals, alpha, |n| {
+        (normal_matrix * n).normalize_or(Vec3::Y)
+    })
+}
+
+fn write_attribute(
+    mesh: &mut Mesh,
+    attribute: bevy::mesh::MeshVertexAttribute,
+    (prev, curr): (&[Vec3], &[Vec3]),
+    alpha: f32,
+    map: impl Fn(Vec3) -> Vec3,
+) -> Result<(), ClothError> {
+    let Some(VertexAttributeValues::Float32x3(out)) =
+        mesh.try_attribute_mut_option(attribute).map_err(access)?
+    else {
+        return Err(mesh_error(format!("lost its {} buffer", attribute.name)));
+    };
+    if out.len() != curr.len() {
+        return Err(mesh_error(format!(
+            "{} buffer has {} entries, the cloth has {}",
+            attribute.name,
+            out.len(),
+            curr.len()
+        )));
+    }
+    if alpha >= 1.0 {
+        for (o, c) in out.iter_mut().zip(curr) {
+            *o = map(*c).to_array();
+        }
+    } else {
+        for ((o, p), c) in out.iter_mut().zip(prev).zip(curr) {
+            *o = map(p.lerp(*c, alpha)).to_array();
+        }
+    }
+    Ok(())
+}

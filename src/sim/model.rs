@@ -1,0 +1,522 @@
+//! Cloth topology, built once: rest positions, the spring set (coloured for deterministic
+//! Gauss-Seidel solving), the triangle list for rendering, and texture coordinates.
+//!
+//! This is where the canonical grid cloth of DESIGN.md is defined, and where a cloth is derived from an
+//! arbitrary triangle or quad mesh. Nothing here runs per step.
+
+use bevy::reflect::Reflect;
+use glam::{Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+use crate::error::{ClothError, positive};
+
+/// The three spring families of a Provot mass-spring cloth.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, Reflect,
+)]
+pub enum SpringKind {
+    /// Along grid rows and columns (or along mesh edges).
+    Structural = 0,
+    /// Along cell diagonals.
+    Shear = 1,
+    /// Skipping one particle (or across a shared mesh edge); resists folding.
+    Bend = 2,
+}
+
+impl SpringKind {
+    /// All kinds, in index order.
+    pub const ALL: [SpringKind; 3] = [SpringKind::Structural, SpringKind::Shear, SpringKind::Bend];
+}
+
+/// Which plane a grid cloth lies in, in the cloth's local space. The grid is centred on the origin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
+pub enum GridPlane {
+    /// Particle `(i, j)` at `((i - (nx-1)/2) h, 0, (j - (ny-1)/2) h)`: a horizontal sheet, facing +Y.
+    #[default]
+    Horizontal,
+    /// Particle `(i, j)` at `((i - (nx-1)/2) h, -(j - (ny-1)/2) h, 0)`: a hanging curtain, row 0 on
+    /// top, facing +Z.
+    Vertical,
+}
+
+/// The canonical rectangular grid cloth of DESIGN.md.
+///
+/// Particle `(i, j)` has index `j * nx + i`. Springs: structural `(i,j)-(i+1,j)`, `(i,j)-(i,j+1)`;
+/// shear `(i,j)-(i+1,j+1)`, `(i+1,j)-(i,j+1)`; bend `(i,j)-(i+2,j)`, `(i,j)-(i,j+2)`. Rest lengths are
+/// the initial distances.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+pub struct GridSpec {
+    /// Particles along the first axis (`i`), at least 2.
+    pub nx: u32,
+    /// Particles along the second axis (`j`), at least 2.
+    pub ny: u32,
+    /// Distance between neighbouring particles, in metres.
+    pub spacing: f32,
+    /// Orientation of the sheet in local space.
+    #[serde(default)]
+    pub plane: GridPlane,
+}
+
+impl GridSpec {
+    /// A horizontal `nx` × `ny` grid with the given spacing.
+    pub fn new(nx: u32, ny: u32, spacing: f32) -> Self {
+        Self {
+            nx,
+            ny,
+            spacing,
+            plane: GridPlane::Horizontal,
+        }
+    }
+
+    /// The same grid in another plane.
+    pub fn with_plane(mut self, plane: GridPlane) -> Self {
+        self.plane = plane;
+        self
+    }
+
+    /// Index of particle `(i, j)`.
+    pub fn index(&self, i: u32, j: u32) -> u32 {
+        j * self.nx + i
+    }
+
+    /// Checks the spec; the error names the bad field.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        if self.nx < 2 {
+            return Err(ClothError::GridTooSmall {
+                field: "nx",
+                value: self.nx,
+            });
+        }
+        if self.ny < 2 {
+            return Err(ClothError::GridTooSmall {
+                field: "ny",
+                value: self.ny,
+            });
+        }
+        if (self.nx as u64) * (self.ny as u64) > u32::MAX as u64 / 2 {
+            return Err(ClothError::GridTooLarge {
+                nx: self.nx,
+                ny: self.ny,
+            });
+        }
+        positive("spacing", self.spacing)
+    }
+}
+
+/// The springs of a cloth in structure-of-arrays form, ordered by colour: within one colour no two
+/// springs share a particle, so a colour can be solved in any order (or in parallel) with the same
+/// result.
+#[derive(Debug, Clone, Default)]
+pub struct Springs {
+    /// First particle of each spring.
+    pub a: Vec<u32>,
+    /// Second particle of each spring.
+    pub b: Vec<u32>,
+    /// Rest length of each spring, in metres.
+    pub rest: Vec<f32>,
+    /// Family of each spring.
+    pub kind: Vec<SpringKind>,
+    /// Springs of colour `c` are `color_offsets[c]..color_offsets[c + 1]`.
+    pub color_offsets: Vec<u32>,
+}
+
+impl Springs {
+    /// Number of springs.
+    pub fn len(&self) -> usize {
+        self.a.len()
+    }
+
+    /// Whether there are no springs.
+    pub fn is_empty(&self) -> bool {
+        self.a.is_empty()
+    }
+
+    /// Number of colours.
+    pub fn color_count(&self) -> usize {
+        self.color_offsets.len().saturating_sub(1)
+    }
+
+    /// Number of springs of each kind, indexed by `SpringKind as usize`.
+    pub fn count_by_kind(&self) -> [usize; 3] {
+        let mut n = [0; 3];
+        for k in &self.kind {
+            n[*k as usize] += 1;
+        }
+        n
+    }
+
+    /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`.
+    /// Springs of zero rest length are dropped (they cannot define a direction).
+    fn build(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)]) -> Self {
+        let pairs: Vec<(u32, u32, SpringKind, f32)> = pairs
+            .iter()
+            .map(|&(a, b, k)| {
+                (
+                    a,
+                    b,
+                    k,
+                    positions[a as usize].distance(positions[b as usize]),
+                )
+            })
+            .filter(|p| p.3 > 0.0)
+            .collect();
+        let colors = greedy_edge_coloring(positions.len(), pairs.iter().map(|p| (p.0, p.1)));
+        let color_count = colors.iter().copied().max().map_or(0, |c| c as usize + 1);
+        let mut order: Vec<usize> = (0..pairs.len()).collect();
+        // Stable sort: within a colour, springs keep their construction order (good locality).
+        order.sort_by_key(|&s| colors[s]);
+        let mut springs = Springs {
+            a: Vec::with_capacity(pairs.len()),
+            b: Vec::with_capacity(pairs.len()),
+            rest: Vec::with_capacity(pairs.len()),
+            kind: Vec::with_capacity(pairs.len()),
+            color_offsets: vec![0; color_count + 1],
+        };
+        for &s in &order {
+            let (a, b, k, r) = pairs[s];
+            springs.a.push(a);
+            springs.b.push(b);
+            springs.rest.push(r);
+            springs.kind.push(k);
+            springs.color_offsets[colors[s] as usize + 1] += 1;
+        }
+        for c in 0..color_count {
+            springs.color_offsets[c + 1] += springs.color_offsets[c];
+        }
+        springs
+    }
+}
+
+/// Greedy colouring of the edges of a graph: each edge gets the smallest colour not yet used at
+/// either endpoint. Uses at most `2 Δ - 1` colours for maximum degree `Δ`.
+fn greedy_edge_coloring(nodes: usize, edges: impl Iterator<Item = (u32, u32)> + Clone) -> Vec<u32> {
+    let mut degree = vec![0u32; nodes];
+    for (a, b) in edges.clone() {
+        degree[a as usize] += 1;
+        degree[b as usize] += 1;
+    }
+    let max_colors = (2 * degree.iter().copied().max().unwrap_or(0)).max(1) as usize;
+    let words = max_colors.div_ceil(64);
+    let mut used = vec![0u64; nodes * words];
+    let mut colors = Vec::new();
+    for (a, b) in edges {
+        let (ua, ub) = (a as usize * words, b as usize * words);
+        let mut color = 0;
+        for w in 0..words {
+            let free = !(used[ua + w] | used[ub + w]);
+            if free != 0 {
+                color = w * 64 + free.trailing_zeros() as usize;
+                break;
+            }
+        }
+        used[ua + color / 64] |= 1 << (color % 64);
+        used[ub + color / 64] |= 1 << (color % 64);
+        colors.push(color as u32);
+    }
+    colors
+}
+
+/// The immutable description of one cloth: rest shape, springs and render topology.
+#[derive(Debug, Clone)]
+pub struct ClothModel {
+    /// Rest (initial) positions in the cloth's local space.
+    pub rest_positions: Vec<Vec3>,
+    /// Texture coordinates, one per particle.
+    pub uvs: Vec<Vec2>,
+    /// Triangle list (three indices per triangle) used for normals, rendering and aerodynamics.
+    pub triangles: Vec<u32>,
+    /// The coloured spring set.
+    pub springs: Springs,
+    /// Grid dimensions when built from a [`GridSpec`].
+    pub grid: Option<GridSpec>,
+}
+
+impl ClothModel {
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.rest_positions.len()
+    }
+
+    /// Builds the canonical grid cloth.
+    pub fn grid(spec: &GridSpec) -> Result<Self, ClothError> {
+        spec.validate()?;
+        let (nx, ny, h) = (spec.nx, spec.ny, spec.spacing);
+        let cx = (nx - 1) as f32 * 0.5;
+        let cy = (ny - 1) as f32 * 0.5;
+        let mut rest_positions = Vec::with_capacity((nx * ny) as usize);
+        let mut uvs = Vec::with_capacity((nx * ny) as usize);
+        for j in 0..ny {
+            for i in 0..nx {
+                let (u, v) = ((i as f32 - cx) * h, (j as f32 - cy) * h);
+                rest_positions.push(match spec.plane {
+                    GridPlane::Horizontal => Vec3::new(u, 0.0, v),
+                    GridPlane::Vertical => Vec3::new(u, -v, 0.0),
+                });
+                uvs.push(Vec2::new(
+                    i as f32 / (nx - 1) as f32,
+                    j as f32 / (ny - 1) as f32,
+                ));
+            }
+        }
+        let id = |i: u32, j: u32| spec.index(i, j);
+        let mut pairs = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                if i + 1 < nx {
+                    pairs.push((id(i, j), id(i + 1, j), SpringKind::Structural));
+                }
+                if j + 1 < ny {
+                    pairs.push((id(i, j), id(i, j + 1), SpringKind::Structural));
+                }
+                if i + 1 < nx && j + 1 < ny {
+                    pairs.push((id(i, j), id(i + 1, j + 1), SpringKind::Shear));
+                    pairs.push((id(i + 1, j), id(i, j + 1), SpringKind::Shear));
+                }
+                if i + 2 < nx {
+                    pairs.push((id(i, j), id(i + 2, j), SpringKind::Bend));
+                }
+                if j + 2 < ny {
+                    pairs.push((id(i, j), id(i, j + 2), SpringKind::Bend));
+                }
+            }
+        }
+        let mut triangles = Vec::with_capacity(((nx - 1) * (ny - 1) * 6) as usize);
+        // Winding chosen so that the horizontal sheet faces +Y and the vertical one +Z.
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
+                triangles.extend_from_slice(&[a, c, b, b, c, d]);
+            }
+        }
+        let springs = Springs::build(&rest_positions, &pairs);
+        Ok(Self {
+            rest_positions,
+            uvs,
+            triangles,
+            springs,
+            grid: Some(*spec),
+        })
+    }
+
+    /// Builds a cloth from an indexed mesh whose faces are all triangles (`face_size == 3`) or all
+    /// quads (`face_size == 4`). Structural springs run along every edge; bend springs connect the
+    /// two vertices opposite each interior edge (for quads, the far corners across the edge); quads
+    /// also get both diagonals as shear springs. Triangles for rendering keep the input's order
+    /// (quads are split along their first diagonal).
+    pub fn from_mesh(
+        positions: &[Vec3],
+        uvs: Option<&[Vec2]>,
+        indices: &[u32],
+        face_size: usize,
+    ) -> Result<Self, ClothError> {
+        if positions.is_empty() {
+            return Err(ClothError::InvalidMesh {
+                what: "has no vertex positions".into(),
+            });
+        }
+        if indices.is_empty() {
+            return Err(ClothError::InvalidMesh {
+                what: "has no indices".into(),
+            });
+        }
+        if face_size != 3 && face_size != 4 {
+            return Err(ClothError::InvalidMesh {
+                what: format!("faces must have 3 or 4 vertices, got {face_size}"),
+            });
+        }
+        if indices.len() % face_size != 0 {
+            return Err(ClothError::InvalidMesh {
+                what: format!(
+                    "index count {} is not a multiple of the face size {face_size}",
+                    indices.len()
+                ),
+            });
+        }
+        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(ClothError::InvalidMesh {
+                what: format!("vertex {i} has a non-finite position {p}"),
+            });
+        }
+        if let Some(uvs) = uvs
+            && uvs.len() != positions.len()
+        {
+            return Err(ClothError::InvalidMesh {
+                what: format!(
+                    "has {} texture coordinates for {} vertices",
+                    uvs.len(),
+                    positions.len()
+                ),
+            });
+        }
+        let count = positions.len();
+        if let Some((position, &index)) = indices
+            .iter()
+            .enumerate()
+            .find(|(_, i)| **i as usize >= count)
+        {
+            return Err(ClothError::MeshIndexOutOfRange {
+                index,
+                position,
+                count,
+            });
+        }
+
+        // Undirected edge -> the vertices opposite it in each adjacent face (at most two kept).
+        let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        let mut edge_order: Vec<(u32, u32)> = Vec::new();
+        let mut pairs = Vec::new();
+        let mut triangles = Vec::with_capacity(indices.len() / face_size * 3 * (face_size - 2));
+        for face in indices.chunks_exact(face_size) {
+            for k in 0..face_size {
+                let (a, b) = (face[k], face[(k + 1) % face_size]);
+                if a == b {
+                    continue;
+                }
+                // The opposite vertex: for triangles the third corner, for quads the corner after b.
+                let opposite = face[(k + 2) % face_size];
+                let key = (a.min(b), a.max(b));
+                let entry = edges.entry(key).or_insert_with(|| {
+                    edge_order.push(key);
+                    Vec::new()
+                });
+                entry.push(opposite);
+            }
+            if face_size == 4 {
+                pairs.push((face[0], face[2], SpringKind::Shear));
+                pairs.push((face[1], face[3], SpringKind::Shear));
+                triangles
+                    .extend_from_slice(&[face[0], face[1], face[2], face[0], face[2], face[3]]);
+            } else {
+                triangles.extend_from_slice(face);
+            }
+        }
+        for key in &edge_order {
+            pairs.push((key.0, key.1, SpringKind::Structural));
+            if let [o1, o2] = edges[key][..]
+                && o1 != o2
+            {
+                pairs.push((o1, o2, SpringKind::Bend));
+            }
+        }
+        let springs = Springs::build(positions, &pairs);
+        Ok(Self {
+            rest_positions: positions.to_vec(),
+            uvs: uvs.map_or_else(|| vec![Vec2::ZERO; count], <[Vec2]>::to_vec),
+            triangles,
+            springs,
+            grid: None,
+        })
+    }
+}
+
+/// Writes area-weighted smooth vertex normals of a triangle mesh into `normals` (same length as
+/// `positions`), without allocating. Vertices with no area around them get +Y.
+pub fn compute_normals(positions: &[Vec3], triangles: &[u32], normals: &mut [Vec3]) {
+    normals.fill(Vec3::ZERO);
+    for t in triangles.chunks_exact(3) {
+        let (a, b, c) = (t[0] as usize, t[1] as usize, t[2] as usize);
+        let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+        normals[a] += n;
+        normals[b] += n;
+        normals[c] += n;
+    }
+    for n in normals.iter_mut() {
+        *n = n.try_normalize().unwrap_or(Vec3::Y);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_has_the_canonical_spring_counts() {
+        let (nx, ny) = (5u32, 4u32);
+        let m = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
+        let [s, sh, b] = m.springs.count_by_kind();
+        assert_eq!(s as u32, (nx - 1) * ny + nx * (ny - 1));
+        assert_eq!(sh as u32, 2 * (nx - 1) * (ny - 1));
+        assert_eq!(b as u32, (nx - 2) * ny + nx * (ny - 2));
+        assert_eq!(m.triangles.len() as u32, (nx - 1) * (ny - 1) * 6);
+        // particle (i, j) has index j * nx + i, spacing h along i and j.
+        let p = |i: u32, j: u32| m.rest_positions[(j * nx + i) as usize];
+        assert!((p(1, 0) - p(0, 0) - Vec3::new(0.1, 0.0, 0.0)).length() < 1e-6);
+        assert!((p(0, 1) - p(0, 0) - Vec3::new(0.0, 0.0, 0.1)).length() < 1e-6);
+    }
+
+    #[test]
+    fn colours_never_share_a_particle() {
+        let m = ClothModel::grid(&GridSpec::new(9, 7, 0.1)).unwrap();
+        let s = &m.springs;
+        for c in 0..s.color_count() {
+            let mut seen = vec![false; m.particle_count()];
+            for k in s.color_offsets[c] as usize..s.color_offsets[c + 1] as usize {
+                for p in [s.a[k], s.b[k]] {
+                    assert!(!seen[p as usize], "colour {c} uses particle {p} twice");
+                    seen[p as usize] = true;
+                }
+            }
+        }
+        assert_eq!(*s.color_offsets.last().unwrap() as usize, s.len());
+        assert!(s.color_count() <= 23, "{} colours", s.color_count());
+    }
+
+    #[test]
+    fn grid_normals_face_up() {
+        let m = ClothModel::grid(&GridSpec::new(4, 4, 0.1)).unwrap();
+        let mut n = vec![Vec3::ZERO; m.particle_count()];
+        compute_normals(&m.rest_positions, &m.triangles, &mut n);
+        assert!(n.iter().all(|n| (*n - Vec3::Y).length() < 1e-6));
+        let v =
+            ClothModel::grid(&GridSpec::new(4, 4, 0.1).with_plane(GridPlane::Vertical)).unwrap();
+        compute_normals(&v.rest_positions, &v.triangles, &mut n);
+        assert!(n.iter().all(|n| (*n - Vec3::Z).length() < 1e-6));
+    }
+
+    #[test]
+    fn bad_grids_name_the_field() {
+        let e = ClothModel::grid(&GridSpec::new(1, 4, 0.1)).unwrap_err();
+        assert!(
+            e.to_string().contains("nx") && e.to_string().contains('1'),
+            "{e}"
+        );
+        let e = ClothModel::grid(&GridSpec::new(4, 0, 0.1)).unwrap_err();
+        assert!(e.to_string().contains("ny"), "{e}");
+        for h in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let e = ClothModel::grid(&GridSpec::new(4, 4, h)).unwrap_err();
+            assert!(e.to_string().contains("spacing"), "{e}");
+        }
+    }
+
+    #[test]
+    fn mesh_cloth_from_two_triangles() {
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)];
+        let m = ClothModel::from_mesh(&p, None, &[0, 2, 1, 1, 2, 3], 3).unwrap();
+        // 5 edges, one interior edge (1-2) whose opposite vertices 0 and 3 get a bend spring.
+        assert_eq!(m.springs.count_by_kind(), [5, 0, 1]);
+        assert_eq!(m.triangles, vec![0, 2, 1, 1, 2, 3]);
+    }
+
+    #[test]
+    fn bad_meshes_are_errors() {
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Z];
+        assert!(matches!(
+            ClothModel::from_mesh(&p, None, &[], 3),
+            Err(ClothError::InvalidMesh { .. })
+        ));
+        assert!(matches!(
+            ClothModel::from_mesh(&[], None, &[0, 1, 2], 3),
+            Err(ClothError::InvalidMesh { .. })
+        ));
+        assert_eq!(
+            ClothModel::from_mesh(&p, None, &[0, 1, 7], 3).unwrap_err(),
+            ClothError::MeshIndexOutOfRange {
+                index: 7,
+                position: 2,
+                count: 3
+            }
+        );
+        assert!(ClothModel::from_mesh(&p, None, &[0, 1], 3).is_err());
+    }
+}

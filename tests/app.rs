@@ -1,0 +1,377 @@
+//! Headless Bevy App tests of the plugin: scheduling, pins, settling, determinism, runtime edits,
+//! meshes and bad input. Time is driven by hand: each `update()` runs a known number of fixed steps.
+
+use bevy::mesh::{Indices, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cloth::prelude::*;
+use bevy_cloth::sim::SpringKind;
+
+/// A headless app at 60 Hz in which every `update()` runs one fixed step.
+fn app() -> App {
+    bevy_cloth::plugin::headless_app(1.0 / 60.0)
+}
+
+fn state(app: &App, entity: Entity) -> &ClothState {
+    app.world()
+        .get::<ClothState>(entity)
+        .expect("cloth has been built")
+}
+
+fn hanging(n: u32) -> impl Bundle {
+    hanging_at(n, Vec3::new(0.0, 2.0, 0.0))
+}
+
+fn hanging_at(n: u32, at: Vec3) -> impl Bundle {
+    (
+        Cloth::grid(GridSpec::new(n, n, 0.05)),
+        ClothPins::new([0, n - 1]),
+        Transform::from_translation(at),
+    )
+}
+
+/// Spawns and builds a cloth; it starts at rest (the update's fixed step runs before the build).
+fn spawn(app: &mut App, bundle: impl Bundle) -> Entity {
+    let e = app.world_mut().spawn(bundle).id();
+    run(app, 1);
+    e
+}
+
+/// Runs `steps` updates of one fixed step each. (Several steps per update would be clamped by
+/// `Time<Virtual>`'s 250 ms maximum frame time.)
+fn run(app: &mut App, steps: u32) {
+    for _ in 0..steps {
+        app.update();
+    }
+}
+
+#[test]
+fn exactly_n_fixed_steps_run() {
+    let mut app = app();
+    let e = spawn(&mut app, hanging(8));
+    assert_eq!(state(&app, e).steps(), 0);
+    app.insert_resource(TimeUpdateStrategy::FixedTimesteps(3));
+    for _ in 0..7 {
+        app.update();
+    }
+    assert_eq!(state(&app, e).steps(), 21);
+    app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    run(&mut app, 5);
+    assert_eq!(state(&app, e).steps(), 26);
+}
+
+#[test]
+fn unpinned_cloth_falls_like_a_free_particle() {
+    let mut app = app();
+    let config = ClothConfig {
+        solver: SolverSettings {
+            damping: 0.0,
+            substeps: 20,
+            ..Default::default()
+        },
+        interpolate: false,
+    };
+    let e = spawn(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(4, 4, 0.1)),
+            config,
+            Transform::from_xyz(0.0, 10.0, 0.0),
+        ),
+    );
+    let x0 = state(&app, e).positions()[5];
+    run(&mut app, 60);
+    let t = 1.0;
+    let exact = x0 + 0.5 * config.solver.gravity * t * t;
+    let x = state(&app, e).positions()[5];
+    let rel = x.distance(exact) / (0.5 * 9.81 * t * t);
+    assert!(rel < 1e-3, "relative error {rel} after 1 s");
+}
+
+#[test]
+fn pinned_particles_never_move() {
+    let mut app = app();
+    let e = spawn(&mut app, hanging(10));
+    let p0 = state(&app, e).positions()[0];
+    let p9 = state(&app, e).positions()[9];
+    for _ in 0..120 {
+        run(&mut app, 1);
+        let s = state(&app, e);
+        assert_eq!(s.positions()[0], p0);
+        assert_eq!(s.positions()[9], p9);
+    }
+    // The rest did move.
+    assert!(state(&app, e).positions()[55].y < p0.y - 0.1);
+}
+
+#[test]
+fn hanging_cloth_settles_with_small_strain() {
+    let mut app = app();
+    let e = spawn(&mut app, hanging(16));
+    // Largest kinetic energy in each 2-second window of a 20-second run.
+    let mut windows = Vec::new();
+    for _ in 0..10 {
+        let mut max: f32 = 0.0;
+        for _ in 0..120 {
+            run(&mut app, 1);
+            max = max.max(state(&app, e).sim().kinetic_energy());
+        }
+        windows.push(max);
+    }
+    for w in windows.windows(2) {
+        assert!(w[1] < w[0], "kinetic energy did not decay: {windows:?}");
+    }
+    let (first, last) = (windows[0], windows[9]);
+    assert!(
+        last < 1e-3 * first,
+        "kinetic energy only fell from {first} J to {last} J"
+    );
+    let sim = state(&app, e).sim();
+    let strain = sim.max_strain(SpringKind::Structural);
+    assert!(strain < 0.02, "max structural strain {strain}");
+}
+
+fn final_positions() -> Vec<Vec3> {
+    let mut app = app();
+    let e = spawn(&mut app, hanging(12));
+    run(&mut app, 120);
+    state(&app, e).positions().to_vec()
+}
+
+#[test]
+fn identical_runs_are_bit_identical() {
+    let a = final_positions();
+    let b = final_positions();
+    assert!(
+        a.iter()
+            .zip(&b)
+            .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
+    );
+}
+
+#[test]
+fn despawning_one_cloth_leaves_the_other_running() {
+    let mut app = app();
+    let a = spawn(&mut app, hanging(8));
+    let b = spawn(&mut app, hanging_at(8, Vec3::new(3.0, 2.0, 0.0)));
+    run(&mut app, 10);
+    app.world_mut().despawn(a);
+    let before = state(&app, b).positions().to_vec();
+    let steps = state(&app, b).steps();
+    run(&mut app, 10);
+    assert_eq!(state(&app, b).steps(), steps + 10);
+    assert_ne!(state(&app, b).positions(), &before[..]);
+    assert!(app.world().get_entity(a).is_err());
+}
+
+#[test]
+fn mesh_cloth_keeps_vertex_count_and_indices() {
+    let mut app = app();
+    let source = Plane3d::default()
+        .mesh()
+        .size(1.0, 1.0)
+        .subdivisions(5)
+        .build();
+    let count = source.count_vertices();
+    let indices: Vec<u32> = source.indices().unwrap().iter().map(|i| i as u32).collect();
+    let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(source);
+    let e = spawn(
+        &mut app,
+        (
+            Cloth::from_mesh(handle.clone()),
+            ClothPins::new([0]),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ),
+    );
+    run(&mut app, 10);
+    let s = state(&app, e);
+    assert_eq!(s.positions().len(), count);
+    assert_ne!(s.mesh(), &handle, "the cloth deforms its own copy");
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    let mesh = meshes.get(s.mesh()).unwrap();
+    assert_eq!(mesh.count_vertices(), count);
+    let out: Vec<u32> = mesh.indices().unwrap().iter().map(|i| i as u32).collect();
+    assert_eq!(out, indices);
+    // The original asset is untouched.
+    let original = meshes.get(&handle).unwrap();
+    let Some(VertexAttributeValues::Float32x3(p)) = original.attribute(Mesh::ATTRIBUTE_POSITION)
+    else {
+        panic!("positions")
+    };
+    assert!(p.iter().all(|p| p[1] == 0.0));
+}
+
+fn mesh_positions(app: &App, e: Entity) -> (Vec<[f32; 3]>, *const [f32; 3]) {
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    let mesh = meshes.get(state(app, e).mesh()).unwrap();
+    let Some(VertexAttributeValues::Float32x3(p)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
+        panic!("positions")
+    };
+    (p.clone(), p.as_ptr())
+}
+
+#[test]
+fn mesh_is_written_in_place_in_local_space() {
+    let mut app = app();
+    let e = spawn(
+        &mut app,
+        (
+            hanging(8),
+            ClothConfig {
+                interpolate: false,
+                ..Default::default()
+            },
+        ),
+    );
+    let (_, ptr0) = mesh_positions(&app, e);
+    run(&mut app, 6);
+    let (local, ptr1) = mesh_positions(&app, e);
+    assert_eq!(ptr0, ptr1, "the position buffer was replaced");
+    let world = state(&app, e).positions();
+    for (l, w) in local.iter().zip(world) {
+        // The entity sits at y = 2: local = world - (0, 2, 0).
+        assert!((Vec3::from_array(*l) - (*w - Vec3::Y * 2.0)).length() < 1e-5);
+    }
+    let mesh = app
+        .world()
+        .resource::<Assets<Mesh>>()
+        .get(state(&app, e).mesh())
+        .unwrap();
+    assert!(matches!(mesh.indices(), Some(Indices::U32(_))));
+    let Some(VertexAttributeValues::Float32x3(n)) = mesh.attribute(Mesh::ATTRIBUTE_NORMAL) else {
+        panic!("normals")
+    };
+    assert!(
+        n.iter()
+            .all(|n| (Vec3::from_array(*n).length() - 1.0).abs() < 1e-4)
+    );
+}
+
+#[test]
+fn pins_follow_an_entity_and_release_at_runtime() {
+    let mut app = app();
+    let anchor = app
+        .world_mut()
+        .spawn(Transform::from_xyz(0.0, 3.0, 0.0))
+        .id();
+    let mut pins = ClothPins::default();
+    pins.pin(
+        0,
+        PinAnchor::Entity {
+            entity: anchor,
+            offset: Vec3::ZERO,
+        },
+    );
+    let e = spawn(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(6, 6, 0.05)),
+            pins,
+            Transform::from_xyz(0.0, 3.0, 0.0),
+        ),
+    );
+    run(&mut app, 2);
+    app.world_mut()
+        .get_mut::<Transform>(anchor)
+        .unwrap()
+        .translation = Vec3::new(1.0, 3.0, 0.0);
+    run(&mut app, 3);
+    let p = state(&app, e).positions()[0];
+    assert!(
+        p.distance(Vec3::new(1.0, 3.0, 0.0)) < 1e-5,
+        "pinned particle at {p}"
+    );
+
+    // Release: the particle falls.
+    app.world_mut()
+        .get_mut::<ClothPins>(e)
+        .unwrap()
+        .release_all();
+    run(&mut app, 30);
+    assert!(state(&app, e).positions()[0].y < 2.0);
+}
+
+#[test]
+fn config_edits_apply_at_runtime() {
+    let mut app = app();
+    let e = spawn(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(4, 4, 0.1)),
+            Transform::from_xyz(0.0, 5.0, 0.0),
+        ),
+    );
+    app.world_mut()
+        .get_mut::<ClothConfig>(e)
+        .unwrap()
+        .solver
+        .gravity = Vec3::ZERO;
+    let before = state(&app, e).positions().to_vec();
+    run(&mut app, 10);
+    assert_eq!(
+        state(&app, e).positions(),
+        &before[..],
+        "no gravity, no motion"
+    );
+}
+
+#[test]
+fn bad_cloth_is_reported_and_skipped_while_others_run() {
+    let mut app = app();
+    let good = spawn(&mut app, hanging(6));
+    let bad = spawn(&mut app, Cloth::grid(GridSpec::new(1, 6, 0.05)));
+    let bad_pin = spawn(
+        &mut app,
+        (Cloth::grid(GridSpec::new(4, 4, 0.05)), ClothPins::new([99])),
+    );
+    let before = state(&app, good).steps();
+    run(&mut app, 5);
+    assert_eq!(state(&app, good).steps(), before + 5);
+    let err = &app.world().get::<ClothInvalid>(bad).unwrap().0;
+    assert!(err.to_string().contains("nx"), "{err}");
+    let err = &app.world().get::<ClothInvalid>(bad_pin).unwrap().0;
+    assert!(err.to_string().contains("99"), "{err}");
+    assert!(app.world().get::<ClothState>(bad).is_none());
+
+    // An invalid edit stops a running cloth; fixing it restarts the cloth.
+    app.world_mut()
+        .get_mut::<ClothConfig>(good)
+        .unwrap()
+        .solver
+        .substeps = 0;
+    run(&mut app, 1);
+    assert!(app.world().get::<ClothInvalid>(good).is_some());
+    app.world_mut()
+        .get_mut::<ClothConfig>(good)
+        .unwrap()
+        .solver
+        .substeps = 10;
+    run(&mut app, 3);
+    assert!(app.world().get::<ClothInvalid>(good).is_none());
+    assert!(state(&app, good).steps() > 0);
+}
+
+#[test]
+fn diverging_cloth_is_stopped_without_nan_in_its_mesh() {
+    let mut app = app();
+    // A pin dragged to the edge of f32 range overflows the spring next to it.
+    let mut pins = ClothPins::default();
+    pins.pin(0, PinAnchor::World(Vec3::splat(3.0e38)));
+    let config = ClothConfig {
+        interpolate: false,
+        ..Default::default()
+    };
+    let e = spawn(
+        &mut app,
+        (Cloth::grid(GridSpec::new(4, 4, 0.1)), config, pins),
+    );
+    let mesh = state(&app, e).mesh().clone();
+    run(&mut app, 5);
+    let err = &app.world().get::<ClothInvalid>(e).expect("stopped").0;
+    assert!(matches!(err, ClothError::Diverged { .. }), "{err}");
+    let m = app.world().resource::<Assets<Mesh>>().get(&mesh).unwrap();
+    let Some(VertexAttributeValues::Float32x3(p)) = m.attribute(Mesh::ATTRIBUTE_POSITION) else {
+        panic!("positions")
+    };
+    assert!(p.iter().flatten().all(|v| v.is_finite()));
+}

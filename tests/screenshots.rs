@@ -1,0 +1,92 @@
+//! Checks the screenshots that `scripts/screenshots.sh` renders of the windowed examples (CI runs
+//! it under Xvfb with Mesa's software Vulkan): each picture exists, is not blank or background-only,
+//! and shows cloth where the scene puts it.
+//!
+//! These tests need the pictures, so they are ignored by a plain `cargo test`;
+//! `scripts/test-all.sh` renders them and then runs `cargo test --test screenshots -- --ignored`.
+
+use std::path::PathBuf;
+
+struct Picture {
+    width: usize,
+    height: usize,
+    rgb: Vec<[u8; 3]>,
+}
+
+fn load(name: &str) -> Picture {
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("target/screenshots/{name}.png"));
+    let file = std::fs::File::open(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}; run scripts/screenshots.sh first", path.display()));
+    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("PNG data");
+    let channels = info.color_type.samples();
+    assert!(channels >= 3, "expected colour, got {:?}", info.color_type);
+    let rgb = buf[..info.buffer_size()]
+        .chunks_exact(channels)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect();
+    Picture {
+        width: info.width as usize,
+        height: info.height as usize,
+        rgb,
+    }
+}
+
+/// Red-dominant pixels: the fabric texture is red plaid; sky, ground and shadows are not.
+fn is_cloth([r, g, b]: [u8; 3]) -> bool {
+    r as i32 > g as i32 + 40 && r as i32 > b as i32 + 30
+}
+
+/// Fraction of cloth pixels in the rectangle given as fractions of the picture.
+fn cloth_fraction(p: &Picture, (x0, y0, x1, y1): (f32, f32, f32, f32)) -> f32 {
+    let (xa, xb) = (
+        (x0 * p.width as f32) as usize,
+        (x1 * p.width as f32) as usize,
+    );
+    let (ya, yb) = (
+        (y0 * p.height as f32) as usize,
+        (y1 * p.height as f32) as usize,
+    );
+    let mut hits = 0;
+    for y in ya..yb {
+        for x in xa..xb {
+            hits += is_cloth(p.rgb[y * p.width + x]) as usize;
+        }
+    }
+    hits as f32 / ((xb - xa) * (yb - ya)) as f32
+}
+
+fn assert_not_blank(p: &Picture) {
+    let mut distinct: Vec<[u8; 3]> = p.rgb.iter().step_by(97).copied().collect();
+    distinct.sort();
+    distinct.dedup();
+    assert!(
+        distinct.len() > 50,
+        "only {} distinct colours: blank frame",
+        distinct.len()
+    );
+}
+
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn hanging_cloth_shows_the_cloth_in_the_middle() {
+    let p = load("hanging_cloth");
+    assert_eq!((p.width, p.height), (1280, 720));
+    assert_not_blank(&p);
+    let centre = cloth_fraction(&p, (0.35, 0.25, 0.65, 0.75));
+    assert!(
+        centre > 0.3,
+        "only {:.0}% cloth pixels in the centre",
+        centre * 100.0
+    );
+    let corners =
+        cloth_fraction(&p, (0.0, 0.0, 0.1, 0.1)) + cloth_fraction(&p, (0.9, 0.9, 1.0, 1.0));
+    assert!(
+        corners < 0.05,
+        "cloth colour in the picture corners: {corners}"
+    );
+}
