@@ -3,6 +3,7 @@
 //! ```text
 //! cargo run --release --example cloth_cli -- simulate assets/scenes/hanging.ron --frames 120 --output out.json
 //! cargo run --release --example cloth_cli -- bench assets/scenes/hanging.ron --frames 600
+//! cargo run --release --example cloth_cli -- subdivide in.obj --level 2 --rule tuned --output out.obj
 //! ```
 
 use std::path::PathBuf;
@@ -12,6 +13,7 @@ use bevy::prelude::*;
 use bevy_cloth::plugin::headless_app;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
+use bevy_cloth::subdivision::{parse_obj, refine_positions, write_obj};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -35,6 +37,23 @@ enum Command {
         #[arg(long)]
         output: PathBuf,
     },
+    /// Refine an OBJ polygon mesh with Catmull-Clark subdivision and write it as OBJ.
+    Subdivide {
+        /// Input OBJ file (positions, optional texture coordinates, polygon faces).
+        input: PathBuf,
+        /// Refinement level.
+        #[arg(long, default_value_t = 1)]
+        level: u32,
+        /// Interior vertex rule.
+        #[arg(long, value_enum, default_value_t = Rule::Original)]
+        rule: Rule,
+        /// Boundary interpolation.
+        #[arg(long, value_enum, default_value_t = Boundary::EdgeOnly)]
+        boundary: Boundary,
+        /// Output OBJ file.
+        #[arg(long)]
+        output: PathBuf,
+    },
     /// Time a scene: prints one JSON line with the median and spread of milliseconds per frame.
     Bench {
         /// Scene file (RON).
@@ -43,6 +62,55 @@ enum Command {
         #[arg(long, default_value_t = 300)]
         frames: u32,
     },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Rule {
+    Original,
+    Enhanced,
+    Tuned,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Boundary {
+    EdgeOnly,
+    EdgeAndCorner,
+}
+
+/// Refines `input` and writes the result; prints the vertex and face counts.
+fn subdivide(
+    input: &PathBuf,
+    level: u32,
+    rule: Rule,
+    boundary: Boundary,
+    output: &PathBuf,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let rule = match rule {
+        Rule::Original => VertexRule::Original,
+        Rule::Enhanced => VertexRule::Enhanced,
+        Rule::Tuned => VertexRule::Tuned,
+    };
+    let boundary = match boundary {
+        Boundary::EdgeOnly => BoundaryMode::EdgeOnly,
+        Boundary::EdgeAndCorner => BoundaryMode::EdgeAndCorner,
+    };
+    let text = std::fs::read_to_string(input)
+        .map_err(|e| format!("cannot read {}: {e}", input.display()))?;
+    let mesh = parse_obj(&text).map_err(|e| format!("{}: {e}", input.display()))?;
+    let refined = refine_positions(&mesh, level, rule, boundary)?;
+    let header = format!(
+        "{} refined to level {level} ({rule:?}, {boundary:?}) by bevy_cloth",
+        input.display()
+    );
+    std::fs::write(output, write_obj(&refined, &header))?;
+    eprintln!(
+        "{} vertices, {} faces -> {} vertices, {} faces",
+        mesh.vertex_count(),
+        mesh.face_count(),
+        refined.vertex_count(),
+        refined.face_count()
+    );
+    Ok(())
 }
 
 /// A headless app with the scene's cloth built and at rest.
@@ -113,6 +181,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 output.display()
             );
         }
+        Command::Subdivide {
+            input,
+            level,
+            rule,
+            boundary,
+            output,
+        } => subdivide(&input, level, rule, boundary, &output)?,
         Command::Bench { scene, frames } => {
             let (mut app, entity, parsed) = load(&scene)?;
             run(&mut app, entity, 10)?;

@@ -12,8 +12,8 @@ fn main() {
     App::new()
         .add_plugins(common::ExamplePlugin {
             title: "bevy_cloth: hanging cloth",
-            focus: Vec3::new(0.0, 1.3, 0.0),
-            eye: Vec3::new(1.2, 1.8, 3.2),
+            focus: Vec3::new(0.0, 1.5, -0.4),
+            eye: Vec3::new(0.9, 1.9, 1.9),
         })
         .add_plugins(ClothPlugin::default())
         .add_systems(Startup, spawn_cloth)

@@ -11,7 +11,7 @@ icd=$(ls /usr/share/vulkan/icd.d/lvp_icd.*.json | head -n 1)
 for name in "${examples[@]}"; do
   rm -f "$out/$name.png"
   echo "screenshot: $name"
-  WGPU_BACKEND=vulkan VK_ICD_FILENAMES="$icd" BEVY_CLOTH_SCREENSHOT="$PWD/$out/$name.png" \
+  BEVY_ASSET_ROOT="$PWD" WGPU_BACKEND=vulkan VK_ICD_FILENAMES="$icd" BEVY_CLOTH_SCREENSHOT="$PWD/$out/$name.png" \
     timeout 600 xvfb-run -a -s "-screen 0 1280x720x24" "target/debug/examples/$name" \
     > "$out/$name.log" 2>&1 || { tail -n 30 "$out/$name.log"; exit 1; }
   [ -f "$out/$name.png" ] || { echo "no screenshot from $name"; tail -n 30 "$out/$name.log"; exit 1; }

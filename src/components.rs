@@ -11,6 +11,7 @@ use bevy::transform::components::Transform;
 
 use crate::error::ClothError;
 use crate::sim::{ClothSim, GridSpec, SolverSettings};
+use crate::subdivision::{BoundaryMode, Subdivider, VertexRule};
 
 /// Where a cloth's particles and triangles come from.
 #[derive(Debug, Clone, PartialEq, Reflect)]
@@ -177,12 +178,65 @@ impl ClothPins {
     }
 }
 
+/// Renders a cloth as a Catmull-Clark subdivision surface of its simulated mesh. Only the render
+/// mesh is refined: the simulation keeps its particles, and each step the refined positions are
+/// computed from a stencil table built once. Editing this component rebuilds the render mesh
+/// without resetting the simulation; level 0 renders the particles directly.
+///
+/// # Example
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+///
+/// fn spawn(mut commands: Commands) {
+///     commands.spawn((
+///         Cloth::grid(GridSpec::new(16, 16, 0.1)),
+///         ClothSubdivision { level: 2, rule: VertexRule::Tuned, ..default() },
+///     ));
+/// }
+/// # bevy::ecs::system::assert_is_system(spawn);
+/// ```
+#[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct ClothSubdivision {
+    /// Refinement level, 0 ..= [`MAX_CLOTH_SUBDIVISION_LEVEL`] (each level has about 4× the faces).
+    pub level: u32,
+    /// Vertex rule at interior vertices.
+    pub rule: VertexRule,
+    /// Boundary interpolation.
+    pub boundary: BoundaryMode,
+}
+
+/// Highest level accepted by [`ClothSubdivision`].
+pub const MAX_CLOTH_SUBDIVISION_LEVEL: u32 = 4;
+
+impl Default for ClothSubdivision {
+    fn default() -> Self {
+        Self {
+            level: 2,
+            rule: VertexRule::Original,
+            boundary: BoundaryMode::EdgeAndCorner,
+        }
+    }
+}
+
+/// The render-side subdivision of a running cloth: the stencils and refined scratch buffers.
+#[derive(Debug)]
+pub(crate) struct RenderSubdivision {
+    pub(crate) subdivider: Subdivider,
+    /// Refined positions and normals before seam vertices are appended.
+    pub(crate) positions: Vec<Vec3>,
+    pub(crate) normals: Vec<Vec3>,
+}
+
 /// The running simulation of a cloth, attached by the plugin. Read it for particle positions and
 /// statistics; change the cloth through [`Cloth`], [`ClothConfig`] and [`ClothPins`].
 #[derive(Component, Debug)]
 pub struct ClothState {
     pub(crate) sim: ClothSim,
     pub(crate) mesh: Handle<Mesh>,
+    /// Present when the render mesh is a subdivision surface.
+    pub(crate) subdivision: Option<RenderSubdivision>,
     /// Render positions (world space) after the previous and the latest step.
     pub(crate) render_prev: Vec<Vec3>,
     pub(crate) render_curr: Vec<Vec3>,

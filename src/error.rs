@@ -4,6 +4,8 @@
 
 use thiserror::Error;
 
+use crate::subdivision::SubdivisionError;
+
 /// Everything that can be wrong with a cloth description or its settings.
 ///
 /// Each message names the field and the offending value, so it can be shown to a user as is.
@@ -88,6 +90,9 @@ pub enum ClothError {
         /// Substeps per frame.
         substeps: u32,
     },
+    /// A subdivision surface could not be built (see [`SubdivisionError`]).
+    #[error("subdivision: {0}")]
+    Subdivision(#[from] SubdivisionError),
     /// A scene file could not be read or parsed.
     #[error("scene: {0}")]
     Scene(String),

@@ -35,6 +35,7 @@ pub mod plugin;
 mod render;
 pub mod scene;
 pub mod sim;
+pub mod subdivision;
 
 pub use components::*;
 pub use error::ClothError;
@@ -43,9 +44,16 @@ pub use plugin::{ClothPlugin, ClothSystems};
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::components::{
-        Cloth, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource, ClothState, PinAnchor,
+        Cloth, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource, ClothState,
+        ClothSubdivision, PinAnchor,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{GridPlane, GridSpec, Integrator, SolverSettings, Stiffness};
+    pub use crate::subdivision::{BoundaryMode, VertexRule};
 }
+
+/// The README's code blocks, compiled as doctests so the quick-start snippet stays true.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -3,7 +3,7 @@
 //! meshes; they hold no formulas.
 
 use bevy::app::{App, FixedUpdate, Plugin, PostUpdate};
-use bevy::asset::{AssetEventSystems, Assets};
+use bevy::asset::{AssetEventSystems, Assets, Handle};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::prelude::*;
 use bevy::ecs::schedule::ScheduleLabel;
@@ -14,10 +14,12 @@ use bevy::time::{Fixed, Time};
 use bevy::transform::TransformSystems;
 use bevy::transform::components::GlobalTransform;
 
+use crate::components::RenderSubdivision;
 use crate::components::*;
-use crate::error::ClothError;
+use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::{ClothModel, ClothSim, compute_normals};
+use crate::subdivision::Subdivider;
 
 /// System sets of the cloth pipeline, public so games can order their own systems around them.
 ///
@@ -92,6 +94,7 @@ impl Plugin for ClothPlugin {
         app.register_type::<Cloth>()
             .register_type::<ClothConfig>()
             .register_type::<ClothPins>()
+            .register_type::<ClothSubdivision>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
             .configure_sets(
                 self.schedule,
@@ -185,14 +188,84 @@ fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<ClothInvalid
         let s = &mut *state;
         std::mem::swap(&mut s.render_prev, &mut s.render_curr);
         std::mem::swap(&mut s.normals_prev, &mut s.normals_curr);
-        s.render_curr.copy_from_slice(s.sim.positions());
-        compute_normals(
-            &s.render_curr,
-            &s.sim.model().triangles,
-            &mut s.normals_curr,
-        );
+        s.failure = refresh_render(s).err();
         s.dirty = true;
     });
+}
+
+/// Computes the current render positions and normals from the particles: copied, or evaluated
+/// through the subdivision stencils.
+fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
+    let positions = s.sim.positions();
+    match &mut s.subdivision {
+        None => {
+            s.render_curr.copy_from_slice(positions);
+            compute_normals(
+                &s.render_curr,
+                &s.sim.model().triangles,
+                &mut s.normals_curr,
+            );
+        }
+        Some(r) => {
+            r.subdivider.apply(positions, &mut r.positions)?;
+            r.subdivider.compute_normals(&r.positions, &mut r.normals)?;
+            let layout = r.subdivider.topology().render_mesh();
+            layout.expand(&r.positions, &mut s.render_curr)?;
+            layout.expand(&r.normals, &mut s.normals_curr)?;
+        }
+    }
+    Ok(())
+}
+
+/// Sets up the render side of a cloth (subdivision stencils, buffers, a new mesh asset) for its
+/// current particles, and returns the mesh handle. Unsubdivided, the cloth renders into `user_mesh`
+/// when given (a copy of the user's source mesh, keeping all its attributes).
+fn rebuild_render(
+    state: &mut ClothState,
+    subdivision: Option<&ClothSubdivision>,
+    user_mesh: Option<Mesh>,
+    meshes: &mut Assets<Mesh>,
+) -> Result<Handle<Mesh>, ClothError> {
+    let model = state.sim.model();
+    state.subdivision = match subdivision.filter(|s| s.level > 0) {
+        None => None,
+        Some(sub) => {
+            count_in(
+                "subdivision.level",
+                sub.level,
+                0,
+                MAX_CLOTH_SUBDIVISION_LEVEL,
+            )?;
+            let subdivider =
+                Subdivider::new(&model.control_mesh()?, sub.level, sub.rule, sub.boundary)?;
+            let n = subdivider.refined_vertex_count();
+            Some(RenderSubdivision {
+                subdivider,
+                positions: vec![Vec3::ZERO; n],
+                normals: vec![Vec3::Y; n],
+            })
+        }
+    };
+    let mesh = match (&state.subdivision, user_mesh) {
+        (None, Some(user_mesh)) => user_mesh,
+        (None, None) => render::mesh_for_model(model),
+        (Some(r), _) => render::mesh_for_subdivision(&r.subdivider),
+    };
+    let count = mesh.count_vertices();
+    for buffer in [
+        &mut state.render_prev,
+        &mut state.render_curr,
+        &mut state.normals_prev,
+        &mut state.normals_curr,
+    ] {
+        buffer.resize(count, Vec3::ZERO);
+    }
+    refresh_render(state)?;
+    state.render_prev.copy_from_slice(&state.render_curr);
+    state.normals_prev.copy_from_slice(&state.normals_curr);
+    state.dirty = true;
+    state.mesh = meshes.add(mesh);
+    Ok(state.mesh.clone())
 }
 
 /// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. A bad edit
@@ -229,6 +302,7 @@ type BuildQuery<'a> = (
     Ref<'a, ClothConfig>,
     Ref<'a, ClothPins>,
     &'a GlobalTransform,
+    Option<Ref<'a, ClothSubdivision>>,
     Option<&'a mut ClothState>,
     Has<ClothInvalid>,
 );
@@ -240,8 +314,14 @@ fn build_cloths(
     mut meshes: ResMut<Assets<Mesh>>,
     mut cloths: Query<BuildQuery>,
 ) {
-    for (entity, cloth, config, pins, transform, mut state, invalid) in &mut cloths {
-        let edited = cloth.is_changed() || config.is_changed() || pins.is_changed();
+    for (entity, cloth, config, pins, transform, subdivision, mut state, invalid) in &mut cloths {
+        let subdivision_changed = match (&subdivision, &state) {
+            (Some(s), _) => s.is_changed(),
+            (None, Some(state)) => state.subdivision.is_some(),
+            (None, None) => false,
+        };
+        let edited =
+            cloth.is_changed() || config.is_changed() || pins.is_changed() || subdivision_changed;
         let failure = state
             .as_mut()
             .filter(|s| s.failure.is_some())
@@ -251,19 +331,27 @@ fn build_cloths(
             Some(_) => cloth.is_changed(),
             None => !invalid || edited,
         };
-        let result = match failure {
-            Some(e) => Err(e),
-            None if rebuild => {
-                build_state(&cloth, &config, &pins, transform, &mut meshes).map(|built| {
-                    if let Some((state, mesh)) = built {
-                        commands
-                            .entity(entity)
-                            .remove::<ClothInvalid>()
-                            .insert((state, Mesh3d(mesh)));
-                    }
+        let subdivision = subdivision.as_deref();
+        let result = match (failure, state) {
+            (Some(e), _) => Err(e),
+            (None, _) if rebuild => {
+                build_state(&cloth, &config, &pins, subdivision, transform, &mut meshes).map(
+                    |built| {
+                        if let Some((state, mesh)) = built {
+                            commands
+                                .entity(entity)
+                                .remove::<ClothInvalid>()
+                                .insert((state, Mesh3d(mesh)));
+                        }
+                    },
+                )
+            }
+            (None, Some(mut state)) if subdivision_changed => {
+                rebuild_render(&mut state, subdivision, None, &mut meshes).map(|mesh| {
+                    commands.entity(entity).insert(Mesh3d(mesh));
                 })
             }
-            None => Ok(()),
+            (None, _) => Ok(()),
         };
         if let Err(e) = result {
             error!("cloth {entity}: {e}; the cloth is skipped until it is edited");
@@ -280,41 +368,38 @@ fn build_state(
     cloth: &Cloth,
     config: &ClothConfig,
     pins: &ClothPins,
+    subdivision: Option<&ClothSubdivision>,
     transform: &GlobalTransform,
     meshes: &mut Assets<Mesh>,
-) -> Result<Option<(ClothState, bevy::asset::Handle<Mesh>)>, ClothError> {
-    let (model, mesh) = match &cloth.source {
-        ClothSource::Grid(spec) => {
-            let model = ClothModel::grid(spec)?;
-            let mesh = render::mesh_for_model(&model);
-            (model, mesh)
-        }
+) -> Result<Option<(ClothState, Handle<Mesh>)>, ClothError> {
+    let (model, user_mesh) = match &cloth.source {
+        ClothSource::Grid(spec) => (ClothModel::grid(spec)?, None),
         ClothSource::Mesh(handle) => {
             let Some(source) = meshes.get(handle) else {
                 return Ok(None);
             };
-            let model = render::model_from_mesh(source)?;
-            (model, render::prepare_user_mesh(source.clone()))
+            (
+                render::model_from_mesh(source)?,
+                Some(render::prepare_user_mesh(source.clone())),
+            )
         }
     };
     let sim = ClothSim::new(model, config.solver, |p| transform.transform_point(p))?;
-    let positions = sim.positions().to_vec();
-    let mut normals = vec![Vec3::Y; positions.len()];
-    compute_normals(&positions, &sim.model().triangles, &mut normals);
     let mut state = ClothState {
         sim,
-        mesh: meshes.add(mesh),
-        render_prev: positions.clone(),
-        render_curr: positions,
-        normals_prev: normals.clone(),
-        normals_curr: normals,
+        mesh: Handle::default(),
+        subdivision: None,
+        render_prev: Vec::new(),
+        render_curr: Vec::new(),
+        normals_prev: Vec::new(),
+        normals_curr: Vec::new(),
         pin_targets: Vec::new(),
         failure: None,
         dirty: true,
     };
     apply_pins(&mut state, pins, transform)?;
-    let handle = state.mesh.clone();
-    Ok(Some((state, handle)))
+    let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
+    Ok(Some((state, mesh)))
 }
 
 /// Replaces the pin set of a running cloth, each pin starting at its anchor's current position.

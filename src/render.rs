@@ -8,6 +8,7 @@ use bevy::mesh::{Indices, Mesh, MeshAccessError, PrimitiveTopology, VertexAttrib
 
 use crate::error::ClothError;
 use crate::sim::ClothModel;
+use crate::subdivision::Subdivider;
 
 /// A triangle-list mesh of the cloth's rest shape with positions, normals, UVs and indices, usable
 /// in both worlds so it can be rewritten every frame.
@@ -25,6 +26,25 @@ pub(crate) fn mesh_for_model(model: &ClothModel) -> Mesh {
         model.uvs.iter().map(|u| u.to_array()).collect::<Vec<_>>(),
     )
     .with_inserted_indices(Indices::U32(model.triangles.clone()))
+}
+
+/// A triangle-list mesh for a subdivided cloth (the render layout of the refined surface, UV seams
+/// split). Positions and normals are placeholders until the first write.
+pub(crate) fn mesh_for_subdivision(subdivider: &Subdivider) -> Mesh {
+    let layout = subdivider.topology().render_mesh();
+    let n = layout.vertex_count();
+    let uvs: Vec<[f32; 2]> = match layout.uvs() {
+        Some(uvs) => uvs.iter().map(|u| u.to_array()).collect(),
+        None => vec![[0.0, 0.0]; n],
+    };
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; n])
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 1.0, 0.0]; n])
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_indices(Indices::U32(layout.triangle_indices().to_vec()))
 }
 
 fn to_arrays(v: &[Vec3]) -> Vec<[f32; 3]> {

@@ -375,3 +375,71 @@ fn diverging_cloth_is_stopped_without_nan_in_its_mesh() {
     };
     assert!(p.iter().flatten().all(|v| v.is_finite()));
 }
+
+fn vertex_count(app: &App, e: Entity) -> usize {
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    meshes.get(state(app, e).mesh()).unwrap().count_vertices()
+}
+
+#[test]
+fn subdivided_cloth_renders_the_refined_surface_and_changes_level_live() {
+    let mut app = app();
+    let n = 8u32;
+    let e = spawn(
+        &mut app,
+        (
+            hanging(n),
+            ClothSubdivision {
+                level: 2,
+                ..default()
+            },
+        ),
+    );
+    // A quad grid of (n-1)² faces refined twice: (4(n-1)+1)² vertices.
+    let refined = (4 * (n as usize - 1) + 1).pow(2);
+    assert_eq!(vertex_count(&app, e), refined);
+    run(&mut app, 10);
+    let steps = state(&app, e).steps();
+    let mesh = app
+        .world()
+        .resource::<Assets<Mesh>>()
+        .get(state(&app, e).mesh())
+        .unwrap();
+    let Some(VertexAttributeValues::Float32x3(p)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
+        panic!("positions")
+    };
+    assert!(p.iter().flatten().all(|v| v.is_finite()));
+    // The refined surface of a hanging cloth hangs too: its lowest point is below the pins.
+    assert!(
+        p.iter().any(|v| v[1] < -0.1),
+        "refined surface did not move"
+    );
+
+    app.world_mut()
+        .get_mut::<ClothSubdivision>(e)
+        .unwrap()
+        .level = 1;
+    run(&mut app, 1);
+    assert_eq!(vertex_count(&app, e), (2 * (n as usize - 1) + 1).pow(2));
+    assert_eq!(
+        state(&app, e).steps(),
+        steps + 1,
+        "changing the level must not reset the cloth"
+    );
+
+    app.world_mut().entity_mut(e).remove::<ClothSubdivision>();
+    run(&mut app, 1);
+    assert_eq!(vertex_count(&app, e), (n * n) as usize);
+
+    app.world_mut().entity_mut(e).insert(ClothSubdivision {
+        level: 9,
+        ..default()
+    });
+    run(&mut app, 1);
+    let err = &app
+        .world()
+        .get::<ClothInvalid>(e)
+        .expect("level 9 is rejected")
+        .0;
+    assert!(err.to_string().contains("subdivision.level"), "{err}");
+}

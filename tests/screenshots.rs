@@ -36,9 +36,11 @@ fn load(name: &str) -> Picture {
     }
 }
 
-/// Red-dominant pixels: the fabric texture is red plaid; sky, ground and shadows are not.
+/// Red-dominant pixels: the fabric texture is red plaid (lit or in shade); the blue-grey sky, the
+/// grey ground and the black shadows are not.
 fn is_cloth([r, g, b]: [u8; 3]) -> bool {
-    r as i32 > g as i32 + 40 && r as i32 > b as i32 + 30
+    let (r, g, b) = (r as f32, g as f32, b as f32);
+    r >= 30.0 && r > 1.6 * g && r > 1.6 * b
 }
 
 /// Fraction of cloth pixels in the rectangle given as fractions of the picture.

@@ -50,12 +50,16 @@ impl Plugin for ExamplePlugin {
                   mut materials: ResMut<Assets<StandardMaterial>>| {
                 commands.spawn((
                     Transform::from_translation(eye).looking_at(focus, Vec3::Y),
-                    PanOrbitCamera { focus, ..default() },
+                    PanOrbitCamera {
+                        focus,
+                        target_focus: focus,
+                        ..default()
+                    },
                 ));
                 commands.spawn((
                     DirectionalLight {
                         illuminance: 9_000.0,
-                        shadows_enabled: true,
+                        shadow_maps_enabled: true,
                         ..default()
                     },
                     Transform::from_xyz(3.0, 6.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 use crate::error::{ClothError, positive};
+use crate::subdivision::{PolyMesh, SubdivisionError};
 
 /// The three spring families of a Provot mass-spring cloth.
 #[derive(
@@ -226,6 +227,11 @@ pub struct ClothModel {
     pub uvs: Vec<Vec2>,
     /// Triangle list (three indices per triangle) used for normals, rendering and aerodynamics.
     pub triangles: Vec<u32>,
+    /// The control polygons, `face_size` indices each: quads for grids, the input faces for meshes.
+    /// Subdivision refines these.
+    pub faces: Vec<u32>,
+    /// Corners per face in [`faces`](Self::faces): 3 or 4.
+    pub face_size: usize,
     /// The coloured spring set.
     pub springs: Springs,
     /// Grid dimensions when built from a [`GridSpec`].
@@ -282,11 +288,13 @@ impl ClothModel {
             }
         }
         let mut triangles = Vec::with_capacity(((nx - 1) * (ny - 1) * 6) as usize);
+        let mut faces = Vec::with_capacity(((nx - 1) * (ny - 1) * 4) as usize);
         // Winding chosen so that the horizontal sheet faces +Y and the vertical one +Z.
         for j in 0..ny - 1 {
             for i in 0..nx - 1 {
                 let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
                 triangles.extend_from_slice(&[a, c, b, b, c, d]);
+                faces.extend_from_slice(&[a, c, d, b]);
             }
         }
         let springs = Springs::build(&rest_positions, &pairs);
@@ -294,6 +302,8 @@ impl ClothModel {
             rest_positions,
             uvs,
             triangles,
+            faces,
+            face_size: 4,
             springs,
             grid: Some(*spec),
         })
@@ -404,9 +414,27 @@ impl ClothModel {
             rest_positions: positions.to_vec(),
             uvs: uvs.map_or_else(|| vec![Vec2::ZERO; count], <[Vec2]>::to_vec),
             triangles,
+            faces: indices.to_vec(),
+            face_size,
             springs,
             grid: None,
         })
+    }
+}
+
+impl ClothModel {
+    /// The control polygon mesh (rest positions, faces and UVs) that subdivision refines.
+    pub fn control_mesh(&self) -> Result<PolyMesh, SubdivisionError> {
+        let offsets = (0..=self.faces.len() / self.face_size)
+            .map(|f| (f * self.face_size) as u32)
+            .collect();
+        PolyMesh::new(
+            self.rest_positions.iter().map(|p| p.as_dvec3()),
+            offsets,
+            self.faces.clone(),
+            None,
+        )?
+        .with_vertex_uvs(&self.uvs)
     }
 }
 

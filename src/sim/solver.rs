@@ -370,18 +370,27 @@ impl ClothSim {
                 self.positions[i] = target;
                 self.predicted[i] = target;
             }
-            self.lambda.fill(0.0);
-            for _ in 0..self.settings.iterations {
-                solve_springs(
-                    &self.model.springs.a,
-                    &self.model.springs.b,
-                    &self.model.springs.rest,
-                    &self.compliance,
+            let springs = &self.model.springs;
+            if self.settings.iterations == 1 {
+                // λ starts at 0 each substep, so one iteration needs no multiplier storage.
+                solve_springs::<false>(
+                    (&springs.a, &springs.b, &springs.rest, &self.compliance),
                     &mut self.lambda,
                     &self.inv_mass,
                     &mut self.positions,
                     inv_h2,
                 );
+            } else {
+                self.lambda.fill(0.0);
+                for _ in 0..self.settings.iterations {
+                    solve_springs::<true>(
+                        (&springs.a, &springs.b, &springs.rest, &self.compliance),
+                        &mut self.lambda,
+                        &self.inv_mass,
+                        &mut self.positions,
+                        inv_h2,
+                    );
+                }
             }
             // v = (x - x_start) / h, computed as v + (constraint correction) / h: the free-flight
             // part stays exact even far from the origin, where x - x_start would cancel in f32.
@@ -399,20 +408,17 @@ impl ClothSim {
 
 /// One Gauss-Seidel sweep over all springs in colour order: the XPBD update
 /// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`.
-#[allow(clippy::too_many_arguments)]
+/// With `ACCUMULATE = false` (a single iteration per substep) λ is known to be 0 and is not stored.
 #[inline(never)]
-fn solve_springs(
-    a: &[u32],
-    b: &[u32],
-    rest: &[f32],
-    compliance: &[f32],
+fn solve_springs<const ACCUMULATE: bool>(
+    (a, b, rest, compliance): (&[u32], &[u32], &[f32], &[f32]),
     lambda: &mut [f32],
     inv_mass: &[f32],
     x: &mut [Vec3],
     inv_h2: f32,
 ) {
     let n = a.len();
-    let (b, rest, compliance, lambda) = (&b[..n], &rest[..n], &compliance[..n], &mut lambda[..n]);
+    let (b, rest, compliance) = (&b[..n], &rest[..n], &compliance[..n]);
     for k in 0..n {
         let (ia, ib) = (a[k] as usize, b[k] as usize);
         let (wa, wb) = (inv_mass[ia], inv_mass[ib]);
@@ -425,8 +431,13 @@ fn solve_springs(
         let len = len2.sqrt();
         let alpha = compliance[k] * inv_h2;
         let c = len - rest[k];
-        let dl = (-c - alpha * lambda[k]) / (w + alpha);
-        lambda[k] += dl;
+        let dl = if ACCUMULATE {
+            let dl = (-c - alpha * lambda[k]) / (w + alpha);
+            lambda[k] += dl;
+            dl
+        } else {
+            -c / (w + alpha)
+        };
         let corr = d * (dl / len);
         x[ia] += corr * wa;
         x[ib] -= corr * wb;

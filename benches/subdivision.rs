@@ -1,0 +1,85 @@
+//! Catmull-Clark timings (the source paper's Tables 2–3, and the subdivision issue's goals):
+//! refinement from scratch (topology + stencil table) and per-frame stencil application, for each
+//! vertex rule at levels 1–3, on a 16×16-vertex quad grid and on meshes with extraordinary vertices
+//! (the cube and the valence-5/6 discs of the shared test data); plus the per-frame goal case, a
+//! 64×64 cloth at level 2.
+
+use std::hint::black_box;
+
+use bevy_cloth::sim::{ClothModel, GridSpec};
+use bevy_cloth::subdivision::{BoundaryMode, PolyMesh, Subdivider, VertexRule, parse_obj};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use glam::Vec3;
+
+fn grid(n: u32) -> PolyMesh {
+    ClothModel::grid(&GridSpec::new(n, n, 0.1))
+        .unwrap()
+        .control_mesh()
+        .unwrap()
+}
+
+fn shape(name: &str) -> PolyMesh {
+    let path = format!(
+        "{}/../shared/data/subdivision/shapes/{name}.obj",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    parse_obj(&text).unwrap()
+}
+
+fn meshes() -> Vec<(&'static str, PolyMesh)> {
+    vec![
+        ("grid16", grid(16)),
+        ("cube", shape("cube")),
+        ("star5", shape("star5")),
+        ("star6", shape("star6")),
+    ]
+}
+
+const RULES: [VertexRule; 3] = [
+    VertexRule::Original,
+    VertexRule::Enhanced,
+    VertexRule::Tuned,
+];
+
+fn refine(c: &mut Criterion) {
+    let mut group = c.benchmark_group("subdivision_refine");
+    for (name, mesh) in meshes() {
+        for rule in RULES {
+            for level in 1..=3 {
+                let id = BenchmarkId::new(format!("{name}/{rule:?}"), level);
+                group.bench_with_input(id, &level, |b, &level| {
+                    b.iter(|| {
+                        Subdivider::new(black_box(&mesh), level, rule, BoundaryMode::EdgeOnly)
+                            .unwrap()
+                    })
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
+fn apply(c: &mut Criterion) {
+    let mut group = c.benchmark_group("subdivision_apply");
+    let mut cases = meshes();
+    cases.push(("grid64", grid(64)));
+    for (name, mesh) in cases {
+        let control = mesh.positions_f32();
+        for rule in RULES {
+            let levels = if name == "grid64" { 2..=2 } else { 1..=3 };
+            for level in levels {
+                let sub = Subdivider::new(&mesh, level, rule, BoundaryMode::EdgeOnly).unwrap();
+                let mut out = vec![Vec3::ZERO; sub.refined_vertex_count()];
+                let id = BenchmarkId::new(format!("{name}/{rule:?}"), level);
+                group.bench_with_input(id, &level, |b, _| {
+                    b.iter(|| sub.apply(black_box(&control), &mut out).unwrap())
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, refine, apply);
+criterion_main!(benches);

@@ -1,0 +1,51 @@
+//! Engine-free Catmull-Clark subdivision: validated polygon meshes
+//! ([`PolyMesh`]), OBJ input/output, uniform topology refinement with
+//! OpenSubdiv-compatible boundary rules, three interior vertex rules
+//! ([`VertexRule`]), stencil tables for per-frame evaluation
+//! ([`StencilTable`], [`Subdivider`]) and eigen/curvature analysis of the
+//! rules ([`analysis`]).
+//!
+//! This module must not import ECS, asset or rendering-engine types: it takes
+//! slices and small config values and returns plain data. Topology work
+//! happens once in [`Subdivider::new`]; per-frame work ([`Subdivider::apply`],
+//! [`Subdivider::compute_normals`], [`RenderMesh::expand`]) only touches
+//! numbers and does not allocate. Nothing here panics on user input; errors
+//! are [`SubdivisionError`] values.
+//!
+//! Refined vertices follow OpenSubdiv's order (face points, then edge points,
+//! then vertex points), and with [`VertexRule::Original`] the refined
+//! positions match OpenSubdiv 3.7 (Catmull-Clark, default crease and triangle
+//! options) for both [`BoundaryMode`]s.
+
+pub mod analysis;
+mod error;
+mod mesh;
+mod obj;
+mod refine;
+mod rules;
+mod stencil;
+mod subdivider;
+mod topology;
+
+pub use error::SubdivisionError;
+pub use mesh::PolyMesh;
+pub use obj::{parse_obj, write_obj};
+pub use rules::{
+    BoundaryMode, FacePointWeights, OneRingWeights, VertexRule, frequency_eigenvalues,
+    subdominant_eigenvalue, tuned_diagonal_weight,
+};
+pub use stencil::StencilTable;
+pub use subdivider::{RefinedTopology, RenderMesh, Subdivider, refine_positions};
+
+/// Highest supported subdivision level.
+pub const MAX_LEVEL: u32 = 6;
+
+/// Largest number of faces a refinement may produce (about 4.2 million).
+pub const MAX_REFINED_FACES: usize = 1 << 22;
+
+/// Largest number of `(index, weight)` entries a stencil table (or one
+/// level's refinement masks) may hold (about 67 million).
+pub const MAX_STENCIL_ENTRIES: usize = 1 << 26;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,178 @@
+//! [`StencilTable`]: refined vertices as fixed linear combinations of the
+//! original control vertices, in CSR form, and its per-frame application.
+//!
+//! This module holds the table and the hot evaluation loops. It must not
+//! hold topology traversal or subdivision rules, and its `apply` functions
+//! must not allocate: they run every simulation tick.
+
+use glam::{DVec3, Vec3};
+
+use super::SubdivisionError;
+use super::refine::SparseRows;
+
+/// Stencils of every refined vertex over the original control vertices.
+///
+/// Row `r` (refined vertex `r`) is the list of `(control index, weight)`
+/// pairs `indices[offsets[r]..offsets[r + 1]]` / `weights[..]`, sorted by
+/// control index. Weights are kept in `f64` (exact composition of the
+/// subdivision masks; each row sums to 1 up to rounding) and in `f32` for fast
+/// per-frame evaluation. Stencils are linear, so
+/// `refined = stencils · control` holds for any control positions (or any
+/// other per-vertex quantity such as velocity).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StencilTable {
+    control_count: usize,
+    offsets: Vec<u32>,
+    indices: Vec<u32>,
+    weights: Vec<f64>,
+    weights_f32: Vec<f32>,
+}
+
+impl StencilTable {
+    pub(crate) fn from_rows(rows: SparseRows, control_count: usize) -> Self {
+        let weights_f32 = rows.weights.iter().map(|&w| w as f32).collect();
+        StencilTable {
+            control_count,
+            offsets: rows.offsets,
+            indices: rows.indices,
+            weights: rows.weights,
+            weights_f32,
+        }
+    }
+
+    /// Number of control (input) vertices the stencils read.
+    pub fn control_count(&self) -> usize {
+        self.control_count
+    }
+
+    /// Number of refined (output) vertices, one stencil each.
+    pub fn len(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// Whether the table has no stencils.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Total number of `(index, weight)` entries.
+    pub fn entry_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// CSR row offsets, length `len() + 1`.
+    pub fn offsets(&self) -> &[u32] {
+        &self.offsets
+    }
+
+    /// Control vertex indices of all entries.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+
+    /// Weights of all entries in double precision.
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// Weights of all entries in single precision.
+    pub fn weights_f32(&self) -> &[f32] {
+        &self.weights_f32
+    }
+
+    /// The stencil of refined vertex `r` as `(indices, f64 weights)`, or
+    /// `None` when `r` is out of range.
+    pub fn stencil(&self, r: usize) -> Option<(&[u32], &[f64])> {
+        let s = *self.offsets.get(r)? as usize;
+        let e = *self.offsets.get(r + 1)? as usize;
+        Some((self.indices.get(s..e)?, self.weights.get(s..e)?))
+    }
+
+    fn check(&self, control: usize, out: usize) -> Result<(), SubdivisionError> {
+        if control != self.control_count {
+            return Err(SubdivisionError::LengthMismatch {
+                what: "control",
+                expected: self.control_count,
+                actual: control,
+            });
+        }
+        if out != self.len() {
+            return Err(SubdivisionError::LengthMismatch {
+                what: "out",
+                expected: self.len(),
+                actual: out,
+            });
+        }
+        Ok(())
+    }
+
+    /// Evaluates all stencils in single precision: `out[r] = Σ w · control[i]`.
+    ///
+    /// `control` must have [`control_count`](Self::control_count) elements and
+    /// `out` [`len`](Self::len); otherwise a
+    /// [`SubdivisionError::LengthMismatch`] is returned and `out` is untouched.
+    /// Does not allocate.
+    pub fn apply(&self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
+        self.check(control.len(), out.len())?;
+        self.apply_rows_unchecked_len(control, 0, out);
+        Ok(())
+    }
+
+    /// Evaluates the stencils of refined vertices `first_row ..
+    /// first_row + out.len()` into `out`, so that a caller can split the work
+    /// into chunks and evaluate them in parallel on its own thread pool
+    /// (`out` being a chunk of the full output). Errors when `control` does not
+    /// have [`control_count`](Self::control_count) elements or the rows run
+    /// past [`len`](Self::len). Does not allocate.
+    pub fn apply_rows(
+        &self,
+        control: &[Vec3],
+        first_row: usize,
+        out: &mut [Vec3],
+    ) -> Result<(), SubdivisionError> {
+        if control.len() != self.control_count {
+            return Err(SubdivisionError::LengthMismatch {
+                what: "control",
+                expected: self.control_count,
+                actual: control.len(),
+            });
+        }
+        if first_row > self.len() || out.len() > self.len() - first_row {
+            return Err(SubdivisionError::LengthMismatch {
+                what: "out (rows from first_row)",
+                expected: self.len().saturating_sub(first_row),
+                actual: out.len(),
+            });
+        }
+        self.apply_rows_unchecked_len(control, first_row, out);
+        Ok(())
+    }
+
+    /// The hot loop; lengths are checked by the callers.
+    fn apply_rows_unchecked_len(&self, control: &[Vec3], first_row: usize, out: &mut [Vec3]) {
+        let offsets = &self.offsets[first_row..first_row + out.len() + 1];
+        for (o, w) in out.iter_mut().zip(offsets.windows(2)) {
+            let (s, e) = (w[0] as usize, w[1] as usize);
+            let mut acc = Vec3::ZERO;
+            for (&i, &wt) in self.indices[s..e].iter().zip(&self.weights_f32[s..e]) {
+                acc += control[i as usize] * wt;
+            }
+            *o = acc;
+        }
+    }
+
+    /// Evaluates all stencils in double precision (same contract as
+    /// [`apply`](Self::apply)).
+    pub fn apply_f64(&self, control: &[DVec3], out: &mut [DVec3]) -> Result<(), SubdivisionError> {
+        self.check(control.len(), out.len())?;
+        for (o, w) in out.iter_mut().zip(self.offsets.windows(2)) {
+            let (s, e) = (w[0] as usize, w[1] as usize);
+            let mut acc = DVec3::ZERO;
+            for (&i, &wt) in self.indices[s..e].iter().zip(&self.weights[s..e]) {
+                acc += control[i as usize] * wt;
+            }
+            *o = acc;
+        }
+        Ok(())
+    }
+}

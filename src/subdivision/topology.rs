@@ -1,0 +1,306 @@
+//! Connectivity of one refinement level: edges, edge-face and vertex-face
+//! incidence, and the manifold checks that guard them.
+//!
+//! This module holds integer topology only. It must not hold positions,
+//! weights or subdivision rules; those live in `rules` and `refine`.
+
+use super::SubdivisionError;
+
+/// Marker for "no second face" on a boundary edge.
+pub(crate) const NO_FACE: u32 = u32::MAX;
+
+/// Validated connectivity of a polygon mesh at one refinement level.
+#[derive(Debug, Clone)]
+pub(crate) struct LevelTopology {
+    /// Number of vertices of this level.
+    pub num_vertices: usize,
+    /// CSR offsets into `face_indices`, length `faces + 1`.
+    pub face_offsets: Vec<u32>,
+    /// Corner vertices of all faces, concatenated.
+    pub face_indices: Vec<u32>,
+    /// Edge endpoints, smaller index first.
+    pub edges: Vec<[u32; 2]>,
+    /// The one or two faces of each edge; the second is [`NO_FACE`] on a boundary.
+    pub edge_faces: Vec<[u32; 2]>,
+    /// For each face corner `c` (parallel to `face_indices`), the edge from
+    /// corner `c` to the next corner of the same face.
+    pub corner_edges: Vec<u32>,
+    /// CSR offsets of `vertex_faces`, length `num_vertices + 1`.
+    pub vertex_face_offsets: Vec<u32>,
+    /// Faces incident to each vertex (with multiplicity one per corner).
+    pub vertex_faces: Vec<u32>,
+    /// CSR offsets of `vertex_edges`, length `num_vertices + 1`.
+    pub vertex_edge_offsets: Vec<u32>,
+    /// Edges incident to each vertex.
+    pub vertex_edges: Vec<u32>,
+}
+
+impl LevelTopology {
+    /// Number of faces.
+    pub fn face_count(&self) -> usize {
+        self.face_offsets.len() - 1
+    }
+
+    /// Corner vertices of face `f` (caller guarantees `f < face_count()`).
+    pub fn face(&self, f: usize) -> &[u32] {
+        let s = self.face_offsets[f] as usize;
+        let e = self.face_offsets[f + 1] as usize;
+        &self.face_indices[s..e]
+    }
+
+    /// Range of corners of face `f` in `face_indices`.
+    pub fn face_range(&self, f: usize) -> std::ops::Range<usize> {
+        self.face_offsets[f] as usize..self.face_offsets[f + 1] as usize
+    }
+
+    /// Faces around vertex `v`.
+    pub fn faces_of(&self, v: usize) -> &[u32] {
+        let s = self.vertex_face_offsets[v] as usize;
+        let e = self.vertex_face_offsets[v + 1] as usize;
+        &self.vertex_faces[s..e]
+    }
+
+    /// Edges around vertex `v`.
+    pub fn edges_of(&self, v: usize) -> &[u32] {
+        let s = self.vertex_edge_offsets[v] as usize;
+        let e = self.vertex_edge_offsets[v + 1] as usize;
+        &self.vertex_edges[s..e]
+    }
+
+    /// Whether edge `e` has only one face.
+    pub fn is_boundary_edge(&self, e: usize) -> bool {
+        self.edge_faces[e][1] == NO_FACE
+    }
+
+    /// The other endpoint of edge `e` seen from vertex `v`.
+    pub fn other_end(&self, e: usize, v: u32) -> u32 {
+        let [a, b] = self.edges[e];
+        if a == v { b } else { a }
+    }
+
+    /// Validates a face list and derives all connectivity.
+    ///
+    /// Checks, in order: non-empty, offsets well formed, faces of at least
+    /// three corners, indices in range, no repeated vertex in a face, at most
+    /// two faces per edge with opposite orientation, and 0 or 2 boundary edges
+    /// per vertex.
+    pub fn build(
+        num_vertices: usize,
+        face_offsets: Vec<u32>,
+        face_indices: Vec<u32>,
+    ) -> Result<Self, SubdivisionError> {
+        let faces = face_offsets.len().saturating_sub(1);
+        if num_vertices == 0 || faces == 0 {
+            return Err(SubdivisionError::EmptyMesh {
+                vertices: num_vertices,
+                faces,
+            });
+        }
+        if num_vertices > u32::MAX as usize - 1 {
+            return Err(SubdivisionError::TooLarge {
+                what: "vertex",
+                count: num_vertices as u64,
+                max: u32::MAX as u64 - 1,
+            });
+        }
+        if face_indices.len() >= u32::MAX as usize {
+            return Err(SubdivisionError::TooLarge {
+                what: "face corner",
+                count: face_indices.len() as u64,
+                max: u32::MAX as u64 - 1,
+            });
+        }
+        validate_offsets(&face_offsets, face_indices.len())?;
+
+        let mut scratch: Vec<u32> = Vec::new();
+        for f in 0..faces {
+            let s = face_offsets[f] as usize;
+            let e = face_offsets[f + 1] as usize;
+            let face = &face_indices[s..e];
+            if face.len() < 3 {
+                return Err(SubdivisionError::FaceTooSmall {
+                    face: f,
+                    len: face.len(),
+                });
+            }
+            if let Some(&bad) = face.iter().find(|&&v| v as usize >= num_vertices) {
+                return Err(SubdivisionError::IndexOutOfRange {
+                    face: f,
+                    vertex: bad as u64,
+                    vertex_count: num_vertices,
+                });
+            }
+            scratch.clear();
+            scratch.extend_from_slice(face);
+            scratch.sort_unstable();
+            if let Some(w) = scratch.windows(2).find(|w| w[0] == w[1]) {
+                return Err(SubdivisionError::RepeatedVertex {
+                    face: f,
+                    vertex: w[0],
+                });
+            }
+        }
+
+        // Collect half-edges keyed by their undirected endpoints.
+        let corners = face_indices.len();
+        let mut half: Vec<(u64, u32, u32)> = Vec::with_capacity(corners); // (key, face, corner)
+        for f in 0..faces {
+            let s = face_offsets[f] as usize;
+            let e = face_offsets[f + 1] as usize;
+            let k = e - s;
+            for j in 0..k {
+                let a = face_indices[s + j];
+                let b = face_indices[s + (j + 1) % k];
+                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+                half.push((key, f as u32, (s + j) as u32));
+            }
+        }
+        half.sort_unstable();
+
+        let mut edges: Vec<[u32; 2]> = Vec::with_capacity(corners / 2 + 4);
+        let mut edge_faces: Vec<[u32; 2]> = Vec::with_capacity(corners / 2 + 4);
+        let mut corner_edges = vec![0u32; corners];
+        let mut i = 0;
+        while i < half.len() {
+            let key = half[i].0;
+            let mut j = i + 1;
+            while j < half.len() && half[j].0 == key {
+                j += 1;
+            }
+            let a = (key >> 32) as u32;
+            let b = key as u32;
+            let count = j - i;
+            if count > 2 {
+                return Err(SubdivisionError::NonManifoldEdge { a, b, faces: count });
+            }
+            let edge = edges.len() as u32;
+            if count == 2 {
+                let (_, fa, ca) = half[i];
+                let (_, fb, cb) = half[i + 1];
+                // Same direction iff both corners start at the same vertex.
+                if face_indices[ca as usize] == face_indices[cb as usize] {
+                    return Err(SubdivisionError::InconsistentOrientation {
+                        a,
+                        b,
+                        face_a: fa as usize,
+                        face_b: fb as usize,
+                    });
+                }
+                edge_faces.push([fa, fb]);
+                corner_edges[ca as usize] = edge;
+                corner_edges[cb as usize] = edge;
+            } else {
+                let (_, fa, ca) = half[i];
+                edge_faces.push([fa, NO_FACE]);
+                corner_edges[ca as usize] = edge;
+            }
+            edges.push([a, b]);
+            i = j;
+        }
+
+        // Vertex -> faces.
+        let mut vertex_face_offsets = vec![0u32; num_vertices + 1];
+        for &v in &face_indices {
+            vertex_face_offsets[v as usize + 1] += 1;
+        }
+        prefix_sum(&mut vertex_face_offsets);
+        let mut fill = vertex_face_offsets.clone();
+        let mut vertex_faces = vec![0u32; corners];
+        for f in 0..faces {
+            let corners = &face_indices[face_offsets[f] as usize..face_offsets[f + 1] as usize];
+            for &v in corners {
+                let v = v as usize;
+                vertex_faces[fill[v] as usize] = f as u32;
+                fill[v] += 1;
+            }
+        }
+
+        // Vertex -> edges.
+        let mut vertex_edge_offsets = vec![0u32; num_vertices + 1];
+        for &[a, b] in &edges {
+            vertex_edge_offsets[a as usize + 1] += 1;
+            vertex_edge_offsets[b as usize + 1] += 1;
+        }
+        prefix_sum(&mut vertex_edge_offsets);
+        let mut fill = vertex_edge_offsets.clone();
+        let mut vertex_edges = vec![0u32; edges.len() * 2];
+        for (e, &[a, b]) in edges.iter().enumerate() {
+            for v in [a as usize, b as usize] {
+                vertex_edges[fill[v] as usize] = e as u32;
+                fill[v] += 1;
+            }
+        }
+
+        let topo = LevelTopology {
+            num_vertices,
+            face_offsets,
+            face_indices,
+            edges,
+            edge_faces,
+            corner_edges,
+            vertex_face_offsets,
+            vertex_faces,
+            vertex_edge_offsets,
+            vertex_edges,
+        };
+        for v in 0..num_vertices {
+            let boundary = topo
+                .edges_of(v)
+                .iter()
+                .filter(|&&e| topo.is_boundary_edge(e as usize))
+                .count();
+            if boundary != 0 && boundary != 2 {
+                return Err(SubdivisionError::NonManifoldVertex {
+                    vertex: v as u32,
+                    boundary_edges: boundary,
+                });
+            }
+        }
+        Ok(topo)
+    }
+}
+
+/// Checks that `offsets` starts at 0, never decreases and ends at `len`.
+pub(crate) fn validate_offsets(offsets: &[u32], len: usize) -> Result<(), SubdivisionError> {
+    match offsets.first() {
+        None => {
+            return Err(SubdivisionError::EmptyMesh {
+                vertices: 0,
+                faces: 0,
+            });
+        }
+        Some(&first) if first != 0 => {
+            return Err(SubdivisionError::BadFaceOffsets {
+                index: 0,
+                value: first,
+                reason: "the first offset must be 0",
+            });
+        }
+        _ => {}
+    }
+    for (i, w) in offsets.windows(2).enumerate() {
+        if w[1] < w[0] {
+            return Err(SubdivisionError::BadFaceOffsets {
+                index: i + 1,
+                value: w[1],
+                reason: "offsets must not decrease",
+            });
+        }
+    }
+    let last = offsets[offsets.len() - 1];
+    if last as usize != len {
+        return Err(SubdivisionError::BadFaceOffsets {
+            index: offsets.len() - 1,
+            value: last,
+            reason: "the last offset must equal the number of face indices",
+        });
+    }
+    Ok(())
+}
+
+/// In-place exclusive-to-inclusive prefix sum of counts stored at `i + 1`.
+fn prefix_sum(v: &mut [u32]) {
+    for i in 1..v.len() {
+        v[i] += v[i - 1];
+    }
+}
