@@ -8,7 +8,7 @@ use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::model::{ClothModel, SpringKind};
+use super::model::{ClothModel, SpringKind, Springs};
 use crate::error::{ClothError, count_in, non_negative, positive};
 
 /// Largest number of substeps per frame accepted by [`SolverSettings::validate`].
@@ -374,7 +374,8 @@ impl ClothSim {
             if self.settings.iterations == 1 {
                 // λ starts at 0 each substep, so one iteration needs no multiplier storage.
                 solve_springs::<false>(
-                    (&springs.a, &springs.b, &springs.rest, &self.compliance),
+                    springs,
+                    &self.compliance,
                     &mut self.lambda,
                     &self.inv_mass,
                     &mut self.positions,
@@ -384,7 +385,8 @@ impl ClothSim {
                 self.lambda.fill(0.0);
                 for _ in 0..self.settings.iterations {
                     solve_springs::<true>(
-                        (&springs.a, &springs.b, &springs.rest, &self.compliance),
+                        springs,
+                        &self.compliance,
                         &mut self.lambda,
                         &self.inv_mass,
                         &mut self.positions,
@@ -406,42 +408,116 @@ impl ClothSim {
     }
 }
 
-/// One Gauss-Seidel sweep over all springs in colour order: the XPBD update
-/// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`.
-/// With `ACCUMULATE = false` (a single iteration per substep) λ is known to be 0 and is not stored.
+/// Springs solved together in the batched XPBD kernel. Within one colour no two springs share a
+/// particle, so a batch gives exactly the sequential Gauss-Seidel result.
+const LANES: usize = 8;
+
+/// One Gauss-Seidel sweep over all springs, colour by colour: the XPBD update
+/// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
+/// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
+///
+/// Springs are processed in batches of [`LANES`] inside each colour: positions are gathered into
+/// small arrays, the arithmetic (square root and division included) runs as SIMD, and corrections
+/// are scattered back. With `ACCUMULATE = false` (one iteration per substep) λ is known to be 0
+/// and is neither read nor stored.
 #[inline(never)]
 fn solve_springs<const ACCUMULATE: bool>(
-    (a, b, rest, compliance): (&[u32], &[u32], &[f32], &[f32]),
+    springs: &Springs,
+    compliance: &[f32],
     lambda: &mut [f32],
     inv_mass: &[f32],
     x: &mut [Vec3],
     inv_h2: f32,
 ) {
-    let n = a.len();
-    let (b, rest, compliance) = (&b[..n], &rest[..n], &compliance[..n]);
-    for k in 0..n {
-        let (ia, ib) = (a[k] as usize, b[k] as usize);
-        let (wa, wb) = (inv_mass[ia], inv_mass[ib]);
-        let w = wa + wb;
-        let d = x[ia] - x[ib];
-        let len2 = d.length_squared();
-        if w == 0.0 || len2 < 1e-20 {
-            continue;
+    for color in springs.color_offsets.windows(2) {
+        let (start, end) = (color[0] as usize, color[1] as usize);
+        let mut k = start;
+        while k + LANES <= end {
+            solve_batch::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
+            k += LANES;
         }
-        let len = len2.sqrt();
-        let alpha = compliance[k] * inv_h2;
-        let c = len - rest[k];
-        let dl = if ACCUMULATE {
-            let dl = (-c - alpha * lambda[k]) / (w + alpha);
-            lambda[k] += dl;
-            dl
-        } else {
-            -c / (w + alpha)
-        };
-        let corr = d * (dl / len);
-        x[ia] += corr * wa;
-        x[ib] -= corr * wb;
+        for k in k..end {
+            solve_one::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
+        }
     }
+}
+
+/// The XPBD step size `Δλ / |d|` for one spring, or 0 where the spring cannot act (both ends
+/// pinned, or zero length).
+#[inline(always)]
+fn spring_scale(len2: f32, w: f32, rest: f32, alpha: f32, lambda: f32) -> (f32, f32) {
+    let len = len2.sqrt();
+    let dl = (-(len - rest) - alpha * lambda) / (w + alpha);
+    if w > 0.0 && len2 > 1e-20 {
+        (dl / len, dl)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn solve_batch<const ACCUMULATE: bool>(
+    s: &Springs,
+    compliance: &[f32],
+    lambda: &mut [f32],
+    inv_mass: &[f32],
+    x: &mut [Vec3],
+    inv_h2: f32,
+    k: usize,
+) {
+    let (a, b) = (&s.a[k..k + LANES], &s.b[k..k + LANES]);
+    let (rest, comp) = (&s.rest[k..k + LANES], &compliance[k..k + LANES]);
+    let mut d = [Vec3::ZERO; LANES];
+    let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for l in 0..LANES {
+        let (ia, ib) = (a[l] as usize, b[l] as usize);
+        d[l] = x[ia] - x[ib];
+        wa[l] = inv_mass[ia];
+        wb[l] = inv_mass[ib];
+    }
+    let mut scale = [0.0f32; LANES];
+    if ACCUMULATE {
+        let lam = &mut lambda[k..k + LANES];
+        for l in 0..LANES {
+            let (sc, dl) = spring_scale(d[l].length_squared(), wa[l] + wb[l], rest[l], comp[l] * inv_h2, lam[l]);
+            scale[l] = sc;
+            lam[l] += dl;
+        }
+    } else {
+        for l in 0..LANES {
+            scale[l] = spring_scale(d[l].length_squared(), wa[l] + wb[l], rest[l], comp[l] * inv_h2, 0.0).0;
+        }
+    }
+    for l in 0..LANES {
+        let corr = d[l] * scale[l];
+        x[a[l] as usize] += corr * wa[l];
+        x[b[l] as usize] -= corr * wb[l];
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn solve_one<const ACCUMULATE: bool>(
+    s: &Springs,
+    compliance: &[f32],
+    lambda: &mut [f32],
+    inv_mass: &[f32],
+    x: &mut [Vec3],
+    inv_h2: f32,
+    k: usize,
+) {
+    let (ia, ib) = (s.a[k] as usize, s.b[k] as usize);
+    let (wa, wb) = (inv_mass[ia], inv_mass[ib]);
+    let d = x[ia] - x[ib];
+    let lam = if ACCUMULATE { lambda[k] } else { 0.0 };
+    let (scale, dl) = spring_scale(d.length_squared(), wa + wb, s.rest[k], compliance[k] * inv_h2, lam);
+    if ACCUMULATE {
+        lambda[k] += dl;
+    }
+    let corr = d * scale;
+    x[ia] += corr * wa;
+    x[ib] -= corr * wb;
 }
 
 #[cfg(test)]
