@@ -88,6 +88,12 @@ pub enum ClothError {
         /// Substeps per frame.
         substeps: u32,
     },
+    /// The f64 reference integrator could not reach its end time.
+    #[error("reference integration failed: {what}")]
+    Reference {
+        /// What went wrong, e.g. `"step size underflow at t = 0.3 s"`.
+        what: String,
+    },
     /// A scene file could not be read or parsed.
     #[error("scene: {0}")]
     Scene(String),
