@@ -197,6 +197,7 @@ fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<ClothInvalid
 
 /// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. A bad edit
 /// stops the cloth (reported by [`build_cloths`]).
+#[allow(clippy::type_complexity)]
 fn apply_edits(
     mut cloths: Query<
         (

@@ -266,12 +266,11 @@ fn hanging_chain_reaches_the_exact_discrete_equilibrium() {
         })
         .collect();
     let model = chain(&points);
-    let rest: Vec<f64> = model.springs.rest.iter().map(|r| *r as f64).collect();
     // The model's springs are coloured; re-order rest lengths by the first particle index.
+    let springs = &model.springs;
     let mut rest_by_index = vec![0.0; n - 1];
-    for s in 0..model.springs.len() {
-        let i = model.springs.a[s].min(model.springs.b[s]) as usize;
-        rest_by_index[i] = rest[s];
+    for ((a, b), rest) in springs.a.iter().zip(&springs.b).zip(&springs.rest) {
+        rest_by_index[*a.min(b) as usize] = *rest as f64;
     }
     let gravity = Vec3::new(0.0, -9.81, 0.0);
     let mut settled = Vec::new();

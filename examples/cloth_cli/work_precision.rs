@@ -129,7 +129,7 @@ fn measure(
         best = best.min(elapsed.as_secs_f64() * 1e3 / frames as f64);
         if result.is_none() {
             let error = relative_rms_error(sim.positions(), &reference.positions, scene.diagonal());
-            if failure.is_none() && !(error <= 1.0) {
+            if failure.is_none() && (error.is_nan() || error > 1.0) {
                 failure = Some(format!("error {error:.3e} > 1"));
             }
             result = Some(Measurement {
@@ -174,7 +174,7 @@ fn best_within(front: &[(f64, f64)], budget: f64) -> Option<f64> {
         .iter()
         .filter(|(t, _)| *t <= budget)
         .map(|(_, e)| *e)
-        .last()
+        .next_back()
 }
 
 /// The goal check of one scene: the default configuration's point, and the default integrator's

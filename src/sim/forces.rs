@@ -70,7 +70,7 @@ fn spring_force(xa: Vec3, xb: Vec3, rest: f32, k: f32) -> (Vec3, f32, Vec3) {
     let len2 = d.length_squared();
     if len2 > 1e-20 {
         let len = len2.sqrt();
-        let u = d / len;
+        let u = d * len.recip();
         (u, len, u * (k * (len - rest)))
     } else {
         (Vec3::ZERO, 0.0, Vec3::ZERO)

@@ -182,7 +182,7 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
         while iterations < max_iterations && dot(&s.r, &s.r) > tolerance2 {
             apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.p, &mut s.ap);
             let pap = dot(&s.p, &s.ap);
-            if !(pap > 0.0) {
+            if pap.is_nan() || pap <= 0.0 {
                 break;
             }
             let alpha = rz / pap;

@@ -366,7 +366,7 @@ impl ClothModel {
                 what: format!("faces must have 3 or 4 vertices, got {face_size}"),
             });
         }
-        if indices.len() % face_size != 0 {
+        if !indices.len().is_multiple_of(face_size) {
             return Err(ClothError::InvalidMesh {
                 what: format!(
                     "index count {} is not a multiple of the face size {face_size}",

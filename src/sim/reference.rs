@@ -127,8 +127,8 @@ impl ReferenceProblem {
                 dv[ib] += f;
             }
         }
-        for i in 0..n {
-            dv[i] *= self.inv_mass[i];
+        for (dv, w) in dv.iter_mut().zip(&self.inv_mass) {
+            *dv *= *w;
         }
     }
 
@@ -207,8 +207,7 @@ impl ReferenceProblem {
             if last {
                 h = t_end - t;
             }
-            for s in 0..6 {
-                let row = A[s];
+            for (s, row) in A.iter().enumerate() {
                 for i in 0..n2 {
                     let mut acc = DVec3::ZERO;
                     for (j, a) in row.iter().enumerate() {

@@ -34,6 +34,11 @@ pub enum Integrator {
     /// Extended position-based dynamics with substeps: springs as compliant distance constraints
     /// (compliance `α = 1/k`), solved by coloured Gauss-Seidel, `iterations` sweeps per substep.
     /// Unconditionally stable, first order, with numerical damping that shrinks with the substep.
+    ///
+    /// The default, for robustness rather than accuracy: on the work-precision benchmark Verlet is
+    /// far more accurate wherever it is stable (docs/accuracy.md), but a force-based integrator
+    /// turns a teleported pin into the large elastic energy of the stretched springs and flings
+    /// the cloth, where XPBD's projection absorbs it.
     #[default]
     Xpbd,
     /// Symplectic (semi-implicit) Euler with explicit spring forces: `v += h a(x)`, then `x += h v`.
@@ -42,7 +47,9 @@ pub enum Integrator {
     SymplecticEuler,
     /// Position (Störmer–)Verlet, drift-kick-drift: `x += h/2 v`, `v += h a(x)`, `x += h/2 v`. The
     /// half-step positions follow the classic cloth recurrence `x⁺ = 2x - x⁻ + h² a(x)`. Second order,
-    /// symplectic, one force evaluation per substep, stable only for `h ω_max < 2`.
+    /// symplectic, one force evaluation per substep, stable only for `h ω_max < 2`. With
+    /// [`SolverSettings::auto_substeps`] the most accurate integrator at every run time where it is
+    /// stable, on every scene of the work-precision benchmark (docs/accuracy.md).
     Verlet,
     /// Implicit (backward) Euler after Baraff & Witkin 1998: per substep one Newton step on the
     /// linearised springs, `(M + h² K) Δv = h (f - h K v)`, solved by Jacobi-preconditioned conjugate
@@ -124,7 +131,9 @@ impl Stiffness {
 pub struct SolverSettings {
     /// Integration method.
     pub integrator: Integrator,
-    /// Substeps per step (the step is the fixed time step of the schedule).
+    /// Substeps per step (the step is the fixed time step of the schedule). With
+    /// [`auto_substeps`](Self::auto_substeps) and an explicit integrator this is the minimum, and
+    /// the stability bound usually decides (84 for the default stiffness and mass at 60 Hz).
     pub substeps: u32,
     /// Inner iterations per substep: Gauss-Seidel sweeps for XPBD; the cap on conjugate-gradient
     /// iterations for implicit Euler (which usually stops earlier, at its tolerance; 20–100 is a
