@@ -80,6 +80,7 @@ fn glyph(c: char) -> [u8; 5] {
         '=' => [0, 7, 0, 7, 0],
         '×' => [0, 5, 2, 5, 0],
         '<' => [1, 2, 4, 2, 1],
+        '>' => [4, 2, 1, 2, 4],
         _ => [0; 5],
     }
 }
@@ -146,7 +147,7 @@ pub fn write_plot(
             let c = color(integrator);
             legend
                 .draw(&PathElement::new(
-                    vec![(x, panel_h as i32 + 24), (x + 40, panel_h as i32 + 24)],
+                    vec![(x, 24), (x + 40, 24)],
                     c.stroke_width(3),
                 ))
                 .map_err(|e| e.to_string())?;
@@ -155,11 +156,7 @@ pub fn write_plot(
         }
         let note = "X: UNSTABLE (NON-FINITE OR ERROR > 1)";
         legend
-            .draw(&Cross::new(
-                (x + 8, panel_h as i32 + 24),
-                7,
-                BLACK.stroke_width(2),
-            ))
+            .draw(&Cross::new((x + 8, 24), 7, BLACK.stroke_width(2)))
             .map_err(|e| e.to_string())?;
         text(&legend, &note[2..], (x + 24, 17), 3, &BLACK)?;
         root.present().map_err(|e| e.to_string())?;

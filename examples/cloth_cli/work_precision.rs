@@ -26,6 +26,8 @@ pub struct Measurement {
     pub iterations: u32,
     /// Whether this is `SolverSettings::default()`'s numerical configuration.
     pub is_default: bool,
+    /// Whether the substep count came from the stability bound (`auto_substeps`).
+    pub auto: bool,
     /// Particles in the scene.
     pub particles: usize,
     /// Wall time per simulated frame, ms (best of the repetitions).
@@ -80,6 +82,13 @@ fn sweep(quick: bool) -> Vec<SolverSettings> {
                 ..base
             });
         }
+        // The substep count of the stability bound alone.
+        out.push(SolverSettings {
+            integrator,
+            substeps: 1,
+            auto_substeps: true,
+            ..base
+        });
     }
     let (implicit_substeps, cg): (&[u32], &[u32]) = if quick {
         (&[1, 4, 16, 64], &[50])
@@ -137,6 +146,7 @@ fn measure(
                 substeps,
                 iterations: settings.iterations,
                 is_default,
+                auto: settings.auto_substeps && settings.integrator.is_explicit(),
                 particles: sim.positions().len(),
                 ms_per_frame: 0.0,
                 error: failure.is_none().then_some(error),
@@ -324,14 +334,14 @@ pub fn run(
     writeln!(md, "## Reference solutions\n")?;
     writeln!(
         md,
-        "| scene | T (s) | steps | rejected | time (s) | difference to tolerance {:e} (relative RMS) |",
+        "| scene | T (s) | steps | rejected | time (s) | difference to tolerance {:.0e} (relative RMS) |",
         tolerance / 10.0
     )?;
     writeln!(md, "|---|---|---|---|---|---|")?;
     for (scene, err, steps, rejected, secs) in &references {
         writeln!(
             md,
-            "| {} | {} | {steps} | {rejected} | {secs:.1} | {err:.1e} |",
+            "| {} | {:.3} | {steps} | {rejected} | {secs:.1} | {err:.1e} |",
             scene.name(),
             scene.duration()
         )?;
@@ -380,9 +390,10 @@ pub fn run(
         for m in runs {
             writeln!(
                 md,
-                "| {}{} | {} | {} | {:.4} | {:.4} | {} |",
+                "| {}{}{} | {} | {} | {:.4} | {:.4} | {} |",
                 m.integrator.name(),
                 if m.is_default { " (default)" } else { "" },
+                if m.auto { " (auto substeps)" } else { "" },
                 m.substeps,
                 if m.integrator.is_explicit() {
                     "–".to_string()
@@ -406,7 +417,7 @@ pub fn run(
             "scene": s.name(),
             "runs": runs.iter().map(|m| serde_json::json!({
                 "integrator": m.integrator.name(), "substeps": m.substeps, "iterations": m.iterations,
-                "default": m.is_default, "particles": m.particles, "ms_per_frame": m.ms_per_frame,
+                "default": m.is_default, "auto_substeps": m.auto, "particles": m.particles, "ms_per_frame": m.ms_per_frame,
                 "error": m.error, "failure": m.failure,
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
