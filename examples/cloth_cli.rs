@@ -4,6 +4,7 @@
 //! cargo run --release --example cloth_cli -- simulate assets/scenes/hanging.ron --frames 120 --output out.json
 //! cargo run --release --example cloth_cli -- bench assets/scenes/hanging.ron --frames 600
 //! cargo run --release --example cloth_cli -- subdivide in.obj --level 2 --rule tuned --output out.obj
+//! cargo run --release --example cloth_cli -- work-precision --quick
 //! ```
 
 use std::path::PathBuf;
@@ -13,8 +14,15 @@ use bevy::prelude::*;
 use bevy_cloth::plugin::headless_app;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
+use bevy_cloth::sim::AccuracyScene;
+use bevy_cloth::sim::reference::REFERENCE_TOLERANCE;
 use bevy_cloth::subdivision::{parse_obj, refine_positions, write_obj};
 use clap::{Parser, Subcommand};
+
+#[path = "cloth_cli/plot.rs"]
+mod plot;
+#[path = "cloth_cli/work_precision.rs"]
+mod work_precision;
 
 #[derive(Parser)]
 #[command(about = "Headless bevy_cloth scenes: simulate and benchmark")]
@@ -61,6 +69,23 @@ enum Command {
         /// Number of timed frames (after 10 warm-up frames).
         #[arg(long, default_value_t = 300)]
         frames: u32,
+    },
+    /// Run time against error of every integrator on the accuracy scenes (solver only, against an
+    /// f64 reference): writes work-precision.md, .json and .png into the output folder.
+    WorkPrecision {
+        /// A shorter sweep (fewer substep counts, one iteration count).
+        #[arg(long)]
+        quick: bool,
+        /// Tolerance of the f64 reference integrator (it is also run at a tenth of this, to show
+        /// its own error).
+        #[arg(long, default_value_t = REFERENCE_TOLERANCE)]
+        tolerance: f64,
+        /// Scenes to run (swing, stiff, curtain); all by default.
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// Output folder.
+        #[arg(long, default_value = "docs")]
+        out: PathBuf,
     },
 }
 
@@ -203,6 +228,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             line["springs"] = state.sim().model().springs.len().into();
             line["substeps"] = parsed.solver.substeps.into();
             println!("{line}");
+        }
+        Command::WorkPrecision {
+            quick,
+            tolerance,
+            scenes,
+            out,
+        } => {
+            let mut chosen = Vec::new();
+            for name in &scenes {
+                match AccuracyScene::ALL.iter().find(|s| s.name() == name) {
+                    Some(s) => chosen.push(*s),
+                    None => {
+                        return Err(format!(
+                            "unknown scene {name:?}: expected swing, stiff or curtain"
+                        )
+                        .into());
+                    }
+                }
+            }
+            if chosen.is_empty() {
+                chosen = AccuracyScene::ALL.to_vec();
+            }
+            work_precision::run(quick, tolerance, &chosen, &out)?;
         }
     }
     Ok(())

@@ -35,28 +35,46 @@ fn main() {
         .add_plugins(EguiPlugin::default())
         .insert_resource(Shown(1))
         .add_systems(Startup, show)
-        .add_systems(Update, (keys, show.run_if(resource_changed::<Shown>)).chain())
+        .add_systems(
+            Update,
+            (keys, show.run_if(resource_changed::<Shown>)).chain(),
+        )
         .add_systems(EguiPrimaryContextPass, panel)
         .run();
 }
 
 fn load(name: &str) -> Result<PolyMesh, String> {
-    let path = format!("{}/../shared/data/subdivision/shapes/{name}.obj", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/../shared/data/subdivision/shapes/{name}.obj",
+        env!("CARGO_MANIFEST_DIR")
+    );
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;
     parse_obj(&text).map_err(|e| format!("{path}: {e}"))
 }
 
 /// A flat-shaded-free render mesh of the refined surface (smooth normals).
 fn refined_mesh(control: &PolyMesh, level: u32, rule: VertexRule) -> Result<Mesh, String> {
-    let sub = Subdivider::new(control, level, rule, BoundaryMode::EdgeOnly).map_err(|e| e.to_string())?;
+    let sub =
+        Subdivider::new(control, level, rule, BoundaryMode::EdgeOnly).map_err(|e| e.to_string())?;
     let mut positions = vec![Vec3::ZERO; sub.refined_vertex_count()];
     let mut normals = vec![Vec3::Y; sub.refined_vertex_count()];
-    sub.apply(&control.positions_f32(), &mut positions).map_err(|e| e.to_string())?;
-    sub.compute_normals(&positions, &mut normals).map_err(|e| e.to_string())?;
-    Ok(Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions.iter().map(|p| p.to_array()).collect::<Vec<_>>())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals.iter().map(|n| n.to_array()).collect::<Vec<_>>())
-        .with_inserted_indices(Indices::U32(sub.topology().triangle_indices().to_vec())))
+    sub.apply(&control.positions_f32(), &mut positions)
+        .map_err(|e| e.to_string())?;
+    sub.compute_normals(&positions, &mut normals)
+        .map_err(|e| e.to_string())?;
+    Ok(Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_NORMAL,
+        normals.iter().map(|n| n.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_indices(Indices::U32(sub.topology().triangle_indices().to_vec())))
 }
 
 fn show(
@@ -84,7 +102,14 @@ fn show(
         Color::srgb(0.85, 0.55, 0.25),
         Color::srgb(0.35, 0.55, 0.9),
     ];
-    for (row, rule) in [VertexRule::Original, VertexRule::Enhanced, VertexRule::Tuned].into_iter().enumerate() {
+    for (row, rule) in [
+        VertexRule::Original,
+        VertexRule::Enhanced,
+        VertexRule::Tuned,
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let material = materials.add(StandardMaterial {
             base_color: colours[row],
             perceptual_roughness: 0.6,
@@ -105,14 +130,18 @@ fn show(
                 Refined,
                 Mesh3d(meshes.add(mesh)),
                 MeshMaterial3d(material.clone()),
-                Transform::from_translation(at).with_scale(Vec3::splat(1.2 / size)) * Transform::from_translation(-centre),
+                Transform::from_translation(at).with_scale(Vec3::splat(1.2 / size))
+                    * Transform::from_translation(-centre),
             ));
         }
     }
 }
 
 fn keys(input: Res<ButtonInput<KeyCode>>, mut shown: ResMut<Shown>) {
-    for (k, key) in [KeyCode::Digit1, KeyCode::Digit2, KeyCode::Digit3].into_iter().enumerate() {
+    for (k, key) in [KeyCode::Digit1, KeyCode::Digit2, KeyCode::Digit3]
+        .into_iter()
+        .enumerate()
+    {
         if input.just_pressed(key) && shown.0 != k {
             shown.0 = k;
         }

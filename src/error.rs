@@ -93,6 +93,12 @@ pub enum ClothError {
     /// A subdivision surface could not be built (see [`SubdivisionError`]).
     #[error("subdivision: {0}")]
     Subdivision(#[from] SubdivisionError),
+    /// The f64 reference integrator could not reach its end time.
+    #[error("reference integration failed: {what}")]
+    Reference {
+        /// What went wrong, e.g. `"step size underflow at t = 0.3 s"`.
+        what: String,
+    },
     /// A scene file could not be read or parsed.
     #[error("scene: {0}")]
     Scene(String),

@@ -270,6 +270,7 @@ fn rebuild_render(
 
 /// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. A bad edit
 /// stops the cloth (reported by [`build_cloths`]).
+#[allow(clippy::type_complexity)]
 fn apply_edits(
     mut cloths: Query<
         (

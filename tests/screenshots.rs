@@ -100,12 +100,23 @@ fn subdivision_compare_shows_three_rules_at_four_levels() {
     let p = load("subdivision_compare");
     assert_not_blank(&p);
     // Each rule has its own colour (green, orange, blue): all three rows must be on screen.
-    let count = |f: fn([u8; 3]) -> bool| p.rgb.iter().filter(|c| f(**c)).count() as f32 / p.rgb.len() as f32;
+    let count = |f: fn([u8; 3]) -> bool| {
+        p.rgb.iter().filter(|c| f(**c)).count() as f32 / p.rgb.len() as f32
+    };
     let green = count(|[r, g, b]| g as f32 > 1.3 * r as f32 && g as f32 > 1.2 * b as f32 && g > 40);
-    let orange = count(|[r, g, b]| r as f32 > 1.3 * g as f32 && g as f32 > 1.3 * b as f32 && r > 60);
+    let orange =
+        count(|[r, g, b]| r as f32 > 1.3 * g as f32 && g as f32 > 1.3 * b as f32 && r > 60);
     // Stricter for blue: the sky is pale blue (about 158, 184, 209).
     let blue = count(|[r, g, b]| b as f32 > 1.6 * r as f32 && b as f32 > 1.3 * g as f32 && b > 60);
-    for (name, f) in [("Original (green)", green), ("Enhanced (orange)", orange), ("Tuned (blue)", blue)] {
-        assert!(f > 0.01, "{name} covers only {:.2}% of the picture", f * 100.0);
+    for (name, f) in [
+        ("Original (green)", green),
+        ("Enhanced (orange)", orange),
+        ("Tuned (blue)", blue),
+    ] {
+        assert!(
+            f > 0.01,
+            "{name} covers only {:.2}% of the picture",
+            f * 100.0
+        );
     }
 }

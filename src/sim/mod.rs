@@ -1,9 +1,21 @@
 //! The engine-free cloth solver: topology ([`ClothModel`]), particle state and time stepping
-//! ([`ClothSim`]). Plain data in, plain data out; nothing here knows about ECS, assets or meshes, so
-//! it can be unit-tested and benchmarked on its own. Every formula of the simulation lives here.
+//! ([`ClothSim`]) with four integrators behind one [`Integrator`] enum, an f64 reference integrator
+//! ([`reference`]) and the accuracy benchmark scenes ([`scenes`]). Plain data in, plain data out;
+//! nothing here knows about ECS, assets or meshes, so it can be unit-tested and benchmarked on its
+//! own. Every formula of the simulation lives here.
 
+mod explicit;
+mod forces;
+mod implicit;
 mod model;
+pub mod reference;
+pub mod scenes;
 mod solver;
 
+pub use implicit::CG_TOLERANCE;
 pub use model::{ClothModel, GridPlane, GridSpec, SpringKind, Springs, compute_normals};
-pub use solver::{ClothSim, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, SolverSettings, Stiffness};
+pub use scenes::{AccuracyScene, relative_rms_error};
+pub use solver::{
+    ClothSim, Energy, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION, SolverSettings,
+    Stiffness,
+};

@@ -236,6 +236,10 @@ pub struct ClothModel {
     pub springs: Springs,
     /// Grid dimensions when built from a [`GridSpec`].
     pub grid: Option<GridSpec>,
+    /// Mass of each particle in kg, when particles differ; `None` (the default) gives every
+    /// particle [`SolverSettings::particle_mass`](super::SolverSettings::particle_mass). Set it with
+    /// [`ClothModel::with_particle_masses`].
+    pub particle_masses: Option<Vec<f32>>,
 }
 
 impl ClothModel {
@@ -306,7 +310,44 @@ impl ClothModel {
             face_size: 4,
             springs,
             grid: Some(*spec),
+            particle_masses: None,
         })
+    }
+
+    /// Gives each particle its own mass (kg), replacing the uniform
+    /// [`SolverSettings::particle_mass`](super::SolverSettings::particle_mass). The list must have
+    /// one finite, positive value per particle; the error names the first bad one.
+    ///
+    /// ```
+    /// use bevy_cloth::sim::{ClothModel, GridSpec};
+    /// let model = ClothModel::grid(&GridSpec::new(2, 2, 0.1)).unwrap();
+    /// let model = model.with_particle_masses(vec![0.001, 0.002, 0.001, 0.1]).unwrap();
+    /// assert_eq!(model.mass_of(3, 0.5), 0.1);
+    /// ```
+    pub fn with_particle_masses(mut self, masses: Vec<f32>) -> Result<Self, ClothError> {
+        if masses.len() != self.particle_count() {
+            return Err(ClothError::InvalidMesh {
+                what: format!(
+                    "has {} particle masses for {} particles",
+                    masses.len(),
+                    self.particle_count()
+                ),
+            });
+        }
+        for m in &masses {
+            positive("particle_masses", *m)?;
+        }
+        self.particle_masses = Some(masses);
+        Ok(self)
+    }
+
+    /// Mass of particle `i` in kg: its own mass if the model has per-particle masses, else
+    /// `uniform` (normally [`SolverSettings::particle_mass`](super::SolverSettings::particle_mass)).
+    pub fn mass_of(&self, i: usize, uniform: f32) -> f32 {
+        self.particle_masses
+            .as_ref()
+            .and_then(|m| m.get(i).copied())
+            .unwrap_or(uniform)
     }
 
     /// Builds a cloth from an indexed mesh whose faces are all triangles (`face_size == 3`) or all
@@ -335,7 +376,7 @@ impl ClothModel {
                 what: format!("faces must have 3 or 4 vertices, got {face_size}"),
             });
         }
-        if indices.len() % face_size != 0 {
+        if !indices.len().is_multiple_of(face_size) {
             return Err(ClothError::InvalidMesh {
                 what: format!(
                     "index count {} is not a multiple of the face size {face_size}",
@@ -418,6 +459,7 @@ impl ClothModel {
             face_size,
             springs,
             grid: None,
+            particle_masses: None,
         })
     }
 }
@@ -546,5 +588,19 @@ mod tests {
             }
         );
         assert!(ClothModel::from_mesh(&p, None, &[0, 1], 3).is_err());
+    }
+
+    #[test]
+    fn particle_masses_are_checked() {
+        let m = ClothModel::grid(&GridSpec::new(2, 2, 0.1)).unwrap();
+        assert_eq!(m.mass_of(1, 0.25), 0.25);
+        assert!(m.clone().with_particle_masses(vec![1.0; 3]).is_err());
+        let e = m
+            .clone()
+            .with_particle_masses(vec![1.0, 1.0, -2.0, 1.0])
+            .unwrap_err();
+        assert!(e.to_string().contains("particle_masses"), "{e}");
+        let m = m.with_particle_masses(vec![1.0, 2.0, 3.0, 4.0]).unwrap();
+        assert_eq!(m.mass_of(2, 0.25), 3.0);
     }
 }

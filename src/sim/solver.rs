@@ -1,14 +1,20 @@
-//! The time stepper: particle state in structure-of-arrays form, pins, and the XPBD solver with
-//! substeps (Macklin et al. 2016, "XPBD"; Macklin et al. 2019, "Small Steps in Physics Simulation").
+//! The time stepper: particle state in structure-of-arrays form, pins, the [`Integrator`] choice and
+//! its dispatch, and the XPBD solver with substeps (Macklin et al. 2016, "XPBD"; Macklin et al. 2019,
+//! "Small Steps in Physics Simulation"). The force-based integrators live in `explicit.rs`
+//! (symplectic Euler, Verlet) and `implicit.rs` (Baraff & Witkin implicit Euler), on the shared
+//! spring-force kernel of `forces.rs`.
 //!
 //! Plain data in, plain data out: no ECS types, no allocation inside [`ClothSim::step`]. Every buffer a
-//! step touches is sized when the cloth is built (or when pins change).
+//! step touches is sized when the cloth is built (or when pins or settings change).
 
 use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::forces::{SpringSet, max_frequency_bound, spring_energy};
+use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, SpringKind, Springs};
+use super::{explicit, implicit};
 use crate::error::{ClothError, count_in, non_negative, positive};
 
 /// Largest number of substeps per frame accepted by [`SolverSettings::validate`].
@@ -16,13 +22,66 @@ pub const MAX_SUBSTEPS: u32 = 1024;
 /// Largest number of constraint iterations per substep accepted by [`SolverSettings::validate`].
 pub const MAX_ITERATIONS: u32 = 256;
 
-/// The time integration method. Every integrator solves the same canonical model (DESIGN.md).
+/// Fraction of the explicit stability limit `h < 2/ω_max` that [`SolverSettings::auto_substeps`]
+/// stays within, applied to the Gershgorin bound on `ω_max` (which itself over-estimates it).
+pub const STABILITY_FRACTION: f32 = 0.9;
+
+/// The time integration method. Every integrator solves the same canonical model (DESIGN.md): the
+/// same springs, masses, gravity, pins (pinned particles follow their targets, interpolated across
+/// substeps) and damping (velocities decay as `exp(-damping t)`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
 pub enum Integrator {
     /// Extended position-based dynamics with substeps: springs as compliant distance constraints
-    /// (compliance `α = 1/k`), solved by coloured Gauss-Seidel. Unconditionally stable.
+    /// (compliance `α = 1/k`), solved by coloured Gauss-Seidel, `iterations` sweeps per substep.
+    /// Unconditionally stable, first order, with numerical damping that shrinks with the substep.
+    ///
+    /// The default, for robustness rather than accuracy: on the work-precision benchmark Verlet is
+    /// far more accurate wherever it is stable (docs/accuracy.md), but a force-based integrator
+    /// turns a teleported pin into the large elastic energy of the stretched springs and flings
+    /// the cloth, where XPBD's projection absorbs it.
     #[default]
     Xpbd,
+    /// Symplectic (semi-implicit) Euler with explicit spring forces: `v += h a(x)`, then `x += h v`.
+    /// First order, symplectic (no energy drift), stable only for `h ω_max < 2`; see
+    /// [`SolverSettings::auto_substeps`].
+    SymplecticEuler,
+    /// Position (Störmer–)Verlet, drift-kick-drift: `x += h/2 v`, `v += h a(x)`, `x += h/2 v`. The
+    /// half-step positions follow the classic cloth recurrence `x⁺ = 2x - x⁻ + h² a(x)`. Second order,
+    /// symplectic, one force evaluation per substep, stable only for `h ω_max < 2`. With
+    /// [`SolverSettings::auto_substeps`] the most accurate integrator at every run time where it is
+    /// stable, on every scene of the work-precision benchmark (docs/accuracy.md).
+    Verlet,
+    /// Implicit (backward) Euler after Baraff & Witkin 1998: per substep one Newton step on the
+    /// linearised springs, `(M + h² K) Δv = h (f - h K v)`, solved by Jacobi-preconditioned conjugate
+    /// gradients (at most `iterations` iterations, stopping at a relative residual of
+    /// [`CG_TOLERANCE`](super::CG_TOLERANCE)); pins by filtering the CG. Unconditionally stable for
+    /// the clamped (positive semi-definite) `K`, first order, strongly damped at large steps.
+    ImplicitEuler,
+}
+
+impl Integrator {
+    /// All integrators, in declaration order.
+    pub const ALL: [Integrator; 4] = [
+        Integrator::Xpbd,
+        Integrator::SymplecticEuler,
+        Integrator::Verlet,
+        Integrator::ImplicitEuler,
+    ];
+
+    /// A short name for tables and logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Xpbd => "XPBD",
+            Integrator::SymplecticEuler => "symplectic Euler",
+            Integrator::Verlet => "Verlet",
+            Integrator::ImplicitEuler => "implicit Euler",
+        }
+    }
+
+    /// Whether the method is stable only below a step-size limit (`h ω_max < 2`).
+    pub fn is_explicit(self) -> bool {
+        matches!(self, Integrator::SymplecticEuler | Integrator::Verlet)
+    }
 }
 
 /// Spring stiffness per family, in N/m.
@@ -72,10 +131,19 @@ impl Stiffness {
 pub struct SolverSettings {
     /// Integration method.
     pub integrator: Integrator,
-    /// Substeps per step (the step is the fixed time step of the schedule).
+    /// Substeps per step (the step is the fixed time step of the schedule). With
+    /// [`auto_substeps`](Self::auto_substeps) and an explicit integrator this is the minimum, and
+    /// the stability bound usually decides (84 for the default stiffness and mass at 60 Hz).
     pub substeps: u32,
-    /// Constraint iterations per substep.
+    /// Inner iterations per substep: Gauss-Seidel sweeps for XPBD; the cap on conjugate-gradient
+    /// iterations for implicit Euler (which usually stops earlier, at its tolerance; 20–100 is a
+    /// sensible cap); unused by the explicit integrators.
     pub iterations: u32,
+    /// For the explicit integrators (symplectic Euler, Verlet): raise the substep count, if needed,
+    /// to what the stability bound asks for, `h ≤ STABILITY_FRACTION · 2/ω_max` with `ω_max` bounded
+    /// from each particle's springs and mass. `substeps` stays the minimum. Ignored by XPBD and
+    /// implicit Euler, which are stable at any step.
+    pub auto_substeps: bool,
     /// Spring stiffness per family, N/m.
     pub stiffness: Stiffness,
     /// Mass of each particle, kg.
@@ -92,6 +160,7 @@ impl Default for SolverSettings {
             integrator: Integrator::Xpbd,
             substeps: 20,
             iterations: 1,
+            auto_substeps: true,
             stiffness: Stiffness::default(),
             particle_mass: 0.001,
             damping: 0.5,
@@ -127,12 +196,51 @@ impl SolverSettings {
 
 /// A pinned particle and where it must be.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct PinState {
-    particle: u32,
+pub(super) struct PinState {
+    pub particle: u32,
     /// Target at the start of the current step.
-    from: Vec3,
+    pub from: Vec3,
     /// Target at the end of the current step.
-    to: Vec3,
+    pub to: Vec3,
+}
+
+/// Moves every pinned particle to its target at fraction `t1` of the step, with the velocity that
+/// takes it there from its target at fraction `t0` in one substep (`inv_h = 1/h`). Pinned particles
+/// have inverse mass 0, so no integrator moves them otherwise.
+pub(super) fn drive_pins(
+    pins: &[PinState],
+    t0: f32,
+    t1: f32,
+    inv_h: f32,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+) {
+    for pin in pins {
+        let i = pin.particle as usize;
+        let target = pin.from.lerp(pin.to, t1);
+        // `from` is where the particle was when the step began (pins start where their particle is).
+        v[i] = (target - pin.from.lerp(pin.to, t0)) * inv_h;
+        x[i] = target;
+    }
+}
+
+/// The energy of a cloth's free particles (pinned ones are driven, not part of the system), in
+/// joules, accumulated in f64.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Energy {
+    /// `Σ ½ m |v|²` over free particles.
+    pub kinetic: f64,
+    /// `-Σ m g·x` over free particles (zero at the world origin).
+    pub gravitational: f64,
+    /// `Σ ½ k (|d| - L)²` over all springs.
+    pub elastic: f64,
+}
+
+impl Energy {
+    /// Kinetic plus gravitational plus elastic energy.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.gravitational + self.elastic
+    }
 }
 
 /// A simulated cloth: its model, particle state (structure of arrays) and pins.
@@ -141,21 +249,31 @@ struct PinState {
 /// linearly interpolated across the substeps of a step.
 #[derive(Debug, Clone)]
 pub struct ClothSim {
-    model: ClothModel,
+    pub(super) model: ClothModel,
     /// Particle positions, m.
-    positions: Vec<Vec3>,
-    /// Positions after the unconstrained move of the current substep (scratch).
-    predicted: Vec<Vec3>,
+    pub(super) positions: Vec<Vec3>,
+    /// Positions after the unconstrained move of the current substep (XPBD scratch).
+    pub(super) predicted: Vec<Vec3>,
     /// Particle velocities, m/s.
-    velocities: Vec<Vec3>,
+    pub(super) velocities: Vec<Vec3>,
+    /// Particle masses, kg (whether pinned or not).
+    pub(super) mass: Vec<f32>,
     /// Inverse masses, 1/kg (0 for pinned particles).
-    inv_mass: Vec<f32>,
+    pub(super) inv_mass: Vec<f32>,
+    /// Per-spring stiffness `k` (N/m).
+    pub(super) stiffness: Vec<f32>,
     /// Per-spring compliance `1/k` (m/N).
-    compliance: Vec<f32>,
+    pub(super) compliance: Vec<f32>,
     /// Per-spring Lagrange multipliers of the current substep.
-    lambda: Vec<f32>,
-    pins: Vec<PinState>,
-    settings: SolverSettings,
+    pub(super) lambda: Vec<f32>,
+    /// Force accumulator of the force-based integrators (scratch).
+    pub(super) forces: Vec<Vec3>,
+    /// Linearised springs and conjugate-gradient vectors of implicit Euler; empty for the others.
+    pub(super) implicit: ImplicitScratch,
+    /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
+    pub(super) omega_max: f32,
+    pub(super) pins: Vec<PinState>,
+    pub(super) settings: SolverSettings,
     steps: u64,
 }
 
@@ -174,14 +292,29 @@ impl ClothSim {
                 what: format!("vertex {i} has a non-finite world position"),
             });
         }
+        if let Some(masses) = &model.particle_masses {
+            if masses.len() != n {
+                return Err(ClothError::InvalidMesh {
+                    what: format!("has {} particle masses for {n} particles", masses.len()),
+                });
+            }
+            for m in masses {
+                positive("particle_masses", *m)?;
+            }
+        }
         let springs = model.springs.len();
         let mut sim = Self {
             predicted: positions.clone(),
             positions,
             velocities: vec![Vec3::ZERO; n],
+            mass: vec![0.0; n],
             inv_mass: vec![0.0; n],
+            stiffness: vec![0.0; springs],
             compliance: vec![0.0; springs],
             lambda: vec![0.0; springs],
+            forces: vec![Vec3::ZERO; n],
+            implicit: ImplicitScratch::default(),
+            omega_max: 0.0,
             pins: Vec::new(),
             model,
             settings,
@@ -230,16 +363,97 @@ impl ClothSim {
         Ok(())
     }
 
+    /// Recomputes everything derived from settings, masses and pins: per-spring stiffness and
+    /// compliance, inverse masses, the frequency bound, and (for implicit Euler) its scratch buffers.
+    /// Runs at construction and on edits, never inside a step.
     fn apply_settings(&mut self) {
         let s = &self.model.springs;
-        for (c, kind) in self.compliance.iter_mut().zip(&s.kind) {
+        for ((c, k), kind) in self
+            .compliance
+            .iter_mut()
+            .zip(self.stiffness.iter_mut())
+            .zip(&s.kind)
+        {
+            *k = self.settings.stiffness.of(*kind);
             // A zero stiffness becomes a huge (finite) compliance: the spring does nothing.
-            *c = 1.0 / self.settings.stiffness.of(*kind).max(1e-6);
+            *c = 1.0 / k.max(1e-6);
         }
-        self.inv_mass.fill(1.0 / self.settings.particle_mass);
+        for (i, (m, w)) in self.mass.iter_mut().zip(&mut self.inv_mass).enumerate() {
+            *m = self.model.mass_of(i, self.settings.particle_mass);
+            *w = 1.0 / *m;
+        }
         for pin in &self.pins {
             self.inv_mass[pin.particle as usize] = 0.0;
         }
+        let mut scratch = vec![0.0; self.positions.len()];
+        self.omega_max = max_frequency_bound(self.spring_set(), &self.inv_mass, &mut scratch);
+        if self.settings.integrator == Integrator::ImplicitEuler
+            && !self.implicit.fits(self.positions.len(), s.len())
+        {
+            self.implicit = ImplicitScratch::new(self.positions.len(), s.len());
+        }
+    }
+
+    /// The springs with their current stiffness, for the force kernel.
+    pub(super) fn spring_set(&self) -> SpringSet<'_> {
+        let s = &self.model.springs;
+        SpringSet {
+            a: &s.a,
+            b: &s.b,
+            rest: &s.rest,
+            k: &self.stiffness,
+        }
+    }
+
+    /// An upper bound on the highest angular frequency of the cloth's springs about rest, in rad/s
+    /// (Gershgorin's bound from each free particle's springs and mass; pins count as infinite mass).
+    /// Explicit integrators need a substep `h < 2/ω_max`.
+    pub fn max_frequency(&self) -> f32 {
+        self.omega_max
+    }
+
+    /// Number of substeps a step of `dt` seconds takes: `substeps`, raised to the stability bound
+    /// for the explicit integrators when [`SolverSettings::auto_substeps`] is on, and at most
+    /// [`MAX_SUBSTEPS`].
+    pub fn substeps_for(&self, dt: f32) -> u32 {
+        let n = self.settings.substeps;
+        if !(self.settings.auto_substeps && self.settings.integrator.is_explicit()) {
+            return n;
+        }
+        let needed = (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil();
+        if needed.is_finite() {
+            n.max(needed.min(MAX_SUBSTEPS as f32) as u32)
+        } else {
+            MAX_SUBSTEPS
+        }
+    }
+
+    /// Conjugate-gradient iterations taken in the last substep of implicit Euler (0 before the first
+    /// implicit step, and for the other integrators).
+    pub fn cg_iterations(&self) -> u32 {
+        self.implicit.last_iterations
+    }
+
+    /// Mass of each particle, kg (pinned ones included).
+    pub fn masses(&self) -> &[f32] {
+        &self.mass
+    }
+
+    /// Kinetic, gravitational and elastic energy of the free particles (see [`Energy`]).
+    pub fn energy(&self) -> Energy {
+        let g = self.settings.gravity.as_dvec3();
+        let mut e = Energy {
+            elastic: spring_energy(self.spring_set(), &self.positions),
+            ..Default::default()
+        };
+        for i in 0..self.positions.len() {
+            if self.inv_mass[i] > 0.0 {
+                let m = self.mass[i] as f64;
+                e.kinetic += 0.5 * m * self.velocities[i].as_dvec3().length_squared();
+                e.gravitational -= m * g.dot(self.positions[i].as_dvec3());
+            }
+        }
+        e
     }
 
     /// Indices of the pinned particles.
@@ -292,14 +506,13 @@ impl ClothSim {
         }
     }
 
-    /// Kinetic energy, J.
+    /// Kinetic energy of the free particles, J.
     pub fn kinetic_energy(&self) -> f32 {
-        let m = self.settings.particle_mass;
         self.velocities
             .iter()
-            .zip(&self.inv_mass)
-            .filter(|(_, w)| **w > 0.0)
-            .map(|(v, _)| 0.5 * m * v.length_squared())
+            .zip(self.inv_mass.iter().zip(&self.mass))
+            .filter(|(_, (w, _))| **w > 0.0)
+            .map(|(v, (_, m))| 0.5 * m * v.length_squared())
             .sum()
     }
 
@@ -321,8 +534,12 @@ impl ClothSim {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
+        let substeps = self.substeps_for(dt);
         match self.settings.integrator {
-            Integrator::Xpbd => self.step_xpbd(dt),
+            Integrator::Xpbd => self.step_xpbd(dt, substeps),
+            Integrator::SymplecticEuler => explicit::step_symplectic_euler(self, dt, substeps),
+            Integrator::Verlet => explicit::step_verlet(self, dt, substeps),
+            Integrator::ImplicitEuler => implicit::step_implicit_euler(self, dt, substeps),
         }
         self.steps += 1;
         for pin in &mut self.pins {
@@ -333,14 +550,13 @@ impl ClothSim {
                 step: self.steps,
                 particle,
                 dt,
-                substeps: self.settings.substeps,
+                substeps,
             });
         }
         Ok(())
     }
 
-    fn step_xpbd(&mut self, dt: f32) {
-        let n = self.settings.substeps;
+    fn step_xpbd(&mut self, dt: f32, n: u32) {
         let h = dt / n as f32;
         let inv_h = 1.0 / h;
         let inv_h2 = inv_h * inv_h;
@@ -362,13 +578,17 @@ impl ClothSim {
                 *predicted = *x;
             }
             // Pinned particles move to their interpolated target, at the velocity that takes them there.
-            let t = (sub + 1) as f32 / n as f32;
+            let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+            drive_pins(
+                &self.pins,
+                t0,
+                t1,
+                inv_h,
+                &mut self.positions,
+                &mut self.velocities,
+            );
             for pin in &self.pins {
-                let i = pin.particle as usize;
-                let target = pin.from.lerp(pin.to, t);
-                self.velocities[i] = (target - self.positions[i]) * inv_h;
-                self.positions[i] = target;
-                self.predicted[i] = target;
+                self.predicted[pin.particle as usize] = self.positions[pin.particle as usize];
             }
             let springs = &self.model.springs;
             if self.settings.iterations == 1 {
@@ -480,13 +700,26 @@ fn solve_batch<const ACCUMULATE: bool>(
     if ACCUMULATE {
         let lam = &mut lambda[k..k + LANES];
         for l in 0..LANES {
-            let (sc, dl) = spring_scale(d[l].length_squared(), wa[l] + wb[l], rest[l], comp[l] * inv_h2, lam[l]);
+            let (sc, dl) = spring_scale(
+                d[l].length_squared(),
+                wa[l] + wb[l],
+                rest[l],
+                comp[l] * inv_h2,
+                lam[l],
+            );
             scale[l] = sc;
             lam[l] += dl;
         }
     } else {
         for l in 0..LANES {
-            scale[l] = spring_scale(d[l].length_squared(), wa[l] + wb[l], rest[l], comp[l] * inv_h2, 0.0).0;
+            scale[l] = spring_scale(
+                d[l].length_squared(),
+                wa[l] + wb[l],
+                rest[l],
+                comp[l] * inv_h2,
+                0.0,
+            )
+            .0;
         }
     }
     for l in 0..LANES {
@@ -511,7 +744,13 @@ fn solve_one<const ACCUMULATE: bool>(
     let (wa, wb) = (inv_mass[ia], inv_mass[ib]);
     let d = x[ia] - x[ib];
     let lam = if ACCUMULATE { lambda[k] } else { 0.0 };
-    let (scale, dl) = spring_scale(d.length_squared(), wa + wb, s.rest[k], compliance[k] * inv_h2, lam);
+    let (scale, dl) = spring_scale(
+        d.length_squared(),
+        wa + wb,
+        s.rest[k],
+        compliance[k] * inv_h2,
+        lam,
+    );
     if ACCUMULATE {
         lambda[k] += dl;
     }

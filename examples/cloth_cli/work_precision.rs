@@ -1,0 +1,434 @@
+//! `cloth_cli work-precision`: run time against error for every integrator on the accuracy scenes.
+//!
+//! For each scene: an f64 reference solution (Dormand–Prince 5(4) at `--tolerance`, checked against
+//! one at a 10× tighter tolerance), then for each integrator a sweep of its cost knob (substeps; and
+//! CG or Gauss-Seidel iterations), each run timed (best of a few repetitions, solver only, one
+//! thread) and compared with the reference: error = RMS particle position difference at the end
+//! divided by the cloth's diagonal. Unstable runs (non-finite, or error > 1) are kept as failures.
+//! Writes a Markdown report, a JSON dump and a log-log PNG plot.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use bevy_cloth::sim::reference::{ReferenceProblem, ReferenceSolution};
+use bevy_cloth::sim::{AccuracyScene, Integrator, SolverSettings, relative_rms_error};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// One timed run of one configuration on one scene.
+#[derive(Debug, Clone)]
+pub struct Measurement {
+    /// The integrator.
+    pub integrator: Integrator,
+    /// Substeps per frame actually taken.
+    pub substeps: u32,
+    /// `SolverSettings::iterations` (XPBD sweeps; implicit Euler CG cap).
+    pub iterations: u32,
+    /// Whether this is `SolverSettings::default()`'s numerical configuration.
+    pub is_default: bool,
+    /// Whether the substep count came from the stability bound (`auto_substeps`).
+    pub auto: bool,
+    /// Particles in the scene.
+    pub particles: usize,
+    /// Wall time per simulated frame, ms (best of the repetitions).
+    pub ms_per_frame: f64,
+    /// Relative RMS error at the end; `None` when the run failed.
+    pub error: Option<f64>,
+    /// Why the run failed, if it did.
+    pub failure: Option<String>,
+}
+
+impl Measurement {
+    /// Milliseconds per frame per 1000 particles.
+    pub fn ms_per_kparticle(&self) -> f64 {
+        self.ms_per_frame / (self.particles as f64 / 1000.0)
+    }
+}
+
+/// The configurations swept for each integrator.
+fn sweep(quick: bool) -> Vec<SolverSettings> {
+    let base = SolverSettings {
+        auto_substeps: false,
+        ..Default::default()
+    };
+    let mut out = Vec::new();
+    let (xpbd_substeps, xpbd_iterations): (&[u32], &[u32]) = if quick {
+        (&[5, 20, 80, 320], &[1])
+    } else {
+        (&[5, 10, 20, 40, 80, 160, 320, 640, 1024], &[1, 4])
+    };
+    for &iterations in xpbd_iterations {
+        for &substeps in xpbd_substeps {
+            out.push(SolverSettings {
+                integrator: Integrator::Xpbd,
+                substeps,
+                iterations,
+                ..base
+            });
+        }
+    }
+    let explicit: &[u32] = if quick {
+        &[16, 32, 64, 128, 256, 512]
+    } else {
+        &[
+            8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 768, 1024,
+        ]
+    };
+    for integrator in [Integrator::SymplecticEuler, Integrator::Verlet] {
+        for &substeps in explicit {
+            out.push(SolverSettings {
+                integrator,
+                substeps,
+                ..base
+            });
+        }
+        // The substep count of the stability bound alone.
+        out.push(SolverSettings {
+            integrator,
+            substeps: 1,
+            auto_substeps: true,
+            ..base
+        });
+    }
+    let (implicit_substeps, cg): (&[u32], &[u32]) = if quick {
+        (&[1, 4, 16, 64], &[50])
+    } else {
+        (&[1, 2, 4, 8, 16, 32, 64, 128, 256], &[20, 100])
+    };
+    for &iterations in cg {
+        for &substeps in implicit_substeps {
+            out.push(SolverSettings {
+                integrator: Integrator::ImplicitEuler,
+                substeps,
+                iterations,
+                ..base
+            });
+        }
+    }
+    out
+}
+
+/// Runs `settings` on `scene` (repeating for timing until `min_time` has passed, at most 5 runs)
+/// and measures its error against `reference`.
+fn measure(
+    scene: AccuracyScene,
+    settings: &SolverSettings,
+    is_default: bool,
+    reference: &ReferenceSolution,
+    min_time: Duration,
+) -> Result<Measurement, bevy_cloth::ClothError> {
+    let dt = AccuracyScene::FRAME_DT;
+    let frames = scene.frames();
+    let mut best = f64::INFINITY;
+    let mut spent = Duration::ZERO;
+    let mut result: Option<Measurement> = None;
+    for _ in 0..5 {
+        let mut sim = scene.build(settings)?;
+        let substeps = sim.substeps_for(dt);
+        let start = Instant::now();
+        let mut failure = None;
+        for _ in 0..frames {
+            if let Err(e) = sim.step(dt) {
+                failure = Some(e.to_string());
+                break;
+            }
+        }
+        let elapsed = start.elapsed();
+        spent += elapsed;
+        best = best.min(elapsed.as_secs_f64() * 1e3 / frames as f64);
+        if result.is_none() {
+            let error = relative_rms_error(sim.positions(), &reference.positions, scene.diagonal());
+            if failure.is_none() && (error.is_nan() || error > 1.0) {
+                failure = Some(format!("error {error:.3e} > 1"));
+            }
+            result = Some(Measurement {
+                integrator: settings.integrator,
+                substeps,
+                iterations: settings.iterations,
+                is_default,
+                auto: settings.auto_substeps && settings.integrator.is_explicit(),
+                particles: sim.positions().len(),
+                ms_per_frame: 0.0,
+                error: failure.is_none().then_some(error),
+                failure,
+            });
+        }
+        if result.as_ref().is_some_and(|r| r.failure.is_some()) || spent >= min_time {
+            break;
+        }
+    }
+    let mut m = result.expect("at least one run");
+    m.ms_per_frame = best;
+    Ok(m)
+}
+
+/// The lower-left envelope of the successful runs: `(ms per frame, error)` sorted by time, each
+/// point more accurate than every cheaper one.
+pub fn pareto_front<'a>(runs: impl Iterator<Item = &'a Measurement>) -> Vec<(f64, f64)> {
+    let mut points: Vec<(f64, f64)> = runs
+        .filter_map(|m| m.error.map(|e| (m.ms_per_frame, e)))
+        .collect();
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut front: Vec<(f64, f64)> = Vec::new();
+    for p in points {
+        if front.last().is_none_or(|last| p.1 < last.1) {
+            front.push(p);
+        }
+    }
+    front
+}
+
+/// Best error reachable within `budget` ms per frame on a Pareto front.
+fn best_within(front: &[(f64, f64)], budget: f64) -> Option<f64> {
+    front
+        .iter()
+        .filter(|(t, _)| *t <= budget)
+        .map(|(_, e)| *e)
+        .next_back()
+}
+
+/// The goal check of one scene: the default configuration's point, and the default integrator's
+/// front against the best of all integrators at each measured budget.
+struct GoalCheck {
+    default_error: Option<f64>,
+    default_ms_per_kparticle: f64,
+    /// Largest ratio (default integrator's best error / best error of all) over the budgets where
+    /// the default integrator has a stable run, and the budget where it occurs.
+    worst_ratio: (f64, f64),
+    /// Budgets (ms per frame) below the default integrator's cheapest stable run at which another
+    /// integrator already has a stable run.
+    uncovered_budgets: usize,
+}
+
+fn goal_check(runs: &[Measurement], default_integrator: Integrator) -> GoalCheck {
+    let default = runs.iter().find(|m| m.is_default);
+    let all = pareto_front(runs.iter());
+    let mine = pareto_front(runs.iter().filter(|m| m.integrator == default_integrator));
+    let mut worst = (1.0, 0.0);
+    let mut uncovered = 0;
+    for (budget, best) in &all {
+        match best_within(&mine, *budget) {
+            Some(e) => {
+                let ratio = e / best;
+                if ratio > worst.0 {
+                    worst = (ratio, *budget);
+                }
+            }
+            None => uncovered += 1,
+        }
+    }
+    GoalCheck {
+        default_error: default.and_then(|d| d.error),
+        default_ms_per_kparticle: default.map_or(f64::NAN, Measurement::ms_per_kparticle),
+        worst_ratio: worst,
+        uncovered_budgets: uncovered,
+    }
+}
+
+fn fmt_error(m: &Measurement) -> String {
+    match (&m.error, &m.failure) {
+        (Some(e), _) => format!("{e:.2e}"),
+        (None, Some(f)) => format!("**unstable** ({f})"),
+        (None, None) => "?".into(),
+    }
+}
+
+/// Runs the benchmark and writes `work-precision.md`, `work-precision.json` and
+/// `work-precision.png` into `out_dir`.
+pub fn run(
+    quick: bool,
+    tolerance: f64,
+    scenes: &[AccuracyScene],
+    out_dir: &Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let configs = sweep(quick);
+    let default = SolverSettings::default();
+    let min_time = Duration::from_millis(if quick { 60 } else { 300 });
+    let total = scenes.len() as u64 * (configs.len() as u64 + 1 + 2);
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")?
+            .progress_chars("=> "),
+    );
+    let mut results = Vec::new();
+    let mut references = Vec::new();
+    for &scene in scenes {
+        bar.set_message(format!(
+            "{}: reference at tolerance {tolerance:e}",
+            scene.name()
+        ));
+        let initial = scene.build(&default)?;
+        let problem = ReferenceProblem::from_sim(&initial);
+        let t = Instant::now();
+        let reference = problem.solve(scene.duration(), tolerance)?;
+        let ref_seconds = t.elapsed().as_secs_f64();
+        bar.inc(1);
+        bar.set_message(format!(
+            "{}: reference at tolerance {:e}",
+            scene.name(),
+            tolerance / 10.0
+        ));
+        let tighter = problem.solve(scene.duration(), tolerance / 10.0)?;
+        bar.inc(1);
+        let diff = reference
+            .positions
+            .iter()
+            .zip(&tighter.positions)
+            .map(|(a, b)| a.distance_squared(*b))
+            .sum::<f64>()
+            / reference.positions.len() as f64;
+        let ref_error = diff.sqrt() / scene.diagonal();
+        references.push((
+            scene,
+            ref_error,
+            reference.steps,
+            reference.rejected,
+            ref_seconds,
+        ));
+        let mut runs = Vec::new();
+        let mut all: Vec<(SolverSettings, bool)> = configs.iter().map(|c| (*c, false)).collect();
+        all.push((default, true));
+        for (settings, is_default) in all {
+            bar.set_message(format!(
+                "{}: {} × {} substeps",
+                scene.name(),
+                settings.integrator.name(),
+                settings.substeps
+            ));
+            runs.push(measure(scene, &settings, is_default, &reference, min_time)?);
+            bar.inc(1);
+        }
+        results.push((scene, runs));
+    }
+    bar.finish_with_message("done");
+
+    std::fs::create_dir_all(out_dir)?;
+    super::plot::write_plot(&out_dir.join("work-precision.png"), &results)?;
+    let mut md = String::new();
+    writeln!(
+        md,
+        "# Work-precision benchmark{}\n",
+        if quick { " (quick)" } else { "" }
+    )?;
+    writeln!(
+        md,
+        "Generated by `cargo run --release --example cloth_cli -- work-precision{}` on {} hardware \
+         thread(s); timings are wall time per simulated 1/60 s frame of the solver alone (one \
+         thread, best of up to 5 runs). Error = RMS particle position difference at the end time \
+         divided by the cloth's diagonal, against an f64 Dormand–Prince 5(4) reference at \
+         tolerance {tolerance:e}. Damping is off. Unstable runs are listed, not dropped.\n",
+        if quick { " --quick" } else { "" },
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+    )?;
+    writeln!(md, "![work-precision plot](work-precision.png)\n")?;
+    writeln!(
+        md,
+        "Curves: {}. Dots are single runs, lines each integrator's Pareto front; the gold lines \
+         mark the goal (error 1e-3 at 1 ms per frame per 1000 particles).\n",
+        Integrator::ALL
+            .iter()
+            .map(|i| format!("{} {}", super::plot::color_name(*i), i.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )?;
+    writeln!(md, "## Reference solutions\n")?;
+    writeln!(
+        md,
+        "| scene | T (s) | steps | rejected | time (s) | difference to tolerance {:.0e} (relative RMS) |",
+        tolerance / 10.0
+    )?;
+    writeln!(md, "|---|---|---|---|---|---|")?;
+    for (scene, err, steps, rejected, secs) in &references {
+        writeln!(
+            md,
+            "| {} | {:.3} | {steps} | {rejected} | {secs:.1} | {err:.1e} |",
+            scene.name(),
+            scene.duration()
+        )?;
+    }
+    writeln!(
+        md,
+        "\n## Goal check (default: {} at {} substeps{})\n",
+        default.integrator.name(),
+        default.substeps,
+        if default.auto_substeps && default.integrator.is_explicit() {
+            " or the stability bound, whichever is more"
+        } else {
+            ""
+        }
+    )?;
+    writeln!(
+        md,
+        "| scene | default error | default ms/frame per 1k particles | error ≤ 1e-3 within 1 ms? | worst ratio of {}'s best error to the best of all, at budget (ms/frame) | budgets where {} has no stable run |",
+        default.integrator.name(),
+        default.integrator.name()
+    )?;
+    writeln!(md, "|---|---|---|---|---|---|")?;
+    for (scene, runs) in &results {
+        let g = goal_check(runs, default.integrator);
+        let ok = g.default_error.is_some_and(|e| e <= 1e-3) && g.default_ms_per_kparticle <= 1.0;
+        writeln!(
+            md,
+            "| {} | {} | {:.3} | {} | {:.2} at {:.3} | {} |",
+            scene.name(),
+            g.default_error
+                .map_or("unstable".into(), |e| format!("{e:.2e}")),
+            g.default_ms_per_kparticle,
+            if ok { "yes" } else { "**no**" },
+            g.worst_ratio.0,
+            g.worst_ratio.1,
+            g.uncovered_budgets
+        )?;
+    }
+    for (scene, runs) in &results {
+        writeln!(md, "\n## {}: {}\n", scene.name(), scene.description())?;
+        writeln!(
+            md,
+            "| integrator | substeps | iterations | ms/frame | ms/frame per 1k particles | error |"
+        )?;
+        writeln!(md, "|---|---|---|---|---|---|")?;
+        for m in runs {
+            writeln!(
+                md,
+                "| {}{}{} | {} | {} | {:.4} | {:.4} | {} |",
+                m.integrator.name(),
+                if m.is_default { " (default)" } else { "" },
+                if m.auto { " (auto substeps)" } else { "" },
+                m.substeps,
+                if m.integrator.is_explicit() {
+                    "–".to_string()
+                } else {
+                    m.iterations.to_string()
+                },
+                m.ms_per_frame,
+                m.ms_per_kparticle(),
+                fmt_error(m)
+            )?;
+        }
+    }
+    std::fs::write(out_dir.join("work-precision.md"), md)?;
+    let json = serde_json::json!({
+        "quick": quick,
+        "tolerance": tolerance,
+        "references": references.iter().map(|(s, e, steps, rejected, secs)| serde_json::json!({
+            "scene": s.name(), "difference_to_tighter": e, "steps": steps, "rejected": rejected, "seconds": secs,
+        })).collect::<Vec<_>>(),
+        "scenes": results.iter().map(|(s, runs)| serde_json::json!({
+            "scene": s.name(),
+            "runs": runs.iter().map(|m| serde_json::json!({
+                "integrator": m.integrator.name(), "substeps": m.substeps, "iterations": m.iterations,
+                "default": m.is_default, "auto_substeps": m.auto, "particles": m.particles, "ms_per_frame": m.ms_per_frame,
+                "error": m.error, "failure": m.failure,
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+    });
+    std::fs::write(
+        out_dir.join("work-precision.json"),
+        serde_json::to_string_pretty(&json)?,
+    )?;
+    eprintln!(
+        "wrote {0}/work-precision.md, {0}/work-precision.json and {0}/work-precision.png",
+        out_dir.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,221 @@
+//! Implicit (backward) Euler after Baraff & Witkin 1998, "Large Steps in Cloth Simulation": per
+//! substep of length `h`, one Newton step of backward Euler on the linearised springs,
+//!
+//! `(M + h² K) Δv = h (f(x) - h K v)`,   `v ← e^{-c h} (v + Δv)`,   `x ← x + h v`,
+//!
+//! with `K = -∂f/∂x` the spring stiffness matrix (its geometric term clamped to keep it positive
+//! semi-definite, see `forces.rs`), solved matrix-free by Jacobi-preconditioned conjugate gradients.
+//! Pinned particles are handled by filtering, as in the paper's modified CG: their `Δv` is prescribed
+//! (the velocity that takes them to their target), their rows are removed from the residual and the
+//! search directions, and their columns enter the right-hand side.
+//!
+//! All vectors are sized when the integrator is selected; nothing here allocates.
+
+use glam::Vec3;
+
+use super::forces::{
+    SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
+};
+use super::solver::{ClothSim, drive_pins};
+
+/// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
+/// right-hand side and the substep's gravity impulse `h m g` (both as Euclidean norms).
+pub const CG_TOLERANCE: f32 = 1e-5;
+
+/// The linearised springs and conjugate-gradient vectors of implicit Euler.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ImplicitScratch {
+    jacobians: SpringJacobians,
+    /// Right-hand side `h (f - h K v)`.
+    rhs: Vec<Vec3>,
+    /// The unknown `Δv` (kept between substeps as the next initial guess).
+    dv: Vec<Vec3>,
+    /// Residual.
+    r: Vec<Vec3>,
+    /// Preconditioned residual.
+    z: Vec<Vec3>,
+    /// Search direction.
+    p: Vec<Vec3>,
+    /// `A p`.
+    ap: Vec<Vec3>,
+    /// Inverse of the diagonal of `A`, per coordinate.
+    inv_diag: Vec<Vec3>,
+    /// CG iterations taken in the last substep.
+    pub last_iterations: u32,
+}
+
+impl ImplicitScratch {
+    /// Buffers for `particles` particles and `springs` springs.
+    pub fn new(particles: usize, springs: usize) -> Self {
+        let v = || vec![Vec3::ZERO; particles];
+        Self {
+            jacobians: SpringJacobians::new(springs),
+            rhs: v(),
+            dv: v(),
+            r: v(),
+            z: v(),
+            p: v(),
+            ap: v(),
+            inv_diag: v(),
+            last_iterations: 0,
+        }
+    }
+
+    /// Whether the buffers are sized for this cloth.
+    pub fn fits(&self, particles: usize, springs: usize) -> bool {
+        self.rhs.len() == particles && self.jacobians.fits(springs)
+    }
+}
+
+/// `out = M p + h² K p`, then the pinned rows zeroed (the filter `S A`).
+fn apply_system(
+    springs: SpringSet<'_>,
+    jacobians: &SpringJacobians,
+    mass: &[f32],
+    inv_mass: &[f32],
+    h2: f32,
+    p: &[Vec3],
+    out: &mut [Vec3],
+) {
+    for ((o, p), m) in out.iter_mut().zip(p).zip(mass) {
+        *o = *p * *m;
+    }
+    add_stiffness_product(springs.a, springs.b, jacobians, h2, p, out);
+    filter(out, inv_mass);
+}
+
+/// Zeroes the entries of pinned particles (inverse mass 0).
+fn filter(v: &mut [Vec3], inv_mass: &[f32]) {
+    for (v, w) in v.iter_mut().zip(inv_mass) {
+        if *w == 0.0 {
+            *v = Vec3::ZERO;
+        }
+    }
+}
+
+fn dot(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+}
+
+/// Implicit Euler, `n` substeps of `h = dt/n`, each one linearised Newton step solved by CG with at
+/// most `settings.iterations` iterations.
+pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
+    let h = dt / n as f32;
+    let h2 = h * h;
+    let inv_h = 1.0 / h;
+    let keep = (-sim.settings.damping * h).exp();
+    let g = sim.settings.gravity;
+    let max_iterations = sim.settings.iterations;
+    let ClothSim {
+        model,
+        positions: x,
+        velocities: v,
+        mass,
+        inv_mass,
+        stiffness,
+        forces,
+        implicit: s,
+        pins,
+        ..
+    } = sim;
+    if !s.fits(x.len(), model.springs.len()) {
+        // Only reachable if the scratch was not sized by `apply_settings`; never allocate here.
+        return;
+    }
+    let springs = SpringSet {
+        a: &model.springs.a,
+        b: &model.springs.b,
+        rest: &model.springs.rest,
+        k: stiffness,
+    };
+    // The size of the substep's gravity impulse, the floor of the CG tolerance.
+    let mut weight2 = 0.0;
+    for (m, w) in mass.iter().zip(inv_mass.iter()) {
+        if *w > 0.0 {
+            weight2 += (h * m * g).length_squared();
+        }
+    }
+    for sub in 0..n {
+        let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+        // Forces and their linearisation at the start of the substep.
+        for (f, m) in forces.iter_mut().zip(mass.iter()) {
+            *f = *m * g;
+        }
+        add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
+        // rhs = h f - h² K v.
+        for (b, f) in s.rhs.iter_mut().zip(forces.iter()) {
+            *b = *f * h;
+        }
+        add_stiffness_product(springs.a, springs.b, &s.jacobians, -h2, v, &mut s.rhs);
+        // Jacobi preconditioner: the diagonal of M + h² K.
+        for (d, m) in s.inv_diag.iter_mut().zip(mass.iter()) {
+            *d = Vec3::splat(*m);
+        }
+        for k in 0..springs.a.len() {
+            let dk = s.jacobians.diagonal(k) * h2;
+            s.inv_diag[springs.a[k] as usize] += dk;
+            s.inv_diag[springs.b[k] as usize] += dk;
+        }
+        for d in s.inv_diag.iter_mut() {
+            *d = d.recip();
+        }
+        // Prescribed Δv of the pinned particles; free ones start from the last substep's Δv.
+        for pin in pins.iter() {
+            let i = pin.particle as usize;
+            let target = pin.from.lerp(pin.to, t1);
+            s.dv[i] = (target - x[i]) * inv_h - v[i];
+        }
+        filter(&mut s.rhs, inv_mass);
+        let tolerance2 = CG_TOLERANCE * CG_TOLERANCE * dot(&s.rhs, &s.rhs).max(weight2);
+        // r = S (b - A Δv).
+        apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.dv, &mut s.r);
+        for (r, b) in s.r.iter_mut().zip(&s.rhs) {
+            *r = *b - *r;
+        }
+        // For the pinned rows, A Δv was filtered away and rhs is 0, so r is 0 there.
+        for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&s.inv_diag) {
+            *z = *r * *d;
+        }
+        s.p.copy_from_slice(&s.z);
+        let mut rz = dot(&s.r, &s.z);
+        let mut iterations = 0;
+        while iterations < max_iterations && dot(&s.r, &s.r) > tolerance2 {
+            apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.p, &mut s.ap);
+            let pap = dot(&s.p, &s.ap);
+            if pap.is_nan() || pap <= 0.0 {
+                break;
+            }
+            let alpha = rz / pap;
+            for ((dv, r), (p, ap)) in
+                s.dv.iter_mut()
+                    .zip(s.r.iter_mut())
+                    .zip(s.p.iter().zip(&s.ap))
+            {
+                *dv += *p * alpha;
+                *r -= *ap * alpha;
+            }
+            for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&s.inv_diag) {
+                *z = *r * *d;
+            }
+            let rz_new = dot(&s.r, &s.z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for (p, z) in s.p.iter_mut().zip(&s.z) {
+                *p = *z + *p * beta;
+            }
+            iterations += 1;
+        }
+        s.last_iterations = iterations;
+        for ((x, v), (dv, w)) in x
+            .iter_mut()
+            .zip(v.iter_mut())
+            .zip(s.dv.iter().zip(inv_mass.iter()))
+        {
+            if *w > 0.0 {
+                *v = (*v + *dv) * keep;
+                *x += *v * h;
+            }
+        }
+        drive_pins(pins, t0, t1, inv_h, x, v);
+    }
+}
