@@ -662,17 +662,16 @@ fn solve_springs<const ACCUMULATE: bool>(
     }
 }
 
-/// The XPBD step size `Δλ / |d|` for one spring, or 0 where the spring cannot act (both ends
-/// pinned, or zero length).
+/// The XPBD step of one spring: `(Δλ / |d|, Δλ)`, or zeros for a spring of (near) zero length,
+/// which has no direction. Branch-free so that a batch of springs vectorises. A spring whose ends
+/// are both pinned (`w = 0`) gets a finite step that its zero inverse masses then ignore: `α̃ > 0`
+/// because every stiffness is finite.
 #[inline(always)]
 fn spring_scale(len2: f32, w: f32, rest: f32, alpha: f32, lambda: f32) -> (f32, f32) {
     let len = len2.sqrt();
-    let dl = (-(len - rest) - alpha * lambda) / (w + alpha);
-    if w > 0.0 && len2 > 1e-20 {
-        (dl / len, dl)
-    } else {
-        (0.0, 0.0)
-    }
+    let scale = (rest - len - alpha * lambda) / ((w + alpha) * len);
+    let scale = if len2 > 1e-20 { scale } else { 0.0 };
+    (scale, scale * len)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -688,42 +687,32 @@ fn solve_batch<const ACCUMULATE: bool>(
 ) {
     let (a, b) = (&s.a[k..k + LANES], &s.b[k..k + LANES]);
     let (rest, comp) = (&s.rest[k..k + LANES], &compliance[k..k + LANES]);
-    let mut d = [Vec3::ZERO; LANES];
+    // Gather into lanes (structure of arrays), so the arithmetic below vectorises.
+    let (mut dx, mut dy, mut dz) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
     let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
     for l in 0..LANES {
         let (ia, ib) = (a[l] as usize, b[l] as usize);
-        d[l] = x[ia] - x[ib];
+        let d = x[ia] - x[ib];
+        (dx[l], dy[l], dz[l]) = (d.x, d.y, d.z);
         wa[l] = inv_mass[ia];
         wb[l] = inv_mass[ib];
     }
     let mut scale = [0.0f32; LANES];
+    let mut lam = [0.0f32; LANES];
     if ACCUMULATE {
-        let lam = &mut lambda[k..k + LANES];
-        for l in 0..LANES {
-            let (sc, dl) = spring_scale(
-                d[l].length_squared(),
-                wa[l] + wb[l],
-                rest[l],
-                comp[l] * inv_h2,
-                lam[l],
-            );
-            scale[l] = sc;
-            lam[l] += dl;
-        }
-    } else {
-        for l in 0..LANES {
-            scale[l] = spring_scale(
-                d[l].length_squared(),
-                wa[l] + wb[l],
-                rest[l],
-                comp[l] * inv_h2,
-                0.0,
-            )
-            .0;
-        }
+        lam.copy_from_slice(&lambda[k..k + LANES]);
     }
     for l in 0..LANES {
-        let corr = d[l] * scale[l];
+        let len2 = dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l];
+        let (sc, dl) = spring_scale(len2, wa[l] + wb[l], rest[l], comp[l] * inv_h2, lam[l]);
+        scale[l] = sc;
+        lam[l] += dl;
+    }
+    if ACCUMULATE {
+        lambda[k..k + LANES].copy_from_slice(&lam);
+    }
+    for l in 0..LANES {
+        let corr = Vec3::new(dx[l], dy[l], dz[l]) * scale[l];
         x[a[l] as usize] += corr * wa[l];
         x[b[l] as usize] -= corr * wb[l];
     }
