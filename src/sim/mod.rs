@@ -1,6 +1,6 @@
 //! The engine-free cloth solver: topology ([`ClothModel`]), particle state and time stepping
 //! ([`ClothSim`]) with four integrators behind one [`Integrator`] enum, an f64 reference integrator
-//! ([`reference`]) and the accuracy benchmark scenes ([`scenes`]). Plain data in, plain data out;
+//! ([`reference`](mod@reference)) and the accuracy benchmark scenes ([`scenes`]). Plain data in, plain data out;
 //! nothing here knows about ECS, assets or meshes, so it can be unit-tested and benchmarked on its
 //! own. Every formula of the simulation lives here.
 
