@@ -1,7 +1,8 @@
 //! The source paper's Table 1, live: a control mesh with extraordinary vertices refined by the three
 //! vertex rules (rows: Original, Enhanced, Tuned) at levels 0–3 (columns). Keys 1/2/3 (or the panel)
 //! switch between the cube (valence 3), the valence-5 disc and the valence-6 disc; the discs lie on
-//! a paraboloid, so a dent or a sharp point at the centre is a defect of the rule.
+//! a paraboloid (shown with its height exaggerated 4×), so a dent or a sharp point at the centre is
+//! a defect of the rule.
 //!
 //! `cargo run --release --features examples --example subdivision_compare`
 
@@ -30,7 +31,7 @@ fn main() {
         .add_plugins(common::ExamplePlugin {
             title: "bevy_cloth: Catmull-Clark rules by level",
             focus: Vec3::new(0.0, 0.0, 0.0),
-            eye: Vec3::new(0.0, 6.5, 5.5),
+            eye: Vec3::new(0.0, 3.6, 6.0),
         })
         .add_plugins(EguiPlugin::default())
         .insert_resource(Shown(1))
@@ -97,6 +98,12 @@ fn show(
     let (lo, hi) = control.bounding_box();
     let size = (hi - lo).max_element().max(1e-6) as f32;
     let centre = ((lo + hi) * 0.5).as_vec3();
+    // The discs are shallow paraboloids: exaggerate their height so dents and points show.
+    let relief = if SHAPES[shown.0].1 == "cube" {
+        1.0
+    } else {
+        4.0
+    };
     let colours = [
         Color::srgb(0.35, 0.75, 0.45),
         Color::srgb(0.85, 0.55, 0.25),
@@ -130,7 +137,8 @@ fn show(
                 Refined,
                 Mesh3d(meshes.add(mesh)),
                 MeshMaterial3d(material.clone()),
-                Transform::from_translation(at).with_scale(Vec3::splat(1.2 / size))
+                Transform::from_translation(at)
+                    .with_scale(Vec3::new(1.0, relief, 1.0) * (1.2 / size))
                     * Transform::from_translation(-centre),
             ));
         }
