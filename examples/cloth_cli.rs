@@ -4,6 +4,7 @@
 //! cargo run --release --example cloth_cli -- simulate assets/scenes/hanging.ron --frames 120 --output out.json
 //! cargo run --release --example cloth_cli -- bench assets/scenes/hanging.ron --frames 600
 //! cargo run --release --example cloth_cli -- subdivide in.obj --level 2 --rule tuned --output out.obj
+//! cargo run --release --example cloth_cli -- analysis
 //! cargo run --release --example cloth_cli -- work-precision --quick
 //! ```
 
@@ -62,6 +63,9 @@ enum Command {
         #[arg(long)]
         output: PathBuf,
     },
+    /// Print the eigen-analysis of the three Catmull-Clark vertex rules (valence 3–12) and their
+    /// curvature proxies at levels 1–5 on paraboloid discs.
+    Analysis,
     /// Time a scene: prints one JSON line with the median and spread of milliseconds per frame.
     Bench {
         /// Scene file (RON).
@@ -135,6 +139,49 @@ fn subdivide(
         refined.vertex_count(),
         refined.face_count()
     );
+    Ok(())
+}
+
+/// The eigenvalues and curvature proxies of every vertex rule, as text tables.
+fn analysis() -> Result<(), Box<dyn std::error::Error>> {
+    use bevy_cloth::subdivision::analysis::{DiscLayout, curvature_proxy, eigen_report};
+    println!(
+        "rule n: one-ring weights (diagonal, edge, vertex); λ, λ², bowl μ, ν, μ/λ², negative eigenvalues"
+    );
+    for rule in VertexRule::ALL {
+        for n in 3..=12 {
+            let r = eigen_report(n, rule)?;
+            let w = rule.one_ring_weights(n);
+            println!(
+                "{rule:?} n={n:2}: α={:.6} β={:.6} γ={:.6}; λ={:.6} λ²={:.6} μ={:.6} ν={:.6} μ/λ²={:.4} negative={:?}",
+                w.diagonal,
+                w.edge,
+                w.vertex,
+                r.lambda,
+                r.lambda * r.lambda,
+                r.mu,
+                r.nu,
+                r.mu_over_lambda_squared,
+                r.negative
+            );
+        }
+    }
+    println!(
+        "\ncurvature proxy at the extraordinary vertex, levels 1-5, relative to the regular (valence-4) value"
+    );
+    for layout in [DiscLayout::Characteristic, DiscLayout::UniformRadius] {
+        for rule in VertexRule::ALL {
+            for n in [3, 5, 6, 8] {
+                let c = curvature_proxy(n, rule, layout, 5)?;
+                let ratios: Vec<String> = c
+                    .samples
+                    .iter()
+                    .map(|s| format!("{:+.4}", s.ratio))
+                    .collect();
+                println!("{layout:?} {rule:?} n={n}: [{}]", ratios.join(", "));
+            }
+        }
+    }
     Ok(())
 }
 
@@ -213,6 +260,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             boundary,
             output,
         } => subdivide(&input, level, rule, boundary, &output)?,
+        Command::Analysis => analysis()?,
         Command::Bench { scene, frames } => {
             let (mut app, entity, parsed) = load(&scene)?;
             run(&mut app, entity, 10)?;

@@ -653,11 +653,12 @@ fn solve_springs<const ACCUMULATE: bool>(
         let (start, end) = (color[0] as usize, color[1] as usize);
         let mut k = start;
         while k + LANES <= end {
-            solve_batch::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
+            solve_batch::<ACCUMULATE, LANES>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
             k += LANES;
         }
+        // The colour's last few springs, one at a time.
         for k in k..end {
-            solve_one::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
+            solve_batch::<ACCUMULATE, 1>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
         }
     }
 }
@@ -674,9 +675,10 @@ fn spring_scale(len2: f32, w: f32, rest: f32, alpha: f32, lambda: f32) -> (f32, 
     (scale, scale * len)
 }
 
+/// Solves springs `k..k + N` of one colour: gather, vectorisable arithmetic, scatter.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn solve_batch<const ACCUMULATE: bool>(
+fn solve_batch<const ACCUMULATE: bool, const N: usize>(
     s: &Springs,
     compliance: &[f32],
     lambda: &mut [f32],
@@ -685,67 +687,37 @@ fn solve_batch<const ACCUMULATE: bool>(
     inv_h2: f32,
     k: usize,
 ) {
-    let (a, b) = (&s.a[k..k + LANES], &s.b[k..k + LANES]);
-    let (rest, comp) = (&s.rest[k..k + LANES], &compliance[k..k + LANES]);
+    let (a, b) = (&s.a[k..k + N], &s.b[k..k + N]);
+    let (rest, comp) = (&s.rest[k..k + N], &compliance[k..k + N]);
     // Gather into lanes (structure of arrays), so the arithmetic below vectorises.
-    let (mut dx, mut dy, mut dz) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-    let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
-    for l in 0..LANES {
+    let (mut dx, mut dy, mut dz) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
+    for l in 0..N {
         let (ia, ib) = (a[l] as usize, b[l] as usize);
         let d = x[ia] - x[ib];
         (dx[l], dy[l], dz[l]) = (d.x, d.y, d.z);
         wa[l] = inv_mass[ia];
         wb[l] = inv_mass[ib];
     }
-    let mut scale = [0.0f32; LANES];
-    let mut lam = [0.0f32; LANES];
+    let mut scale = [0.0f32; N];
+    let mut lam = [0.0f32; N];
     if ACCUMULATE {
-        lam.copy_from_slice(&lambda[k..k + LANES]);
+        lam.copy_from_slice(&lambda[k..k + N]);
     }
-    for l in 0..LANES {
+    for l in 0..N {
         let len2 = dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l];
         let (sc, dl) = spring_scale(len2, wa[l] + wb[l], rest[l], comp[l] * inv_h2, lam[l]);
         scale[l] = sc;
         lam[l] += dl;
     }
     if ACCUMULATE {
-        lambda[k..k + LANES].copy_from_slice(&lam);
+        lambda[k..k + N].copy_from_slice(&lam);
     }
-    for l in 0..LANES {
+    for l in 0..N {
         let corr = Vec3::new(dx[l], dy[l], dz[l]) * scale[l];
         x[a[l] as usize] += corr * wa[l];
         x[b[l] as usize] -= corr * wb[l];
     }
-}
-
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn solve_one<const ACCUMULATE: bool>(
-    s: &Springs,
-    compliance: &[f32],
-    lambda: &mut [f32],
-    inv_mass: &[f32],
-    x: &mut [Vec3],
-    inv_h2: f32,
-    k: usize,
-) {
-    let (ia, ib) = (s.a[k] as usize, s.b[k] as usize);
-    let (wa, wb) = (inv_mass[ia], inv_mass[ib]);
-    let d = x[ia] - x[ib];
-    let lam = if ACCUMULATE { lambda[k] } else { 0.0 };
-    let (scale, dl) = spring_scale(
-        d.length_squared(),
-        wa + wb,
-        s.rest[k],
-        compliance[k] * inv_h2,
-        lam,
-    );
-    if ACCUMULATE {
-        lambda[k] += dl;
-    }
-    let corr = d * scale;
-    x[ia] += corr * wa;
-    x[ib] -= corr * wb;
 }
 
 #[cfg(test)]
