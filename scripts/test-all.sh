@@ -14,14 +14,16 @@ step "cargo fmt --check"
 cargo fmt --all -- --check
 step "cargo clippy (all targets, all features, -D warnings)"
 cargo clippy --all-targets --all-features -- -D warnings
-step "cargo test (headless)"
-cargo test 2>&1 | tee -a "$log"
+# All features: the examples need the renderer anyway, so one build of Bevy serves the tests, the
+# examples and the screenshots (a plain `cargo test` stays headless and is quicker for development).
+step "cargo test (all features)"
+cargo test --all-features 2>&1 | tee -a "$log"
 step "cargo doc (all features, warnings are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --all-features
 step "screenshots of the windowed examples (Xvfb + lavapipe)"
 bash scripts/screenshots.sh
 step "screenshot checks"
-cargo test --test screenshots -- --ignored 2>&1 | tee -a "$log"
+cargo test --all-features --test screenshots -- --ignored 2>&1 | tee -a "$log"
 
 step "summary"
 awk '/^test result:/ { p += $4; f += $6; i += $8 } END {
