@@ -441,17 +441,14 @@ fn write_meshes(
     fixed: Res<SteppedInFixedUpdate>,
     time: Res<Time<Fixed>>,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut cloths: Query<
-        (Entity, &ClothConfig, Ref<GlobalTransform>, &mut ClothState),
-        Without<ClothInvalid>,
-    >,
+    mut cloths: Query<(&ClothConfig, Ref<GlobalTransform>, &mut ClothState), Without<ClothInvalid>>,
 ) {
     let fraction = if fixed.0 {
         time.overstep_fraction()
     } else {
         1.0
     };
-    for (entity, config, transform, mut state) in &mut cloths {
+    for (config, transform, mut state) in &mut cloths {
         let interpolating = config.interpolate && fraction < 1.0;
         if !(state.dirty || interpolating || transform.is_changed()) {
             continue;
@@ -461,7 +458,8 @@ fn write_meshes(
         };
         let alpha = if config.interpolate { fraction } else { 1.0 };
         let world_to_local = transform.affine().inverse();
-        let s = &*state;
+        let s = &mut *state;
+        // A mesh whose buffers were replaced or resized stops the cloth; `Build` reports it once.
         if let Err(e) = render::write_mesh(
             &mut mesh,
             &world_to_local,
@@ -469,9 +467,9 @@ fn write_meshes(
             (&s.normals_prev, &s.normals_curr),
             alpha,
         ) {
-            error!("cloth {entity}: {e}");
+            s.failure = Some(e);
         }
-        state.dirty = false;
+        s.dirty = false;
     }
 }
 

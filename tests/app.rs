@@ -443,3 +443,19 @@ fn subdivided_cloth_renders_the_refined_surface_and_changes_level_live() {
         .0;
     assert!(err.to_string().contains("subdivision.level"), "{err}");
 }
+
+#[test]
+fn a_mesh_whose_buffers_were_replaced_stops_the_cloth_once() {
+    let mut app = app();
+    let e = spawn(&mut app, hanging(6));
+    let mesh = state(&app, e).mesh().clone();
+    // Someone shrinks the position buffer behind the plugin's back.
+    app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .get_mut(&mesh)
+        .unwrap()
+        .insert_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 3]);
+    run(&mut app, 3);
+    let err = &app.world().get::<ClothInvalid>(e).expect("stopped").0;
+    assert!(err.to_string().contains("buffer has 3 entries"), "{err}");
+}
