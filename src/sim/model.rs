@@ -467,16 +467,12 @@ impl ClothModel {
 impl ClothModel {
     /// The control polygon mesh (rest positions, faces and UVs) that subdivision refines.
     pub fn control_mesh(&self) -> Result<PolyMesh, SubdivisionError> {
-        let offsets = (0..=self.faces.len() / self.face_size)
-            .map(|f| (f * self.face_size) as u32)
-            .collect();
-        PolyMesh::new(
-            self.rest_positions.iter().map(|p| p.as_dvec3()),
-            offsets,
-            self.faces.clone(),
-            None,
-        )?
-        .with_vertex_uvs(&self.uvs)
+        let positions = self.rest_positions.iter().map(|p| p.as_dvec3());
+        let mesh = match self.face_size {
+            4 => PolyMesh::from_quads(positions, &self.faces)?,
+            _ => PolyMesh::from_triangles(positions, &self.faces)?,
+        };
+        mesh.with_vertex_uvs(&self.uvs)
     }
 }
 

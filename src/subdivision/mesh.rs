@@ -78,12 +78,7 @@ impl PolyMesh {
         offsets.push(0u32);
         for face in faces {
             indices.extend_from_slice(face.as_ref());
-            let len = u32::try_from(indices.len()).map_err(|_| SubdivisionError::TooLarge {
-                what: "face corner",
-                count: indices.len() as u64,
-                max: u32::MAX as u64 - 1,
-            })?;
-            offsets.push(len);
+            offsets.push(corner_count(indices.len())?);
         }
         Self::new(positions, offsets, indices, None)
     }
@@ -115,13 +110,7 @@ impl PolyMesh {
                 arity,
             });
         }
-        if indices.len() >= u32::MAX as usize {
-            return Err(SubdivisionError::TooLarge {
-                what: "face corner",
-                count: indices.len() as u64,
-                max: u32::MAX as u64 - 1,
-            });
-        }
+        corner_count(indices.len())?;
         let offsets = (0..=indices.len() / arity)
             .map(|f| (f * arity) as u32)
             .collect();
@@ -261,6 +250,18 @@ fn validate_uvs(uvs: &[Vec2], corners: usize) -> Result<(), SubdivisionError> {
         });
     }
     Ok(())
+}
+
+/// `len` face corners as a `u32` offset, or [`SubdivisionError::TooLarge`] when indices would not fit.
+pub(super) fn corner_count(len: usize) -> Result<u32, SubdivisionError> {
+    u32::try_from(len)
+        .ok()
+        .filter(|&n| n < u32::MAX)
+        .ok_or(SubdivisionError::TooLarge {
+            what: "face corner",
+            count: len as u64,
+            max: u32::MAX as u64 - 1,
+        })
 }
 
 #[cfg(test)]

@@ -144,12 +144,7 @@ pub fn parse_obj(text: &str) -> Result<PolyMesh, SubdivisionError> {
                     }
                     _ => {}
                 }
-                let len = u32::try_from(indices.len()).map_err(|_| SubdivisionError::TooLarge {
-                    what: "face corner",
-                    count: indices.len() as u64,
-                    max: u32::MAX as u64 - 1,
-                })?;
-                offsets.push(len);
+                offsets.push(super::mesh::corner_count(indices.len())?);
             }
             _ => {}
         }

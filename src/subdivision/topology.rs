@@ -103,13 +103,7 @@ impl LevelTopology {
                 max: u32::MAX as u64 - 1,
             });
         }
-        if face_indices.len() >= u32::MAX as usize {
-            return Err(SubdivisionError::TooLarge {
-                what: "face corner",
-                count: face_indices.len() as u64,
-                max: u32::MAX as u64 - 1,
-            });
-        }
+        super::mesh::corner_count(face_indices.len())?;
         validate_offsets(&face_offsets, face_indices.len())?;
 
         let mut scratch: Vec<u32> = Vec::new();
