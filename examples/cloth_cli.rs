@@ -189,7 +189,7 @@ fn analysis() -> Result<(), Box<dyn std::error::Error>> {
 fn load(path: &PathBuf) -> Result<(App, Entity, ClothScene), ClothError> {
     let scene = ClothScene::load(path)?;
     let mut app = headless_app(scene.dt);
-    let entity = app.world_mut().spawn(scene.bundle()).id();
+    let entity = scene.spawn(app.world_mut())?;
     app.update();
     if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
         return Err(e.clone());

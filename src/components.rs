@@ -5,12 +5,14 @@
 use bevy::asset::Handle;
 use bevy::ecs::prelude::*;
 use bevy::math::Vec3;
+use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
 use bevy::mesh::Mesh;
 use bevy::reflect::prelude::*;
 use bevy::transform::components::Transform;
 
 use crate::error::ClothError;
-use crate::sim::{ClothSim, GridSpec, SolverSettings};
+use crate::sim::collision::Pose;
+use crate::sim::{ClothSim, ColliderShape, Friction, GridSpec, SolverSettings};
 use crate::subdivision::{BoundaryMode, Subdivider, VertexRule};
 
 /// Where a cloth's particles and triangles come from.
@@ -88,6 +90,9 @@ pub struct ClothConfig {
     /// Display the state interpolated between the last two fixed steps, so motion is smooth at any
     /// frame rate (it lags real time by at most one step). Off: show the latest step.
     pub interpolate: bool,
+    /// Collision layers this cloth collides with: a [`ClothCollider`] touches the cloth when its
+    /// `layers` share a bit with this mask. Every layer by default.
+    pub collision_mask: u32,
 }
 
 impl Default for ClothConfig {
@@ -95,8 +100,113 @@ impl Default for ClothConfig {
         Self {
             solver: SolverSettings::default(),
             interpolate: true,
+            collision_mask: u32::MAX,
         }
     }
+}
+
+/// A kinematic collider that cloths collide with: put it on any entity with a transform (a child of
+/// a moving entity works). Its velocity, which moving colliders pass on to the cloth through
+/// friction, comes from how its global pose changes between fixed steps; the shape is scaled by the
+/// entity's global scale (see [`ColliderShape::scaled`]). Adding, moving, editing and removing
+/// colliders at runtime all take effect at the next fixed step.
+///
+/// # Example
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+///
+/// fn spawn(mut commands: Commands) {
+///     // A ball the cloth can drape over, with a 1 cm skin and grippy friction.
+///     commands.spawn((
+///         ClothCollider::sphere(0.5).with_margin(0.01).with_friction(Friction::new(0.8)),
+///         Transform::from_xyz(0.0, 1.0, 0.0),
+///     ));
+///     // The floor: the half-space below the plane y = 0.
+///     commands.spawn(ClothCollider::half_space(Vec3::Y));
+/// }
+/// # bevy::ecs::system::assert_is_system(spawn);
+/// ```
+#[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+#[require(Transform, ColliderMotion)]
+pub struct ClothCollider {
+    /// Shape in the entity's local frame.
+    pub shape: ColliderShape,
+    /// Coulomb friction against cloth.
+    pub friction: Friction,
+    /// Distance kept between the surface and the cloth's particles, m (the cloth's thickness).
+    pub margin: f32,
+    /// Collision layers (see [`ClothConfig::collision_mask`]); every layer by default.
+    pub layers: u32,
+}
+
+/// Default [`ClothCollider::margin`], m.
+pub const DEFAULT_COLLIDER_MARGIN: f32 = 0.01;
+
+impl ClothCollider {
+    /// A collider of the given shape with default friction and margin, on every layer.
+    pub fn new(shape: ColliderShape) -> Self {
+        Self {
+            shape,
+            friction: Friction::default(),
+            margin: DEFAULT_COLLIDER_MARGIN,
+            layers: u32::MAX,
+        }
+    }
+
+    /// A ball of radius `radius` centred on the entity.
+    pub fn sphere(radius: f32) -> Self {
+        Self::new(ColliderShape::Sphere(Sphere::new(radius)))
+    }
+
+    /// A capsule along the entity's local Y axis: `half_length` from the centre to each cap's
+    /// centre.
+    pub fn capsule(radius: f32, half_length: f32) -> Self {
+        Self::new(ColliderShape::Capsule(Capsule3d {
+            radius,
+            half_length,
+        }))
+    }
+
+    /// A box with the given half extents.
+    pub fn cuboid(half_size: Vec3) -> Self {
+        Self::new(ColliderShape::Cuboid(Cuboid { half_size }))
+    }
+
+    /// The solid half-space behind the plane through the entity's origin with the given normal (in
+    /// the entity's local frame): a floor for `Vec3::Y`. A zero or non-finite normal becomes +Y.
+    pub fn half_space(normal: Vec3) -> Self {
+        Self::new(ColliderShape::HalfSpace(InfinitePlane3d {
+            normal: bevy::math::Dir3::new(normal).unwrap_or(bevy::math::Dir3::Y),
+        }))
+    }
+
+    /// With other friction.
+    pub fn with_friction(mut self, friction: Friction) -> Self {
+        self.friction = friction;
+        self
+    }
+
+    /// With another margin.
+    pub fn with_margin(mut self, margin: f32) -> Self {
+        self.margin = margin;
+        self
+    }
+
+    /// On other layers.
+    pub fn with_layers(mut self, layers: u32) -> Self {
+        self.layers = layers;
+        self
+    }
+}
+
+/// Where a [`ClothCollider`] was at the last fixed step, kept by the plugin to derive its velocity.
+#[derive(Component, Debug, Clone, Copy, Default)]
+pub struct ColliderMotion {
+    pub(crate) previous: Option<Pose>,
+    /// Whether a bad collider was already reported.
+    pub(crate) reported: bool,
 }
 
 /// What a pinned particle is held to.

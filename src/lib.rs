@@ -44,12 +44,14 @@ pub use plugin::{ClothPlugin, ClothSystems};
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::components::{
-        Cloth, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource, ClothState,
-        ClothSubdivision, PinAnchor,
+        Cloth, ClothCollider, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource,
+        ClothState, ClothSubdivision, PinAnchor,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};
-    pub use crate::sim::{GridPlane, GridSpec, Integrator, SolverSettings, Stiffness};
+    pub use crate::sim::{
+        ColliderShape, Friction, GridPlane, GridSpec, Integrator, SolverSettings, Stiffness,
+    };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
 }
 

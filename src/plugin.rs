@@ -13,19 +13,22 @@ use bevy::mesh::{Mesh, Mesh3d};
 use bevy::time::{Fixed, Time};
 use bevy::transform::TransformSystems;
 use bevy::transform::components::GlobalTransform;
+use bevy::transform::helper::TransformHelper;
 
 use crate::components::RenderSubdivision;
 use crate::components::*;
 use crate::error::{ClothError, count_in};
 use crate::render;
-use crate::sim::{ClothModel, ClothSim, compute_normals};
+use crate::sim::collision::Pose;
+use crate::sim::{ClothModel, ClothSim, Collider, Environment, compute_normals};
 use crate::subdivision::Subdivider;
 
 /// System sets of the cloth pipeline, public so games can order their own systems around them.
 ///
 /// In the plugin's simulation schedule (default [`FixedUpdate`]), chained in this order:
-/// - [`Prepare`](Self::Prepare): apply edited configs and pin sets, and resolve pin anchors (rest,
-///   world, or another entity's `GlobalTransform`) into targets for this step.
+/// - [`Prepare`](Self::Prepare): apply edited configs and pin sets, resolve pin anchors (rest,
+///   world, or another entity's global transform) into targets for this step, and take the poses
+///   of the [`ClothCollider`]s.
 /// - [`Step`](Self::Step): advance every cloth by the schedule's time step (substeps inside), in
 ///   parallel across cloths.
 /// - [`Subdivide`](Self::Subdivide): compute the render positions and normals of the new state.
@@ -95,7 +98,9 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothConfig>()
             .register_type::<ClothPins>()
             .register_type::<ClothSubdivision>()
+            .register_type::<ClothCollider>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
+            .init_resource::<ColliderSnapshot>()
             .configure_sets(
                 self.schedule,
                 (
@@ -115,7 +120,7 @@ impl Plugin for ClothPlugin {
             .add_systems(
                 self.schedule,
                 (
-                    (apply_edits, resolve_pin_targets)
+                    (apply_edits, resolve_pin_targets, gather_colliders)
                         .chain()
                         .in_set(ClothSystems::Prepare),
                     step_cloths.in_set(ClothSystems::Step),
@@ -135,9 +140,68 @@ impl Plugin for ClothPlugin {
     }
 }
 
+/// The global pose of an entity now: computed from its `Transform` and its ancestors' (so an
+/// entity moved earlier in this fixed step counts), else its last propagated `GlobalTransform`.
+fn current_global(
+    entity: Entity,
+    helper: &TransformHelper,
+    globals: &Query<&GlobalTransform>,
+) -> Option<GlobalTransform> {
+    helper
+        .compute_global_transform(entity)
+        .ok()
+        .or_else(|| globals.get(entity).ok().copied())
+}
+
+/// The colliders of this step, with their poses at its start and end.
+#[derive(Resource, Debug, Default)]
+struct ColliderSnapshot(Vec<Collider>);
+
+/// Takes every [`ClothCollider`]'s pose now as the end of this step's motion, and its pose at the
+/// previous fixed step as the start. Bad colliders are reported once and left out.
+fn gather_colliders(
+    mut snapshot: ResMut<ColliderSnapshot>,
+    mut colliders: Query<(Entity, &ClothCollider, &mut ColliderMotion)>,
+    helper: TransformHelper,
+    globals: Query<&GlobalTransform>,
+) {
+    snapshot.0.clear();
+    for (entity, collider, mut motion) in &mut colliders {
+        let Some(global) = current_global(entity, &helper, &globals) else {
+            continue;
+        };
+        let (scale, rotation, translation) = global.to_scale_rotation_translation();
+        let end = Pose {
+            rotation,
+            translation,
+        };
+        let sim = Collider {
+            shape: collider.shape.scaled(scale),
+            start: motion.previous.unwrap_or(end),
+            end,
+            friction: collider.friction,
+            margin: collider.margin,
+            layers: collider.layers,
+        };
+        motion.previous = Some(end);
+        match sim.validate() {
+            Ok(()) => {
+                snapshot.0.push(sim);
+                motion.reported = false;
+            }
+            Err(e) if !motion.reported => {
+                error!("cloth collider {entity}: {e}; it is ignored until fixed");
+                motion.reported = true;
+            }
+            Err(_) => {}
+        }
+    }
+}
+
 /// Where each pin should be at the end of this step.
 fn resolve_pin_targets(
     mut cloths: Query<(&ClothPins, &GlobalTransform, &mut ClothState), Without<ClothInvalid>>,
+    helper: TransformHelper,
     anchors: Query<&GlobalTransform>,
 ) {
     for (pins, transform, mut state) in &mut cloths {
@@ -152,7 +216,7 @@ fn resolve_pin_targets(
                     .map(|p| transform.transform_point(*p)),
                 PinAnchor::World(p) => Some(p),
                 PinAnchor::Entity { entity, offset } => {
-                    anchors.get(entity).ok().map(|g| g.transform_point(offset))
+                    current_global(entity, &helper, &anchors).map(|g| g.transform_point(offset))
                 }
             };
             // A vanished anchor entity leaves the pin where it was.
@@ -165,14 +229,22 @@ fn resolve_pin_targets(
 }
 
 /// Advances every running cloth by one step of the schedule's clock, in parallel across cloths.
-fn step_cloths(time: Res<Time>, mut cloths: Query<&mut ClothState, Without<ClothInvalid>>) {
+fn step_cloths(
+    time: Res<Time>,
+    colliders: Res<ColliderSnapshot>,
+    mut cloths: Query<(&ClothConfig, &mut ClothState), Without<ClothInvalid>>,
+) {
     let dt = time.delta_secs();
     if dt <= 0.0 {
         return;
     }
-    cloths.par_iter_mut().for_each(|mut state| {
+    cloths.par_iter_mut().for_each(|(config, mut state)| {
+        let env = Environment {
+            colliders: &colliders.0,
+            collision_mask: config.collision_mask,
+        };
         if state.failure.is_none()
-            && let Err(e) = state.sim.step(dt)
+            && let Err(e) = state.sim.step_in(dt, &env)
         {
             state.failure = Some(e);
         }
@@ -473,8 +545,8 @@ fn write_meshes(
     }
 }
 
-/// A windowless app ready for cloths: `MinimalPlugins`, transforms, assets, meshes and
-/// [`ClothPlugin`], with a fixed step of `dt` seconds and manual time so that every `update()` runs
+/// A windowless app ready for cloths: `MinimalPlugins`, transforms, assets, meshes,
+/// [`ClothPlugin`] and [`ScenePlugin`](crate::scene::ScenePlugin), with a fixed step of `dt` seconds and manual time so that every `update()` runs
 /// exactly one fixed step. It has already been updated once (Bevy's first update has zero delta).
 /// A cloth spawned now is built at the end of the next `update()` (after that update's fixed step),
 /// so it starts at rest and steps from the update after.
@@ -488,6 +560,7 @@ pub fn headless_app(dt: f32) -> App {
         bevy::asset::AssetPlugin::default(),
         bevy::mesh::MeshPlugin,
         ClothPlugin::default(),
+        crate::scene::ScenePlugin,
     ))
     .insert_resource(Time::<Fixed>::from_seconds(dt as f64))
     .insert_resource(bevy::time::TimeUpdateStrategy::FixedTimesteps(1));

@@ -8,19 +8,27 @@
 //!     pins: [0, 15],
 //!     dt: 0.016666668,
 //!     solver: (substeps: 20, stiffness: (structural: 5000.0, shear: 5000.0, bend: 50.0)),
+//!     colliders: [
+//!         (shape: Sphere(radius: 0.4), translation: (0.0, 1.0, 0.0), margin: 0.01),
+//!         (shape: Plane(normal: (0.0, 1.0, 0.0)), friction: (static_coefficient: 0.8, kinetic_coefficient: 0.6)),
+//!     ],
 //! )
 //! ```
 
 use std::path::Path;
 
+use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::prelude::*;
-use bevy::math::{Quat, Vec3};
+use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
+use bevy::math::{Dir3, Quat, Vec3};
+use bevy::time::Time;
 use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
 
-use crate::components::{Cloth, ClothConfig, ClothPins};
+use crate::components::{Cloth, ClothCollider, ClothConfig, ClothPins, DEFAULT_COLLIDER_MARGIN};
 use crate::error::{ClothError, positive};
-use crate::sim::{ClothModel, GridSpec, SolverSettings};
+use crate::plugin::ClothSystems;
+use crate::sim::{ClothModel, ColliderShape, Friction, GridSpec, SolverSettings};
 
 /// The cloth of a scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -29,9 +37,149 @@ pub enum SceneCloth {
     Grid(GridSpec),
 }
 
-/// A collider in a scene. No collider shapes exist yet, so a scene's `colliders` list must be empty.
+/// The shape of a scene collider (see [`ColliderShape`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum SceneShape {
+    /// A ball.
+    Sphere {
+        /// Radius, m.
+        radius: f32,
+    },
+    /// A capsule along the collider's local Y axis.
+    Capsule {
+        /// Radius, m.
+        radius: f32,
+        /// Distance from the centre to each cap's centre, m.
+        half_length: f32,
+    },
+    /// A box.
+    Cuboid {
+        /// Half extents, m.
+        half_size: Vec3,
+    },
+    /// The solid half-space behind a plane through the collider's origin.
+    Plane {
+        /// Outward normal (need not be unit length).
+        normal: Vec3,
+    },
+}
+
+impl SceneShape {
+    fn shape(&self) -> Result<ColliderShape, ClothError> {
+        let shape = match *self {
+            SceneShape::Sphere { radius } => ColliderShape::Sphere(Sphere { radius }),
+            SceneShape::Capsule {
+                radius,
+                half_length,
+            } => ColliderShape::Capsule(Capsule3d {
+                radius,
+                half_length,
+            }),
+            SceneShape::Cuboid { half_size } => ColliderShape::Cuboid(Cuboid { half_size }),
+            SceneShape::Plane { normal } => {
+                let normal = Dir3::new(normal).map_err(|_| ClothError::InvalidValue {
+                    field: "colliders.shape.normal",
+                    expected: "a non-zero finite vector",
+                    value: normal.length() as f64,
+                })?;
+                ColliderShape::HalfSpace(InfinitePlane3d { normal })
+            }
+        };
+        shape.validate()?;
+        Ok(shape)
+    }
+}
+
+fn default_margin() -> f32 {
+    DEFAULT_COLLIDER_MARGIN
+}
+
+/// A collider in a scene: shape, placement, contact properties and an optional constant velocity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum SceneCollider {}
+#[serde(deny_unknown_fields)]
+pub struct SceneCollider {
+    /// Shape in the collider's frame.
+    pub shape: SceneShape,
+    /// Position, m.
+    #[serde(default)]
+    pub translation: Vec3,
+    /// Rotation as Euler angles XYZ, degrees.
+    #[serde(default)]
+    pub rotation_degrees: Vec3,
+    /// Coulomb friction.
+    #[serde(default)]
+    pub friction: Friction,
+    /// Thickness kept between surface and cloth, m.
+    #[serde(default = "default_margin")]
+    pub margin: f32,
+    /// Constant velocity, m/s: the collider moves (kinematically) from its start placement.
+    #[serde(default)]
+    pub velocity: Vec3,
+}
+
+impl SceneCollider {
+    /// The collider component.
+    pub fn component(&self) -> Result<ClothCollider, ClothError> {
+        let collider = ClothCollider {
+            margin: self.margin,
+            friction: self.friction,
+            ..ClothCollider::new(self.shape.shape()?)
+        };
+        collider.friction.validate()?;
+        crate::error::non_negative("colliders.margin", collider.margin)?;
+        Ok(collider)
+    }
+
+    /// The components of the collider entity.
+    pub fn bundle(&self) -> Result<impl Bundle, ClothError> {
+        Ok((
+            self.component()?,
+            placement(self.translation, self.rotation_degrees),
+            ConstantVelocity(self.velocity),
+        ))
+    }
+}
+
+/// Moves an entity's `Transform` at a constant velocity (m/s) every fixed step, after the cloths
+/// stepped (so a collider's first step is from where it was spawned). Added by [`ScenePlugin`]; used by scene colliders with a `velocity`.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
+pub struct ConstantVelocity(pub Vec3);
+
+fn move_at_constant_velocity(
+    time: Res<Time>,
+    mut query: Query<(&ConstantVelocity, &mut Transform)>,
+) {
+    let dt = time.delta_secs();
+    for (velocity, mut transform) in &mut query {
+        if velocity.0 != Vec3::ZERO {
+            transform.translation += velocity.0 * dt;
+        }
+    }
+}
+
+/// What scenes need beyond [`crate::ClothPlugin`]: moving [`ConstantVelocity`] entities in
+/// `FixedUpdate` after [`ClothSystems::Step`].
+#[derive(Debug, Default, Clone, Copy)]
+pub struct ScenePlugin;
+
+impl Plugin for ScenePlugin {
+    fn build(&self, app: &mut App) {
+        app.add_systems(
+            FixedUpdate,
+            move_at_constant_velocity.after(ClothSystems::Step),
+        );
+    }
+}
+
+fn placement(translation: Vec3, rotation_degrees: Vec3) -> Transform {
+    let r = rotation_degrees * (std::f32::consts::PI / 180.0);
+    Transform::from_translation(translation).with_rotation(Quat::from_euler(
+        bevy::math::EulerRot::XYZ,
+        r.x,
+        r.y,
+        r.z,
+    ))
+}
 
 /// Wind in a scene. No wind model exists yet, so a scene's `wind` must be `None`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -64,7 +212,7 @@ pub struct ClothScene {
     /// Integrator, substeps, iterations, stiffness, mass, damping, gravity.
     #[serde(default)]
     pub solver: SolverSettings,
-    /// Colliders (none exist yet).
+    /// Kinematic colliders.
     #[serde(default)]
     pub colliders: Vec<SceneCollider>,
     /// Wind (none exists yet).
@@ -108,18 +256,35 @@ impl ClothScene {
                 value: f64::NAN,
             });
         }
+        for c in &self.colliders {
+            c.component()?;
+            if !(c.translation.is_finite()
+                && c.rotation_degrees.is_finite()
+                && c.velocity.is_finite())
+            {
+                return Err(ClothError::InvalidValue {
+                    field: "colliders.translation/rotation_degrees/velocity",
+                    expected: "finite",
+                    value: f64::NAN,
+                });
+            }
+        }
         Ok(())
     }
 
     /// The cloth's placement.
     pub fn transform(&self) -> Transform {
-        let r = self.rotation_degrees * (std::f32::consts::PI / 180.0);
-        Transform::from_translation(self.translation).with_rotation(Quat::from_euler(
-            bevy::math::EulerRot::XYZ,
-            r.x,
-            r.y,
-            r.z,
-        ))
+        placement(self.translation, self.rotation_degrees)
+    }
+
+    /// Spawns the scene into a world (validated when parsed): the cloth entity, returned, and its
+    /// colliders. Moving colliders need [`ScenePlugin`] (which [`crate::plugin::headless_app`]
+    /// adds).
+    pub fn spawn(&self, world: &mut World) -> Result<Entity, ClothError> {
+        for c in &self.colliders {
+            world.spawn(c.bundle()?);
+        }
+        Ok(world.spawn(self.bundle()).id())
     }
 
     /// The cloth's topology.
@@ -140,6 +305,7 @@ impl ClothScene {
             ClothConfig {
                 solver: self.solver,
                 interpolate: false,
+                ..Default::default()
             },
             ClothPins::new(self.pins.iter().copied()),
             self.transform(),
@@ -175,5 +341,36 @@ mod tests {
         .unwrap_err();
         assert!(e.to_string().contains("substeps"), "{e}");
         assert!(ClothScene::from_ron("(cloth: Grid((nx: 4, ny: 3").is_err());
+        let e = ClothScene::from_ron(
+            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), colliders: [(shape: Sphere(radius: -1.0))])",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("collider.radius"), "{e}");
+        let e = ClothScene::from_ron(
+            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), colliders: [(shape: Plane(normal: (0.0, 0.0, 0.0)))])",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("normal"), "{e}");
+    }
+
+    #[test]
+    fn colliders_parse_with_defaults() {
+        let s = ClothScene::from_ron(
+            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), colliders: [
+                (shape: Sphere(radius: 0.5), translation: (0.0, 1.0, 0.0)),
+                (shape: Capsule(radius: 0.1, half_length: 0.3), velocity: (1.0, 0.0, 0.0)),
+                (shape: Cuboid(half_size: (1.0, 0.5, 1.0)), friction: (static_coefficient: 0.9, kinetic_coefficient: 0.7)),
+                (shape: Plane(normal: (0.0, 2.0, 0.0)), margin: 0.02),
+            ])",
+        )
+        .unwrap();
+        assert_eq!(s.colliders.len(), 4);
+        assert_eq!(s.colliders[0].margin, DEFAULT_COLLIDER_MARGIN);
+        assert_eq!(s.colliders[1].velocity, Vec3::X);
+        let plane = s.colliders[3].component().unwrap();
+        assert_eq!(
+            plane.shape,
+            ColliderShape::HalfSpace(InfinitePlane3d::new(Vec3::Y))
+        );
     }
 }

@@ -70,6 +70,7 @@ fn unpinned_cloth_falls_like_a_free_particle() {
             ..Default::default()
         },
         interpolate: false,
+        ..Default::default()
     };
     let e = spawn(
         &mut app,
@@ -282,13 +283,19 @@ fn pins_follow_an_entity_and_release_at_runtime() {
         "pinned particle at {p}"
     );
 
-    // Release: the particle falls.
+    // Release: the cloth falls freely. Its centre of mass falls at g whatever its internal
+    // swinging, so measure that, after letting the 1 m jump of the pin calm down for a second.
+    run(&mut app, 60);
+    let com = |app: &App| state(app, e).positions().iter().sum::<Vec3>().y / 36.0;
+    let before = com(&app);
     app.world_mut()
         .get_mut::<ClothPins>(e)
         .unwrap()
         .release_all();
     run(&mut app, 30);
-    assert!(state(&app, e).positions()[0].y < 2.0);
+    // Free fall for 0.5 s: 1.23 m, a little less with damping.
+    let fallen = before - com(&app);
+    assert!(fallen > 1.0, "fell {fallen} m");
 }
 
 #[test]

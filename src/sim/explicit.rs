@@ -33,6 +33,7 @@ pub(super) fn step_symplectic_euler(sim: &mut ClothSim, dt: f32, n: u32) {
     let inv_h = 1.0 / h;
     let keep = (-sim.settings.damping * h).exp();
     for sub in 0..n {
+        sim.contacts.begin_substep(&sim.positions);
         compute_forces(sim);
         for ((x, v), (f, w)) in sim
             .positions
@@ -54,6 +55,7 @@ pub(super) fn step_symplectic_euler(sim: &mut ClothSim, dt: f32, n: u32) {
             &mut sim.positions,
             &mut sim.velocities,
         );
+        sim.resolve_contacts(sub, n, h);
     }
 }
 
@@ -68,6 +70,7 @@ pub(super) fn step_verlet(sim: &mut ClothSim, dt: f32, n: u32) {
     let keep = (-sim.settings.damping * h).exp();
     drift(&mut sim.positions, &sim.velocities, &sim.inv_mass, half);
     for sub in 0..n {
+        sim.contacts.begin_substep(&sim.positions);
         let mid = (sub as f32 + 0.5) / n as f32;
         for pin in &sim.pins {
             sim.positions[pin.particle as usize] = pin.from.lerp(pin.to, mid);
@@ -100,6 +103,7 @@ pub(super) fn step_verlet(sim: &mut ClothSim, dt: f32, n: u32) {
                 &mut sim.velocities,
             );
         }
+        sim.resolve_contacts(sub, n, h);
     }
 }
 

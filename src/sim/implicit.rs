@@ -115,6 +115,7 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
         stiffness,
         forces,
         implicit: s,
+        contacts,
         pins,
         ..
     } = sim;
@@ -136,6 +137,7 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
         }
     }
     for sub in 0..n {
+        contacts.begin_substep(x);
         let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
         // Forces and their linearisation at the start of the substep.
         for (f, m) in forces.iter_mut().zip(mass.iter()) {
@@ -217,5 +219,8 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
             }
         }
         drive_pins(pins, t0, t1, inv_h, x, v);
+        if contacts.is_active() {
+            contacts.resolve(t0, t1, h, &model.triangles, inv_mass, x, v);
+        }
     }
 }

@@ -4,6 +4,7 @@
 //! nothing here knows about ECS, assets or meshes, so it can be unit-tested and benchmarked on its
 //! own. Every formula of the simulation lives here.
 
+pub mod collision;
 mod explicit;
 mod forces;
 mod implicit;
@@ -12,10 +13,11 @@ pub mod reference;
 pub mod scenes;
 mod solver;
 
+pub use collision::{Collider, ColliderShape, Friction, Pose};
 pub use implicit::CG_TOLERANCE;
 pub use model::{ClothModel, GridPlane, GridSpec, SpringKind, Springs, compute_normals};
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{
-    ClothSim, Energy, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION, SolverSettings,
-    Stiffness,
+    ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
+    SolverSettings, Stiffness,
 };

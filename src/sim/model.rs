@@ -248,6 +248,16 @@ impl ClothModel {
         self.rest_positions.len()
     }
 
+    /// The longest triangle edge at rest, m (0 without triangles).
+    pub fn max_edge_length(&self) -> f32 {
+        let p = &self.rest_positions;
+        self.triangles
+            .chunks_exact(3)
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| p[a as usize].distance(p[b as usize]))
+            .fold(0.0, f32::max)
+    }
+
     /// Builds the canonical grid cloth.
     pub fn grid(spec: &GridSpec) -> Result<Self, ClothError> {
         spec.validate()?;

@@ -11,6 +11,7 @@ use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::collision::{Collider, Contacts};
 use super::forces::{SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, SpringKind, Springs};
@@ -272,9 +273,31 @@ pub struct ClothSim {
     pub(super) implicit: ImplicitScratch,
     /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
     pub(super) omega_max: f32,
+    /// Colliders that passed this step's broad phase, and substep scratch for contacts.
+    pub(super) contacts: Contacts,
     pub(super) pins: Vec<PinState>,
     pub(super) settings: SolverSettings,
     steps: u64,
+}
+
+/// What surrounds a cloth during one step: colliders (their poses at the start and end of the step)
+/// and which of them this cloth collides with.
+#[derive(Debug, Clone, Copy)]
+pub struct Environment<'a> {
+    /// Colliders near or far; the broad phase drops the ones the cloth cannot reach.
+    pub colliders: &'a [Collider],
+    /// The cloth collides with a collider when `collider.layers & collision_mask != 0`.
+    pub collision_mask: u32,
+}
+
+impl Default for Environment<'_> {
+    /// Nothing around: no colliders, every layer.
+    fn default() -> Self {
+        Self {
+            colliders: &[],
+            collision_mask: u32::MAX,
+        }
+    }
 }
 
 impl ClothSim {
@@ -315,6 +338,7 @@ impl ClothSim {
             forces: vec![Vec3::ZERO; n],
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
+            contacts: Contacts::new(n, model.max_edge_length()),
             pins: Vec::new(),
             model,
             settings,
@@ -528,13 +552,36 @@ impl ClothSim {
             .fold(0.0, f32::max)
     }
 
-    /// Advances the cloth by `dt` seconds. Returns an error (and leaves the state as it was at the
-    /// failure) if a position became non-finite; the caller should stop stepping this cloth.
+    /// Advances the cloth by `dt` seconds with nothing around it (see [`Self::step_in`]).
     pub fn step(&mut self, dt: f32) -> Result<(), ClothError> {
+        self.step_in(dt, &Environment::default())
+    }
+
+    /// Number of colliders that passed the broad phase of the last step.
+    pub fn active_colliders(&self) -> usize {
+        self.contacts.active_count()
+    }
+
+    /// Advances the cloth by `dt` seconds among the colliders of `env`. Returns an error (and
+    /// leaves the state as it was at the failure) if a position became non-finite; the caller
+    /// should stop stepping this cloth.
+    pub fn step_in(&mut self, dt: f32, env: &Environment) -> Result<(), ClothError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
         let substeps = self.substeps_for(dt);
+        if env.colliders.is_empty() {
+            self.contacts.begin_step(&[], 0, &[], 0.0, dt);
+        } else {
+            let reach = self.reach(dt);
+            self.contacts.begin_step(
+                env.colliders,
+                env.collision_mask,
+                &self.positions,
+                reach,
+                dt,
+            );
+        }
         match self.settings.integrator {
             Integrator::Xpbd => self.step_xpbd(dt, substeps),
             Integrator::SymplecticEuler => explicit::step_symplectic_euler(self, dt, substeps),
@@ -556,6 +603,39 @@ impl ClothSim {
         Ok(())
     }
 
+    /// A generous bound on how far any particle can move in a step of `dt`: twice the free flight
+    /// of the fastest particle, plus gravity, plus the farthest pin jump.
+    fn reach(&self, dt: f32) -> f32 {
+        let speed = self
+            .velocities
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0, f32::max)
+            .sqrt();
+        let pin_jump = self
+            .pins
+            .iter()
+            .map(|p| p.from.distance(p.to))
+            .fold(0.0, f32::max);
+        2.0 * speed * dt + self.settings.gravity.length() * dt * dt + pin_jump
+    }
+
+    /// Contacts at the end of substep `sub` of `n` (length `h`): after the integrator has its final
+    /// positions and velocities for the substep.
+    pub(super) fn resolve_contacts(&mut self, sub: u32, n: u32, h: f32) {
+        if self.contacts.is_active() {
+            self.contacts.resolve(
+                sub as f32 / n as f32,
+                (sub + 1) as f32 / n as f32,
+                h,
+                &self.model.triangles,
+                &self.inv_mass,
+                &mut self.positions,
+                &mut self.velocities,
+            );
+        }
+    }
+
     fn step_xpbd(&mut self, dt: f32, n: u32) {
         let h = dt / n as f32;
         let inv_h = 1.0 / h;
@@ -563,6 +643,7 @@ impl ClothSim {
         let gravity_dv = self.settings.gravity * h;
         let keep = (-self.settings.damping * h).exp();
         for sub in 0..n {
+            self.contacts.begin_substep(&self.positions);
             // Integrate free particles (symplectic Euler) and remember where they would go without
             // constraints.
             for ((x, predicted), (v, w)) in self
@@ -624,6 +705,9 @@ impl ClothSim {
             {
                 *v += (*x - *predicted) * inv_h;
             }
+            // Contacts last, so every substep ends outside the colliders; their push-out is not
+            // turned into velocity (see `collision.rs`).
+            self.resolve_contacts(sub, n, h);
         }
     }
 }
