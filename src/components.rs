@@ -12,7 +12,9 @@ use bevy::transform::components::Transform;
 
 use crate::error::ClothError;
 use crate::sim::collision::Pose;
-use crate::sim::{ClothSim, ColliderShape, Friction, GridSpec, SolverSettings};
+use crate::sim::{
+    ClothSim, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
+};
 use crate::subdivision::{BoundaryMode, Subdivider, VertexRule};
 
 /// Where a cloth's particles and triangles come from.
@@ -201,6 +203,65 @@ impl ClothCollider {
     }
 }
 
+/// The global wind. Insert it to give every cloth aerodynamic forces (drag and lift per triangle,
+/// see [`crate::sim::aero`]); without it (and without [`WindZone`]s) no aerodynamic work is done at
+/// all. With zero velocity the cloths still feel the drag of still air.
+///
+/// # Example
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+///
+/// let mut app = App::new();
+/// app.insert_resource(Wind {
+///     velocity: Vec3::new(6.0, 0.0, 0.0),
+///     gusts: Some(Gusts { seed: 7, ..default() }),
+///     ..default()
+/// });
+/// ```
+#[derive(Resource, Debug, Clone, Copy, PartialEq, Reflect)]
+#[reflect(Resource, Default, Debug)]
+pub struct Wind {
+    /// Mean wind velocity, m/s.
+    pub velocity: Vec3,
+    /// Smooth, seeded gusts on top of the mean wind (deterministic for a given seed).
+    pub gusts: Option<Gusts>,
+    /// Air density, kg/m³.
+    pub air_density: f32,
+    /// Switch the air off without removing the resource.
+    pub enabled: bool,
+}
+
+/// Sea-level air density, kg/m³.
+pub const AIR_DENSITY: f32 = 1.225;
+
+impl Default for Wind {
+    fn default() -> Self {
+        Self {
+            velocity: Vec3::ZERO,
+            gusts: None,
+            air_density: AIR_DENSITY,
+            enabled: true,
+        }
+    }
+}
+
+/// A local wind: inside its shape (placed by the entity's transform) `velocity` is added to the
+/// global [`Wind`], fading out over the outer `falloff` fraction of the zone.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+#[require(Transform)]
+pub struct WindZone {
+    /// Extent, in the entity's frame.
+    pub shape: WindZoneShape,
+    /// Wind added inside the zone, m/s, world frame.
+    pub velocity: Vec3,
+    /// Gusts of the zone's wind.
+    pub gusts: Option<Gusts>,
+    /// Fraction (0..=1) of the zone's size over which its wind fades out at the boundary.
+    pub falloff: f32,
+}
+
 /// Where a [`ClothCollider`] was at the last fixed step, kept by the plugin to derive its velocity.
 #[derive(Component, Debug, Clone, Copy, Default)]
 pub struct ColliderMotion {
@@ -280,6 +341,21 @@ impl ClothPins {
     /// Releases every particle.
     pub fn release_all(&mut self) {
         self.pins.clear();
+    }
+
+    /// Releases the given particles (those not pinned are ignored).
+    pub fn release(&mut self, particles: impl IntoIterator<Item = u32>) -> &mut Self {
+        for p in particles {
+            self.unpin(p);
+        }
+        self
+    }
+
+    /// Releases every pin for which `release` returns true: by anchor, by index range, or by
+    /// region (with [`GridSpec::index`] or the rest positions of [`ClothState::sim`]).
+    pub fn release_where(&mut self, mut release: impl FnMut(&ClothPin) -> bool) -> &mut Self {
+        self.pins.retain(|p| !release(p));
+        self
     }
 
     /// Whether a particle is pinned.

@@ -45,12 +45,13 @@ pub use plugin::{ClothPlugin, ClothSystems};
 pub mod prelude {
     pub use crate::components::{
         Cloth, ClothCollider, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource,
-        ClothState, ClothSubdivision, PinAnchor,
+        ClothState, ClothSubdivision, PinAnchor, Wind, WindZone,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{
-        ColliderShape, Friction, GridPlane, GridSpec, Integrator, SolverSettings, Stiffness,
+        ColliderShape, Friction, GridPlane, GridSpec, Gusts, Integrator, SolverSettings, Stiffness,
+        WindZoneShape,
     };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
 }

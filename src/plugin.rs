@@ -20,7 +20,9 @@ use crate::components::*;
 use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::collision::Pose;
-use crate::sim::{ClothModel, ClothSim, Collider, Environment, compute_normals};
+use crate::sim::{
+    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, WindField, compute_normals,
+};
 use crate::subdivision::Subdivider;
 
 /// System sets of the cloth pipeline, public so games can order their own systems around them.
@@ -99,6 +101,9 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothPins>()
             .register_type::<ClothSubdivision>()
             .register_type::<ClothCollider>()
+            .register_type::<Wind>()
+            .register_type::<WindZone>()
+            .init_resource::<WindSnapshot>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
             .init_resource::<ColliderSnapshot>()
             .configure_sets(
@@ -120,7 +125,12 @@ impl Plugin for ClothPlugin {
             .add_systems(
                 self.schedule,
                 (
-                    (apply_edits, resolve_pin_targets, gather_colliders)
+                    (
+                        apply_edits,
+                        resolve_pin_targets,
+                        gather_colliders,
+                        gather_wind,
+                    )
                         .chain()
                         .in_set(ClothSystems::Prepare),
                     step_cloths.in_set(ClothSystems::Step),
@@ -198,6 +208,61 @@ fn gather_colliders(
     }
 }
 
+/// The air of this step: `None` without a [`Wind`] resource (or with it disabled) and without
+/// [`WindZone`]s.
+#[derive(Resource, Debug, Default)]
+struct WindSnapshot(Option<WindField>);
+
+/// Samples the [`Wind`] resource and the [`WindZone`]s into this step's wind field. Bad wind is
+/// reported once and switched off until fixed.
+fn gather_wind(
+    mut snapshot: ResMut<WindSnapshot>,
+    wind: Option<Res<Wind>>,
+    zones: Query<(Entity, &WindZone)>,
+    time: Res<Time>,
+    helper: TransformHelper,
+    globals: Query<&GlobalTransform>,
+    mut reported: Local<bool>,
+) {
+    let global = wind.as_deref().filter(|w| w.enabled);
+    if global.is_none() && zones.is_empty() {
+        snapshot.0 = None;
+        return;
+    }
+    let field = snapshot.0.get_or_insert_with(WindField::default);
+    let defaults = Wind {
+        velocity: Vec3::ZERO,
+        ..Default::default()
+    };
+    let w = global.unwrap_or(&defaults);
+    field.velocity = w.velocity;
+    field.gusts = w.gusts;
+    field.air_density = w.air_density;
+    field.time = time.elapsed_secs();
+    field.zones.clear();
+    for (entity, zone) in &zones {
+        if let Some(g) = current_global(entity, &helper, &globals) {
+            field.zones.push(PlacedWindZone {
+                shape: zone.shape,
+                to_local: g.affine().inverse(),
+                velocity: zone.velocity,
+                gusts: zone.gusts,
+                falloff: zone.falloff,
+            });
+        }
+    }
+    match field.validate() {
+        Ok(()) => *reported = false,
+        Err(e) => {
+            if !*reported {
+                error!("wind: {e}; no wind until it is fixed");
+                *reported = true;
+            }
+            snapshot.0 = None;
+        }
+    }
+}
+
 /// Where each pin should be at the end of this step.
 fn resolve_pin_targets(
     mut cloths: Query<(&ClothPins, &GlobalTransform, &mut ClothState), Without<ClothInvalid>>,
@@ -232,6 +297,7 @@ fn resolve_pin_targets(
 fn step_cloths(
     time: Res<Time>,
     colliders: Res<ColliderSnapshot>,
+    wind: Res<WindSnapshot>,
     mut cloths: Query<(&ClothConfig, &mut ClothState), Without<ClothInvalid>>,
 ) {
     let dt = time.delta_secs();
@@ -242,6 +308,7 @@ fn step_cloths(
         let env = Environment {
             colliders: &colliders.0,
             collision_mask: config.collision_mask,
+            wind: wind.0.as_ref(),
         };
         if state.failure.is_none()
             && let Err(e) = state.sim.step_in(dt, &env)

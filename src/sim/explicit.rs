@@ -12,12 +12,18 @@ use glam::Vec3;
 use super::forces::add_spring_forces;
 use super::solver::{ClothSim, drive_pins};
 
-/// Sets `sim.forces` to gravity plus the spring forces at the current positions.
+/// Sets `sim.forces` to gravity plus wind plus the spring forces at the current state.
 pub(super) fn compute_forces(sim: &mut ClothSim) {
     let g = sim.settings.gravity;
     for (f, m) in sim.forces.iter_mut().zip(&sim.mass) {
         *f = *m * g;
     }
+    sim.wind.add_forces(
+        &sim.positions,
+        &sim.velocities,
+        &sim.model.triangles,
+        &mut sim.forces,
+    );
     let springs = super::forces::SpringSet {
         a: &sim.model.springs.a,
         b: &sim.model.springs.b,

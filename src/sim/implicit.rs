@@ -116,6 +116,7 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
         forces,
         implicit: s,
         contacts,
+        wind,
         pins,
         ..
     } = sim;
@@ -143,6 +144,8 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
         for (f, m) in forces.iter_mut().zip(mass.iter()) {
             *f = *m * g;
         }
+        // Wind enters explicitly (not linearised).
+        wind.add_forces(x, v, &model.triangles, forces);
         add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
         // rhs = h f - h² K v.
         for (b, f) in s.rhs.iter_mut().zip(forces.iter()) {

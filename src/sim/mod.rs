@@ -4,6 +4,7 @@
 //! nothing here knows about ECS, assets or meshes, so it can be unit-tested and benchmarked on its
 //! own. Every formula of the simulation lives here.
 
+pub mod aero;
 pub mod collision;
 mod explicit;
 mod forces;
@@ -12,7 +13,9 @@ mod model;
 pub mod reference;
 pub mod scenes;
 mod solver;
+pub mod wind;
 
+pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
 pub use implicit::CG_TOLERANCE;
 pub use model::{ClothModel, GridPlane, GridSpec, SpringKind, Springs, compute_normals};
@@ -21,3 +24,4 @@ pub use solver::{
     ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
     SolverSettings, Stiffness,
 };
+pub use wind::{PlacedWindZone, WindField, WindZoneShape};

@@ -15,6 +15,7 @@ use super::collision::{Collider, Contacts};
 use super::forces::{SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, SpringKind, Springs};
+use super::wind::{WindField, WindScratch};
 use super::{explicit, implicit};
 use crate::error::{ClothError, count_in, non_negative, positive};
 
@@ -153,6 +154,10 @@ pub struct SolverSettings {
     pub damping: f32,
     /// Gravitational acceleration, m/s².
     pub gravity: Vec3,
+    /// Aerodynamic drag coefficient of the cloth's triangles (used only when there is wind).
+    pub drag_coefficient: f32,
+    /// Aerodynamic lift coefficient of the cloth's triangles (used only when there is wind).
+    pub lift_coefficient: f32,
 }
 
 impl Default for SolverSettings {
@@ -166,6 +171,8 @@ impl Default for SolverSettings {
             particle_mass: 0.001,
             damping: 0.5,
             gravity: Vec3::new(0.0, -9.81, 0.0),
+            drag_coefficient: 1.0,
+            lift_coefficient: 0.5,
         }
     }
 }
@@ -178,6 +185,8 @@ impl SolverSettings {
         self.stiffness.validate()?;
         positive("particle_mass", self.particle_mass)?;
         non_negative("damping", self.damping)?;
+        non_negative("drag_coefficient", self.drag_coefficient)?;
+        non_negative("lift_coefficient", self.lift_coefficient)?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -275,27 +284,32 @@ pub struct ClothSim {
     pub(super) omega_max: f32,
     /// Colliders that passed this step's broad phase, and substep scratch for contacts.
     pub(super) contacts: Contacts,
+    /// The wind at each triangle for this step.
+    pub(super) wind: WindScratch,
     pub(super) pins: Vec<PinState>,
     pub(super) settings: SolverSettings,
     steps: u64,
 }
 
-/// What surrounds a cloth during one step: colliders (their poses at the start and end of the step)
-/// and which of them this cloth collides with.
+/// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),
+/// which of them this cloth collides with, and the air.
 #[derive(Debug, Clone, Copy)]
 pub struct Environment<'a> {
     /// Colliders near or far; the broad phase drops the ones the cloth cannot reach.
     pub colliders: &'a [Collider],
     /// The cloth collides with a collider when `collider.layers & collision_mask != 0`.
     pub collision_mask: u32,
+    /// The air; `None` means no aerodynamic forces at all (not even drag in still air).
+    pub wind: Option<&'a WindField>,
 }
 
 impl Default for Environment<'_> {
-    /// Nothing around: no colliders, every layer.
+    /// Nothing around: no colliders, every layer, no air.
     fn default() -> Self {
         Self {
             colliders: &[],
             collision_mask: u32::MAX,
+            wind: None,
         }
     }
 }
@@ -339,6 +353,7 @@ impl ClothSim {
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
             contacts: Contacts::new(n, model.max_edge_length()),
+            wind: WindScratch::new(model.triangles.len() / 3),
             pins: Vec::new(),
             model,
             settings,
@@ -582,6 +597,15 @@ impl ClothSim {
                 dt,
             );
         }
+        self.wind.begin_step(
+            env.wind,
+            (
+                self.settings.drag_coefficient,
+                self.settings.lift_coefficient,
+            ),
+            &self.positions,
+            &self.model.triangles,
+        );
         match self.settings.integrator {
             Integrator::Xpbd => self.step_xpbd(dt, substeps),
             Integrator::SymplecticEuler => explicit::step_symplectic_euler(self, dt, substeps),
@@ -645,15 +669,31 @@ impl ClothSim {
         for sub in 0..n {
             self.contacts.begin_substep(&self.positions);
             // Integrate free particles (symplectic Euler) and remember where they would go without
-            // constraints.
-            for ((x, predicted), (v, w)) in self
+            // constraints. Wind forces are evaluated at the start of the substep.
+            if self.wind.active {
+                self.forces.fill(Vec3::ZERO);
+                self.wind.add_forces(
+                    &self.positions,
+                    &self.velocities,
+                    &self.model.triangles,
+                    &mut self.forces,
+                );
+            }
+            let wind = self.wind.active;
+            for (((x, predicted), (v, w)), f) in self
                 .positions
                 .iter_mut()
                 .zip(self.predicted.iter_mut())
                 .zip(self.velocities.iter_mut().zip(&self.inv_mass))
+                .zip(&self.forces)
             {
                 if *w > 0.0 {
-                    *v = (*v + gravity_dv) * keep;
+                    let dv = if wind {
+                        gravity_dv + *f * (*w * h)
+                    } else {
+                        gravity_dv
+                    };
+                    *v = (*v + dv) * keep;
                     *x += *v * h;
                 }
                 *predicted = *x;

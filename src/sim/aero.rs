@@ -1,0 +1,661 @@
+//! Aerodynamics for triangle-mesh cloth: per-triangle drag and lift in the style of NvCloth's wind
+//! model, and a deterministic, smooth, seeded gust field to drive it.
+//!
+//! Each triangle is treated as a thin flat plate in a uniform relative air flow. With the relative
+//! air velocity `u` (wind minus the triangle's mean vertex velocity), area `A`, unit normal `n` and
+//! `cos θ = n·û`, the plate feels
+//!
+//! - drag `½ ρ C_d A |u|² |cos θ| û`: along the relative wind, proportional to the projected area;
+//! - lift `½ ρ C_l A |u|² |cos θ| sin θ l̂`: perpendicular to the relative wind (see
+//!   [`add_aero_forces`] for the direction `l̂`).
+//!
+//! Both vanish for an edge-on plate, lift also for a face-on one, and neither depends on the
+//! triangle's winding. The wind itself is sampled per triangle (e.g. at [`triangle_centroids`]),
+//! typically from [`Gusts::sample`].
+//!
+//! SI units throughout (m, s, kg, N). Plain slices in, plain slices out; nothing here allocates and
+//! nothing holds state.
+
+use bevy::reflect::Reflect;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::f32::consts::TAU;
+
+/// Squared relative speed (m²/s²) below which the air is treated as still: 1 µm/s.
+const MIN_SPEED_SQ: f32 = 1e-12;
+
+/// Area (m²) below which a triangle is treated as degenerate and skipped.
+const MIN_AREA: f32 = 1e-12;
+
+/// Aerodynamic coefficients of the cloth and the density of the air around it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct AeroParams {
+    /// Density of the air, kg/m³ (sea-level air: 1.225).
+    pub air_density: f32,
+    /// Drag coefficient `C_d`, dimensionless, scaling the force along the relative wind.
+    pub drag: f32,
+    /// Lift coefficient `C_l`, dimensionless, scaling the force across the relative wind.
+    pub lift: f32,
+}
+
+impl Default for AeroParams {
+    /// Sea-level air (1.225 kg/m³), `C_d = 1.0`, `C_l = 0.5`.
+    fn default() -> Self {
+        Self {
+            air_density: 1.225,
+            drag: 1.0,
+            lift: 0.5,
+        }
+    }
+}
+
+/// Adds the aerodynamic force on every triangle, in newtons, to its three vertices (a third each).
+///
+/// - `positions`, `velocities`: per-vertex positions (m) and velocities (m/s).
+/// - `triangles`: vertex indices of each triangle; either winding works.
+/// - `triangle_wind`: air velocity (m/s) at each triangle, e.g. sampled at its centroid.
+/// - `forces`: per-vertex forces (N). Forces are **added**; the caller zeroes the buffer (or fills
+///   it with other forces) beforehand.
+///
+/// For a triangle with relative air velocity `u = wind − mean(vertex velocities)`, area `A`, unit
+/// normal `n` and `c = cos θ = n·û`, the force is `q (C_d |c| û + C_l c (n − c û))` with
+/// `q = ½ ρ A |u|²`. The second term is the lift `q C_l |c| sin θ l̂`, derived as follows.
+/// A flat plate is pushed towards its leeward side, along `n_l = sign(c) n`, which does not
+/// depend on the winding. Lift is the part of that push perpendicular to the wind, so
+/// `l̂ = sign(c) (n − c û) / sin θ` (note `|n − c û| = sin θ`), and
+/// `|c| sin θ l̂ = |c| sign(c) (n − c û) = c (n − c û)`: no sign function and no division, zero
+/// face-on and edge-on, and invariant under `n → −n` because both factors change sign.
+///
+/// Sign convention: `lift·n` has the sign of `n·û`; lift points to the plate's leeward side, away
+/// from the face the air hits. A kite (plate tilted with its leading edge up into a horizontal
+/// wind) deflects the air down and is lifted up; a ramp (leading edge down) is pushed down.
+///
+/// Triangles with area below 1e-12 m² and triangles in air slower than 1e-6 m/s relative to
+/// them add nothing, so a cloth moving with the wind feels exactly zero force.
+///
+/// # Panics
+///
+/// If `velocities` or `forces` differ in length from `positions`, if `triangle_wind` differs in
+/// length from `triangles`, or if a vertex index is out of range.
+pub fn add_aero_forces(
+    positions: &[Vec3],
+    velocities: &[Vec3],
+    triangles: &[[u32; 3]],
+    triangle_wind: &[Vec3],
+    params: &AeroParams,
+    forces: &mut [Vec3],
+) {
+    assert_eq!(velocities.len(), positions.len(), "one velocity per vertex");
+    assert_eq!(forces.len(), positions.len(), "one force per vertex");
+    assert_eq!(
+        triangle_wind.len(),
+        triangles.len(),
+        "one wind per triangle"
+    );
+
+    for (tri, &wind) in triangles.iter().zip(triangle_wind) {
+        let [a, b, c] = tri.map(|i| i as usize);
+        let force = triangle_force(
+            [positions[a], positions[b], positions[c]],
+            [velocities[a], velocities[b], velocities[c]],
+            wind,
+            params,
+        );
+        let third = force / 3.0;
+        forces[a] += third;
+        forces[b] += third;
+        forces[c] += third;
+    }
+}
+
+/// Writes the centroid (mean of the three vertex positions, m) of each triangle into `out`, for
+/// sampling the wind field per triangle.
+///
+/// # Panics
+///
+/// If `out` differs in length from `triangles`, or if a vertex index is out of range.
+pub fn triangle_centroids(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut [Vec3]) {
+    assert_eq!(out.len(), triangles.len(), "one centroid per triangle");
+    for (o, tri) in out.iter_mut().zip(triangles) {
+        let [a, b, c] = tri.map(|i| positions[i as usize]);
+        *o = (a + b + c) / 3.0;
+    }
+}
+
+/// Total aerodynamic force (N) on one triangle; see [`add_aero_forces`].
+#[inline]
+fn triangle_force(p: [Vec3; 3], v: [Vec3; 3], wind: Vec3, params: &AeroParams) -> Vec3 {
+    // Averaging the per-vertex differences makes `u` exactly zero when every vertex moves with
+    // the wind (averaging the velocities first would leave rounding noise).
+    let u = ((wind - v[0]) + (wind - v[1]) + (wind - v[2])) / 3.0;
+    let speed_sq = u.length_squared();
+    if speed_sq < MIN_SPEED_SQ {
+        return Vec3::ZERO;
+    }
+    let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+    let twice_area = cross.length();
+    let area = 0.5 * twice_area;
+    if area < MIN_AREA {
+        return Vec3::ZERO;
+    }
+    let n = cross / twice_area;
+    let u_hat = u / speed_sq.sqrt();
+    let cos = n.dot(u_hat);
+    let q = 0.5 * params.air_density * area * speed_sq;
+    let drag = params.drag * cos.abs() * u_hat;
+    let lift = params.lift * cos * (n - cos * u_hat);
+    q * (drag + lift)
+}
+
+/// A gusty wind field: a base wind whose speed and direction fluctuate smoothly in time, with the
+/// fluctuations carried downstream at the base wind speed ("frozen" gusts, Taylor's hypothesis).
+///
+/// A pure function of its fields and the inputs of [`Gusts::sample`]: no state, no allocation,
+/// no global random number generator. Points at the same downstream distance see the same gust at
+/// the same time; the field does not vary across the wind.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct Gusts {
+    /// Seed of the noise; different seeds give uncorrelated gusts.
+    pub seed: u64,
+    /// Relative amplitude of the speed fluctuation: the speed stays within
+    /// `|base| (1 ± strength)` (0.3 = ±30%). Above 1 the wind reverses in lulls.
+    pub strength: f32,
+    /// Rate of the noise, Hz: roughly how many independent gust values per second.
+    pub frequency: f32,
+    /// Relative amplitude of the direction wobble: the direction is tilted by the angle
+    /// `atan(turbulence · |w|)` with `|w| ≤ √2` (0.1 = up to about 8°).
+    pub turbulence: f32,
+}
+
+impl Default for Gusts {
+    /// Seed 0, ±30% speed gusts at 0.5 Hz, 10% direction wobble.
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            strength: 0.3,
+            frequency: 0.5,
+            turbulence: 0.1,
+        }
+    }
+}
+
+/// Noise channels, to derive independent seeds from [`Gusts::seed`].
+const CHANNEL_SPEED: u64 = 0;
+const CHANNEL_WOBBLE_1: u64 = 1;
+const CHANNEL_WOBBLE_2: u64 = 2;
+const CHANNEL_SINE_PHASES: u64 = 3;
+
+/// Frequencies of the two sine components relative to [`Gusts::frequency`]: `(√5 − 1)/4` and
+/// `1/√2`, an irrational ratio, so the sum never repeats.
+const SINE_FREQUENCIES: [f32; 2] = [0.309_017, std::f32::consts::FRAC_1_SQRT_2];
+
+/// Weights of the fractal noise and the two sines in the speed fluctuation.
+const SPEED_WEIGHTS: [f32; 3] = [1.0, 0.35, 0.2];
+
+/// Frequency of the direction wobble relative to [`Gusts::frequency`].
+const WOBBLE_FREQUENCY: f32 = 1.7;
+
+impl Gusts {
+    /// The gusty wind velocity (m/s) at `position` (m) and `time` (s), around the mean wind
+    /// `base` (m/s).
+    ///
+    /// The noise is evaluated at the phase `time − position·b̂ / |base|`, so a point a distance `d`
+    /// downstream sees the same gust `d / |base|` later. The speed is `|base| (1 + strength·g)`
+    /// with `g ∈ [−1, 1]` a normalised sum of three octaves of [`value_noise`] and two sines of
+    /// incommensurate frequency. The direction is `b̂ + turbulence·w`, renormalised, where `w` is
+    /// perpendicular to `base` with components from two further noise channels; the speed is not
+    /// affected by the wobble.
+    ///
+    /// Returns exactly `base` when `strength` and `turbulence` are zero, and `base` unchanged for
+    /// calm air (`|base| < 1e-6` m/s, including exactly zero).
+    pub fn sample(&self, base: Vec3, time: f32, position: Vec3) -> Vec3 {
+        let speed_sq = base.length_squared();
+        if speed_sq < MIN_SPEED_SQ {
+            return base;
+        }
+        let speed = speed_sq.sqrt();
+        // Frozen gusts: the air now at `position` crossed the plane through the origin
+        // `position·b̂ / |base|` seconds ago, carrying the gust it had then.
+        let phase = (time - position.dot(base) / speed_sq) * self.frequency;
+
+        let gain = 1.0 + self.strength * self.speed_fluctuation(phase);
+
+        let (e1, e2) = (base / speed).any_orthonormal_pair();
+        let wobble_phase = WOBBLE_FREQUENCY * phase;
+        let w = fractal_noise(channel_seed(self.seed, CHANNEL_WOBBLE_1), wobble_phase) * e1
+            + fractal_noise(channel_seed(self.seed, CHANNEL_WOBBLE_2), wobble_phase) * e2;
+        // Tilting `base` by the perpendicular `turbulence |base| w` and restoring its length: a
+        // rotation by `atan(turbulence |w|)`. With zero turbulence this is `base` bit for bit.
+        let tilted = (base + self.turbulence * speed * w)
+            / (1.0 + self.turbulence * self.turbulence * w.length_squared()).sqrt();
+        gain * tilted
+    }
+
+    /// The speed fluctuation `g ∈ [−1, 1]` at a noise phase (time × frequency).
+    fn speed_fluctuation(&self, phase: f32) -> f32 {
+        let phases = channel_seed(self.seed, CHANNEL_SINE_PHASES);
+        let phase_1 = TAU * unit_interval(phases);
+        let phase_2 = TAU * unit_interval(mix64(phases));
+        let [w_noise, w_sine_1, w_sine_2] = SPEED_WEIGHTS;
+        let sum = w_noise * fractal_noise(channel_seed(self.seed, CHANNEL_SPEED), phase)
+            + w_sine_1 * (TAU * SINE_FREQUENCIES[0] * phase + phase_1).sin()
+            + w_sine_2 * (TAU * SINE_FREQUENCIES[1] * phase + phase_2).sin();
+        (sum / (w_noise + w_sine_1 + w_sine_2)).clamp(-1.0, 1.0)
+    }
+}
+
+/// Smooth 1-D value noise in `[−1, 1]`, deterministic in `(seed, t)`.
+///
+/// Each integer `i` gets a pseudo-random value in `[−1, 1]` hashed from `(seed, i)`; between two
+/// lattice points the values are blended with the quintic fade `6f⁵ − 15f⁴ + 10f³`, so the noise
+/// is C² and its slope is at most 3.75 per unit `t`. Independent of the lattice values, so
+/// uncorrelated beyond one unit. `t` should be finite and well below 2²³ in magnitude, where `f32`
+/// still resolves fractions of a unit.
+pub fn value_noise(seed: u64, t: f32) -> f32 {
+    let cell = t.floor();
+    let f = t - cell;
+    let i = cell as i64;
+    let a = lattice_value(seed, i);
+    let b = lattice_value(seed, i.wrapping_add(1));
+    let fade = (f * f * f * (f * (f * 6.0 - 15.0) + 10.0)).min(1.0);
+    (a + (b - a) * fade).clamp(-1.0, 1.0)
+}
+
+/// Three octaves of [`value_noise`] (relative rates 1, 2.03, 4.11; amplitudes 1, ½, ¼), normalised
+/// to `[−1, 1]`. The non-integer rates keep the octaves' lattices from lining up.
+fn fractal_noise(seed: u64, t: f32) -> f32 {
+    const OCTAVES: [(f32, f32); 3] = [(1.0, 1.0), (2.03, 0.5), (4.11, 0.25)];
+    let mut sum = 0.0;
+    let mut total = 0.0;
+    for (k, &(rate, amplitude)) in (0u64..).zip(&OCTAVES) {
+        sum += amplitude * value_noise(channel_seed(seed, k), rate * t);
+        total += amplitude;
+    }
+    (sum / total).clamp(-1.0, 1.0)
+}
+
+/// The value in `[−1, 1]` at lattice point `i`: entry `i` of a SplitMix64 stream keyed by `seed`.
+#[inline]
+fn lattice_value(seed: u64, i: i64) -> f32 {
+    let key = mix64(seed.wrapping_add(GOLDEN_GAMMA));
+    let h = mix64(key.wrapping_add((i as u64).wrapping_mul(GOLDEN_GAMMA)));
+    2.0 * unit_interval(h) - 1.0
+}
+
+/// A seed for sub-channel `channel` of `seed`.
+#[inline]
+fn channel_seed(seed: u64, channel: u64) -> u64 {
+    mix64(seed ^ mix64(channel.wrapping_add(1).wrapping_mul(GOLDEN_GAMMA)))
+}
+
+/// The top 24 bits of `h` as a number in `[0, 1]` (both ends included, exactly).
+#[inline]
+fn unit_interval(h: u64) -> f32 {
+    (h >> 40) as f32 / ((1u32 << 24) - 1) as f32
+}
+
+/// `2⁶⁴ / φ`, the increment of the SplitMix64 generator.
+const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// The SplitMix64 output function: a bijective 64-bit mixer.
+#[inline]
+fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f32::consts::FRAC_1_SQRT_2;
+
+    /// `|a − b| ≤ tol · max(1, |b|)`.
+    fn close(a: Vec3, b: Vec3, tol: f32) -> bool {
+        (a - b).length() <= tol * b.length().max(1.0)
+    }
+
+    /// Forces on a mesh with still vertices in a uniform wind.
+    fn forces_in_wind(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        wind: Vec3,
+        params: &AeroParams,
+    ) -> Vec<Vec3> {
+        let velocities = vec![Vec3::ZERO; positions.len()];
+        let winds = vec![wind; triangles.len()];
+        let mut forces = vec![Vec3::ZERO; positions.len()];
+        add_aero_forces(
+            positions,
+            &velocities,
+            triangles,
+            &winds,
+            params,
+            &mut forces,
+        );
+        forces
+    }
+
+    fn total(forces: &[Vec3]) -> Vec3 {
+        forces.iter().copied().sum()
+    }
+
+    /// A generic tilted triangle.
+    const TILTED: [Vec3; 3] = [
+        Vec3::new(0.1, -0.2, 0.3),
+        Vec3::new(1.3, 0.4, -0.2),
+        Vec3::new(-0.3, 0.9, 0.8),
+    ];
+
+    #[test]
+    fn zero_relative_velocity_gives_exactly_zero_force() {
+        let v = Vec3::new(1.3, -0.7, 2.1);
+        let mut forces = vec![Vec3::ZERO; 3];
+        add_aero_forces(
+            &TILTED,
+            &[v; 3],
+            &[[0, 1, 2]],
+            &[v],
+            &AeroParams::default(),
+            &mut forces,
+        );
+        assert!(forces.iter().all(|&f| f == Vec3::ZERO), "{forces:?}");
+    }
+
+    #[test]
+    fn force_scales_with_relative_speed_squared() {
+        let dir = Vec3::new(0.6, 0.48, -0.64);
+        let params = AeroParams::default();
+        let f10 = total(&forces_in_wind(&TILTED, &[[0, 1, 2]], 10.0 * dir, &params));
+        let f5 = total(&forces_in_wind(&TILTED, &[[0, 1, 2]], 5.0 * dir, &params));
+        assert!(f5.length() > 0.0);
+        assert!((f10.length() / f5.length() - 4.0).abs() < 1e-4);
+        assert!(close(f10, 4.0 * f5, 1e-5), "same direction");
+    }
+
+    #[test]
+    fn plate_facing_wind_gets_pure_drag() {
+        // Right triangle in the yz plane with legs 2 m and 3 m: area 3 m².
+        let plate = [
+            Vec3::ZERO,
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 0.0, 3.0),
+        ];
+        let params = AeroParams::default();
+        let speed = 8.0;
+        let f = total(&forces_in_wind(
+            &plate,
+            &[[0, 1, 2]],
+            speed * Vec3::X,
+            &params,
+        ));
+        let expected = 0.5 * params.air_density * params.drag * 3.0 * speed * speed;
+        assert!(
+            (f.x - expected).abs() < 1e-5 * expected,
+            "{f} vs {expected}"
+        );
+        assert_eq!((f.y, f.z), (0.0, 0.0), "no lift");
+    }
+
+    #[test]
+    fn edge_on_plate_gets_zero_force() {
+        // Plate in the xy plane (normal z), wind along x.
+        let plate = [
+            Vec3::ZERO,
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.5, 1.0, 0.0),
+        ];
+        let forces = forces_in_wind(&plate, &[[0, 1, 2]], 12.0 * Vec3::X, &AeroParams::default());
+        assert!(forces.iter().all(|&f| f == Vec3::ZERO), "{forces:?}");
+    }
+
+    #[test]
+    fn flipping_triangle_winding_leaves_forces_unchanged() {
+        let positions = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.1, 0.0),
+            Vec3::new(0.0, 0.2, 1.0),
+            Vec3::new(1.1, 0.5, 1.2),
+        ];
+        let velocities = [
+            Vec3::new(0.1, 0.0, -0.2),
+            Vec3::new(-0.3, 0.4, 0.0),
+            Vec3::new(0.0, 0.2, 0.5),
+            Vec3::new(0.2, -0.1, 0.1),
+        ];
+        let winds = [Vec3::new(4.0, 1.0, 2.0), Vec3::new(3.0, -2.0, 1.5)];
+        let run = |triangles: &[[u32; 3]]| {
+            let mut forces = [Vec3::ZERO; 4];
+            let params = AeroParams::default();
+            add_aero_forces(
+                &positions,
+                &velocities,
+                triangles,
+                &winds,
+                &params,
+                &mut forces,
+            );
+            forces
+        };
+        let original = run(&[[0, 1, 2], [1, 3, 2]]);
+        let flipped = run(&[[0, 2, 1], [1, 2, 3]]);
+        assert!(original.iter().any(|f| f.length() > 1.0));
+        for (a, b) in original.iter().zip(&flipped) {
+            assert!(close(*b, *a, 1e-6), "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn plate_at_45_degrees_gets_lift_perpendicular_to_wind_upward_for_a_kite() {
+        let params = AeroParams {
+            drag: 0.0,
+            ..AeroParams::default()
+        };
+        let speed = 10.0;
+        let wind = speed * Vec3::X;
+        // Kite: leading (upwind) edge up, plate running down-wind along (1, −1, 0); area √2/2 m².
+        let kite = [Vec3::ZERO, Vec3::new(1.0, -1.0, 0.0), Vec3::Z];
+        // Ramp: leading edge down, plate rising down-wind along (1, 1, 0).
+        let ramp = [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Z];
+        let area = 0.5 * std::f32::consts::SQRT_2;
+        let lift = 0.5 * params.air_density * params.lift * area * speed * speed * 0.5;
+
+        let f = total(&forces_in_wind(&kite, &[[0, 1, 2]], wind, &params));
+        assert!(
+            f.dot(Vec3::X).abs() < 1e-5 * lift,
+            "perpendicular to the wind: {f}"
+        );
+        assert!(
+            close(f, lift * Vec3::Y, 1e-5),
+            "kite lifted up: {f} vs {lift}"
+        );
+
+        let f = total(&forces_in_wind(&ramp, &[[0, 1, 2]], wind, &params));
+        assert!(
+            close(f, -lift * Vec3::Y, 1e-5),
+            "ramp pushed down: {f} vs {lift}"
+        );
+
+        // With drag on, the along-wind part is the drag on the projected area.
+        let params = AeroParams::default();
+        let f = total(&forces_in_wind(&kite, &[[0, 1, 2]], wind, &params));
+        let drag = 0.5 * params.air_density * params.drag * area * speed * speed * FRAC_1_SQRT_2;
+        let lift = 0.5 * params.air_density * params.lift * area * speed * speed * 0.5;
+        assert!(close(f, Vec3::new(drag, lift, 0.0), 1e-5), "{f}");
+    }
+
+    #[test]
+    fn vertex_forces_sum_to_triangle_force() {
+        let velocities = [
+            Vec3::new(0.2, 0.0, 0.1),
+            Vec3::ZERO,
+            Vec3::new(-0.1, 0.3, 0.0),
+        ];
+        let wind = Vec3::new(5.0, 2.0, -3.0);
+        let params = AeroParams::default();
+        let expected = triangle_force(TILTED, velocities, wind, &params);
+        let mut forces = [Vec3::splat(1.0); 3];
+        add_aero_forces(
+            &TILTED,
+            &velocities,
+            &[[0, 1, 2]],
+            &[wind],
+            &params,
+            &mut forces,
+        );
+        assert!(expected.length() > 1.0);
+        for f in forces {
+            assert!(
+                close(f - Vec3::ONE, expected / 3.0, 1e-6),
+                "a third each, added"
+            );
+        }
+        assert!(close(total(&forces) - Vec3::splat(3.0), expected, 1e-6));
+    }
+
+    #[test]
+    fn degenerate_triangle_gets_zero_force() {
+        let line = [Vec3::ZERO, Vec3::X, 2.0 * Vec3::X];
+        let forces = forces_in_wind(
+            &line,
+            &[[0, 1, 2]],
+            Vec3::new(3.0, 4.0, 5.0),
+            &AeroParams::default(),
+        );
+        assert!(forces.iter().all(|&f| f == Vec3::ZERO));
+    }
+
+    #[test]
+    fn triangle_centroids_are_vertex_means() {
+        let mut out = [Vec3::ZERO; 2];
+        triangle_centroids(
+            &[
+                Vec3::ZERO,
+                Vec3::new(3.0, 0.0, 0.0),
+                Vec3::new(0.0, 3.0, 0.0),
+                Vec3::new(0.0, 0.0, 6.0),
+            ],
+            &[[0, 1, 2], [1, 2, 3]],
+            &mut out,
+        );
+        assert_eq!(out, [Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 2.0)]);
+    }
+
+    /// `n` evenly spaced samples over `[from, to)`.
+    fn samples(from: f32, to: f32, n: usize) -> impl Iterator<Item = f32> {
+        (0..n).map(move |k| from + (to - from) * k as f32 / n as f32)
+    }
+
+    #[test]
+    fn value_noise_is_deterministic_for_same_seed() {
+        for t in samples(-50.0, 50.0, 1000) {
+            assert_eq!(value_noise(42, t).to_bits(), value_noise(42, t).to_bits());
+        }
+    }
+
+    #[test]
+    fn value_noise_differs_across_seeds() {
+        let differing = samples(-50.0, 50.0, 1000)
+            .filter(|&t| (value_noise(1, t) - value_noise(2, t)).abs() > 1e-3)
+            .count();
+        assert!(differing > 900, "{differing} of 1000 differ");
+    }
+
+    #[test]
+    fn value_noise_stays_within_unit_range() {
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for seed in [0, 7, u64::MAX] {
+            for t in samples(-20_000.0, 20_000.0, 200_000) {
+                let g = value_noise(seed, t);
+                assert!((-1.0..=1.0).contains(&g), "g({t}) = {g}");
+                (lo, hi) = (lo.min(g), hi.max(g));
+            }
+        }
+        assert!(lo < -0.99 && hi > 0.99, "spans the range: [{lo}, {hi}]");
+    }
+
+    #[test]
+    fn value_noise_is_continuous() {
+        // Slope ≤ 3.75, so a step of 1e-4 moves it by at most 3.75e-4 (plus rounding). The
+        // sampling crosses many lattice points, where a discontinuity would show.
+        let dt = 1e-4;
+        for t in samples(-100.0, 100.0, 20_011).chain((-100..100).map(|i| i as f32 - 0.5 * dt)) {
+            let step = (value_noise(3, t + dt) - value_noise(3, t)).abs();
+            assert!(step < 1e-3, "jump {step} at {t}");
+        }
+    }
+
+    #[test]
+    fn gusts_with_zero_strength_and_turbulence_return_base() {
+        let gusts = Gusts {
+            seed: 9,
+            strength: 0.0,
+            turbulence: 0.0,
+            ..Gusts::default()
+        };
+        let base = Vec3::new(3.7, -0.3, 1.9);
+        for t in samples(0.0, 100.0, 500) {
+            let p = Vec3::new(t.sin(), 2.0, -t);
+            assert_eq!(gusts.sample(base, t, p), base);
+        }
+    }
+
+    #[test]
+    fn gusts_with_zero_base_return_zero() {
+        let gusts = Gusts::default();
+        assert_eq!(gusts.sample(Vec3::ZERO, 1.5, Vec3::ONE), Vec3::ZERO);
+    }
+
+    #[test]
+    fn gust_speed_stays_within_strength_band() {
+        let gusts = Gusts {
+            seed: 5,
+            strength: 0.4,
+            turbulence: 0.3,
+            frequency: 2.0,
+        };
+        let base = Vec3::new(0.0, 0.0, -6.0);
+        for t in samples(0.0, 200.0, 20_000) {
+            let speed = gusts.sample(base, t, Vec3::ZERO).length();
+            assert!(
+                (3.6 * 0.99999..=8.4 * 1.00001).contains(&speed),
+                "{speed} at {t}"
+            );
+        }
+    }
+
+    #[test]
+    fn gust_mean_speed_is_close_to_base_speed() {
+        let gusts = Gusts::default();
+        let base = Vec3::new(8.0, 0.0, 6.0);
+        let n = 100_000;
+        let mean = samples(0.0, 5_000.0, n)
+            .map(|t| f64::from(gusts.sample(base, t, Vec3::new(1.0, 2.0, 3.0)).length()))
+            .sum::<f64>()
+            / n as f64;
+        assert!((mean / 10.0 - 1.0).abs() < 0.02, "mean speed {mean}");
+    }
+
+    #[test]
+    fn downstream_point_sees_same_gust_delayed() {
+        let gusts = Gusts {
+            seed: 11,
+            ..Gusts::default()
+        };
+        let base = Vec3::new(6.0, 0.0, 8.0);
+        let upstream = Vec3::new(1.0, 2.0, -3.0);
+        let distance = 25.0;
+        let downstream = upstream + distance * base.normalize();
+        let delay = distance / base.length();
+        let mut varies = false;
+        for t in samples(0.0, 60.0, 600) {
+            let here = gusts.sample(base, t, upstream);
+            let later = gusts.sample(base, t + delay, downstream);
+            assert!(close(later, here, 1e-4), "{here} vs {later} at {t}");
+            varies |= (gusts.sample(base, t, downstream) - here).length() > 0.1;
+        }
+        assert!(varies, "the gust is not the same everywhere at once");
+    }
+}

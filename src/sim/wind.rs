@@ -1,0 +1,224 @@
+//! The wind field a cloth sits in, and the per-cloth scratch that turns it into forces: the field is
+//! sampled once per step at every triangle's centroid, then the aerodynamic forces of
+//! [`aero`](super::aero) are evaluated every substep from the current positions and velocities.
+
+use glam::Vec3;
+
+use super::aero::{AeroParams, Gusts, add_aero_forces, triangle_centroids};
+use crate::error::{ClothError, non_negative};
+
+/// A region of extra wind: inside `shape` (in the zone's frame, placed by `to_local`), `velocity` is
+/// added to the global wind, fading linearly to zero over the outer `falloff` fraction of the
+/// zone's size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedWindZone {
+    /// The zone's extent.
+    pub shape: WindZoneShape,
+    /// World point to the zone's frame (the inverse of its placement).
+    pub to_local: glam::Affine3A,
+    /// Wind added inside, m/s (world frame).
+    pub velocity: Vec3,
+    /// Gusts of the zone's wind, if any.
+    pub gusts: Option<Gusts>,
+    /// Fraction (0..=1) of the zone's size over which its wind fades out at the edge.
+    pub falloff: f32,
+}
+
+/// The extent of a [`PlacedWindZone`], centred on its origin.
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize, bevy::reflect::Reflect,
+)]
+pub enum WindZoneShape {
+    /// A ball of this radius, m.
+    Sphere(f32),
+    /// A box with these half extents, m.
+    Cuboid(Vec3),
+}
+
+impl WindZoneShape {
+    /// How deep inside `p` is, as a fraction: 1 at the centre (or anywhere deeper than the falloff
+    /// band), 0 at and beyond the surface.
+    fn weight(&self, p: Vec3, falloff: f32) -> f32 {
+        // Normalised "radius": 0 at the centre, 1 on the surface.
+        let r = match *self {
+            WindZoneShape::Sphere(radius) => p.length() / radius,
+            WindZoneShape::Cuboid(half) => (p.abs() / half).max_element(),
+        };
+        if r >= 1.0 {
+            0.0
+        } else if falloff <= 0.0 {
+            1.0
+        } else {
+            ((1.0 - r) / falloff).min(1.0)
+        }
+    }
+
+    /// Checks the dimensions are positive and finite.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        match *self {
+            WindZoneShape::Sphere(r) => crate::error::positive("wind_zone.radius", r),
+            WindZoneShape::Cuboid(h) => {
+                crate::error::positive("wind_zone.half_size.x", h.x)?;
+                crate::error::positive("wind_zone.half_size.y", h.y)?;
+                crate::error::positive("wind_zone.half_size.z", h.z)
+            }
+        }
+    }
+}
+
+/// The air around the cloths during one step: a global wind (optionally gusty), local zones, and
+/// the air's density.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WindField {
+    /// The global mean wind, m/s.
+    pub velocity: Vec3,
+    /// Gusts of the global wind.
+    pub gusts: Option<Gusts>,
+    /// Air density, kg/m³.
+    pub air_density: f32,
+    /// Local wind zones.
+    pub zones: Vec<PlacedWindZone>,
+    /// Simulation time at the end of the step, s (drives the gusts).
+    pub time: f32,
+}
+
+impl WindField {
+    /// The wind velocity at world point `p`.
+    pub fn sample(&self, p: Vec3) -> Vec3 {
+        let gust = |gusts: &Option<Gusts>, base: Vec3| match gusts {
+            Some(g) => g.sample(base, self.time, p),
+            None => base,
+        };
+        let mut wind = gust(&self.gusts, self.velocity);
+        for zone in &self.zones {
+            let w = zone
+                .shape
+                .weight(zone.to_local.transform_point3(p), zone.falloff);
+            if w > 0.0 {
+                wind += gust(&zone.gusts, zone.velocity) * w;
+            }
+        }
+        wind
+    }
+
+    /// Checks the density, the velocity and the zones.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        non_negative("wind.air_density", self.air_density)?;
+        if !self.velocity.is_finite() {
+            return Err(ClothError::InvalidValue {
+                field: "wind.velocity",
+                expected: "finite",
+                value: f64::NAN,
+            });
+        }
+        for z in &self.zones {
+            z.shape.validate()?;
+            non_negative("wind_zone.falloff", z.falloff)?;
+        }
+        Ok(())
+    }
+}
+
+/// Per-cloth wind scratch: the wind at each triangle for the current step.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WindScratch {
+    /// Whether the current step has wind (and so aerodynamic forces).
+    pub active: bool,
+    params: AeroParams,
+    centroids: Vec<Vec3>,
+    triangle_wind: Vec<Vec3>,
+}
+
+impl WindScratch {
+    /// Buffers for `triangles` triangles.
+    pub fn new(triangles: usize) -> Self {
+        Self {
+            active: false,
+            params: AeroParams::default(),
+            centroids: vec![Vec3::ZERO; triangles],
+            triangle_wind: vec![Vec3::ZERO; triangles],
+        }
+    }
+
+    /// Samples `field` at every triangle of the cloth for this step (or switches wind off).
+    /// `coefficients` are the cloth's drag and lift; the density comes from the field.
+    pub fn begin_step(
+        &mut self,
+        field: Option<&WindField>,
+        coefficients: (f32, f32),
+        positions: &[Vec3],
+        triangles: &[u32],
+    ) {
+        let Some(field) = field else {
+            self.active = false;
+            return;
+        };
+        self.active = true;
+        self.params = AeroParams {
+            air_density: field.air_density,
+            drag: coefficients.0,
+            lift: coefficients.1,
+        };
+        let triangles = triangles.as_chunks::<3>().0;
+        triangle_centroids(positions, triangles, &mut self.centroids);
+        for (w, c) in self.triangle_wind.iter_mut().zip(&self.centroids) {
+            *w = field.sample(*c);
+        }
+    }
+
+    /// Adds the aerodynamic forces at the current state to `forces` (when wind is on).
+    pub fn add_forces(
+        &self,
+        positions: &[Vec3],
+        velocities: &[Vec3],
+        triangles: &[u32],
+        forces: &mut [Vec3],
+    ) {
+        if self.active {
+            let triangles = triangles.as_chunks::<3>().0;
+            add_aero_forces(
+                positions,
+                velocities,
+                triangles,
+                &self.triangle_wind,
+                &self.params,
+                forces,
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn zones_add_wind_inside_and_fade_at_the_edge() {
+        let zone = PlacedWindZone {
+            shape: WindZoneShape::Sphere(2.0),
+            to_local: glam::Affine3A::from_translation(Vec3::new(-10.0, 0.0, 0.0)),
+            velocity: Vec3::new(0.0, 0.0, 4.0),
+            gusts: None,
+            falloff: 0.5,
+        };
+        let field = WindField {
+            velocity: Vec3::X,
+            air_density: 1.2,
+            zones: vec![zone],
+            ..Default::default()
+        };
+        // The zone is centred at x = 10 (the inverse of a translation by -10).
+        assert_eq!(
+            field.sample(Vec3::new(10.0, 0.0, 0.0)),
+            Vec3::new(1.0, 0.0, 4.0)
+        );
+        assert_eq!(
+            field.sample(Vec3::new(10.0, 0.5, 0.0)),
+            Vec3::new(1.0, 0.0, 4.0)
+        );
+        // Three quarters out: half way through the falloff band.
+        let mid = field.sample(Vec3::new(10.0, 1.5, 0.0));
+        assert!((mid.z - 2.0).abs() < 1e-5, "{mid}");
+        assert_eq!(field.sample(Vec3::new(10.0, 2.5, 0.0)), Vec3::X);
+    }
+}
