@@ -31,6 +31,8 @@
 
 pub mod components;
 pub mod error;
+#[cfg(feature = "egui")]
+pub mod inspector;
 pub mod plugin;
 mod render;
 pub mod scene;

@@ -120,3 +120,29 @@ fn subdivision_compare_shows_three_rules_at_four_levels() {
         );
     }
 }
+
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn drape_shows_the_cloth_over_the_sphere() {
+    let p = load("drape");
+    assert_not_blank(&p);
+    // The cloth spans the middle of the picture above the sphere, between the two panels.
+    let cloth = cloth_fraction(&p, (0.35, 0.2, 0.65, 0.35));
+    assert!(
+        cloth > 0.4,
+        "only {:.0}% cloth pixels over the sphere",
+        cloth * 100.0
+    );
+}
+
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn flag_shows_the_flag_beside_its_pole() {
+    let p = load("flag");
+    assert_not_blank(&p);
+    // The flag flies to the right of the pole, in the upper middle of the picture.
+    let flag = cloth_fraction(&p, (0.42, 0.35, 0.55, 0.55));
+    assert!(flag > 0.5, "only {:.0}% flag pixels", flag * 100.0);
+    let left = cloth_fraction(&p, (0.3, 0.3, 0.37, 0.6));
+    assert!(left < 0.05, "flag colour left of the pole: {left}");
+}

@@ -157,7 +157,10 @@ fn a_flag_in_steady_wind_keeps_bounded_energy_for_60_seconds() {
     );
     // The free edge streams downwind of the pole (at x = -0.575), most of the flag's length away.
     let p = state(&app, flag).positions();
-    let fly = (0..ny).map(|j| p[(j * nx + nx - 1) as usize].x).sum::<f32>() / ny as f32;
+    let fly = (0..ny)
+        .map(|j| p[(j * nx + nx - 1) as usize].x)
+        .sum::<f32>()
+        / ny as f32;
     assert!(fly > -0.575 + 0.9 * 1.15, "free edge at x = {fly}");
 }
 

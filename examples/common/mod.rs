@@ -41,6 +41,7 @@ impl Plugin for ExamplePlugin {
             ..default()
         }))
         .add_plugins(PanOrbitCameraPlugin)
+        .add_systems(Update, block_camera_under_egui)
         .insert_resource(ClearColor(Color::srgb(0.62, 0.72, 0.82)));
         let (focus, eye) = (self.focus, self.eye);
         app.add_systems(
@@ -85,6 +86,19 @@ impl Plugin for ExamplePlugin {
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(ScreenshotMode { path, frames })
             .add_systems(Update, take_screenshot);
+        }
+    }
+}
+
+/// The orbit camera ignores the mouse while it is over an egui window.
+fn block_camera_under_egui(
+    wants: Option<Res<bevy_egui::input::EguiWantsInput>>,
+    mut cameras: Query<&mut PanOrbitCamera>,
+) {
+    let blocked = wants.is_some_and(|w| w.wants_any_pointer_input());
+    for mut camera in &mut cameras {
+        if camera.enabled == blocked {
+            camera.enabled = !blocked;
         }
     }
 }

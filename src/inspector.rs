@@ -1,0 +1,252 @@
+//! [`ClothInspectorPlugin`] (feature `egui`): an egui window that edits every cloth's
+//! [`ClothConfig`] and [`ClothSubdivision`] at runtime, releases pins, tunes the [`Wind`], and shows
+//! frames per second, the time the fixed step spends in the solver, and particle counts.
+//!
+//! Components are written only when a value really changes, so an open panel does not make the
+//! plugin re-apply settings every frame.
+
+use std::time::Instant;
+
+use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::ecs::prelude::*;
+use bevy::math::Vec3;
+use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
+
+use crate::components::*;
+use crate::plugin::ClothSystems;
+use crate::sim::{Integrator, MAX_ITERATIONS, MAX_SUBSTEPS};
+use crate::subdivision::{BoundaryMode, VertexRule};
+
+/// Adds the cloth inspector window (and `EguiPlugin` and `FrameTimeDiagnosticsPlugin` if the app
+/// has not added them). Assumes the cloths step in [`FixedUpdate`] (the default) for its timing.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+/// use bevy_cloth::inspector::ClothInspectorPlugin;
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, ClothPlugin::default(), ClothInspectorPlugin))
+///     .run();
+/// ```
+#[derive(Debug, Default, Clone, Copy)]
+pub struct ClothInspectorPlugin;
+
+impl Plugin for ClothInspectorPlugin {
+    fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<EguiPlugin>() {
+            app.add_plugins(EguiPlugin::default());
+        }
+        if !app.is_plugin_added::<FrameTimeDiagnosticsPlugin>() {
+            app.add_plugins(FrameTimeDiagnosticsPlugin::default());
+        }
+        app.init_resource::<StepTiming>()
+            .add_systems(
+                FixedUpdate,
+                (
+                    start_timing.before(ClothSystems::Step),
+                    stop_timing.after(ClothSystems::Step),
+                ),
+            )
+            .add_systems(EguiPrimaryContextPass, inspector_window);
+    }
+}
+
+/// Wall time of the solver's fixed step, smoothed.
+#[derive(Resource, Debug, Default)]
+struct StepTiming {
+    started: Option<Instant>,
+    /// Exponential moving average, ms.
+    average_ms: f32,
+}
+
+fn start_timing(mut timing: ResMut<StepTiming>) {
+    timing.started = Some(Instant::now());
+}
+
+fn stop_timing(mut timing: ResMut<StepTiming>) {
+    if let Some(start) = timing.started.take() {
+        let ms = start.elapsed().as_secs_f32() * 1e3;
+        timing.average_ms = if timing.average_ms == 0.0 {
+            ms
+        } else {
+            0.9 * timing.average_ms + 0.1 * ms
+        };
+    }
+}
+
+type InspectedCloth<'a> = (
+    Entity,
+    Option<&'a bevy::ecs::name::Name>,
+    &'a mut ClothConfig,
+    Option<&'a mut ClothSubdivision>,
+    &'a mut ClothPins,
+    Option<&'a ClothState>,
+    Option<&'a ClothInvalid>,
+);
+
+fn inspector_window(
+    mut contexts: EguiContexts,
+    diagnostics: Res<DiagnosticsStore>,
+    timing: Res<StepTiming>,
+    wind: Option<ResMut<Wind>>,
+    mut cloths: Query<InspectedCloth>,
+) -> Result {
+    let ctx = contexts.ctx_mut()?;
+    egui::Window::new("Cloth inspector")
+        .default_width(280.0)
+        .show(ctx, |ui| {
+            let fps = diagnostics
+                .get(&FrameTimeDiagnosticsPlugin::FPS)
+                .and_then(|d| d.smoothed())
+                .unwrap_or(0.0);
+            let particles: usize = cloths
+                .iter()
+                .filter_map(|c| c.5)
+                .map(|s| s.positions().len())
+                .sum();
+            ui.label(format!("{fps:.1} fps"));
+            ui.label(format!("fixed step (solver): {:.2} ms", timing.average_ms));
+            ui.label(format!("particles: {particles}"));
+            if let Some(mut wind) = wind {
+                ui.separator();
+                let mut w = *wind;
+                wind_ui(ui, &mut w);
+                if w != *wind {
+                    *wind = w;
+                }
+            }
+            for (entity, name, mut config, subdivision, mut pins, state, invalid) in &mut cloths {
+                ui.separator();
+                let title = name.map_or_else(|| format!("cloth {entity}"), |n| n.to_string());
+                egui::CollapsingHeader::new(title)
+                    .id_salt(entity)
+                    .default_open(true)
+                    .show(ui, |ui| {
+                        if let Some(ClothInvalid(e)) = invalid {
+                            ui.colored_label(egui::Color32::RED, e.to_string());
+                        }
+                        if let Some(state) = state {
+                            ui.label(format!(
+                                "{} particles, {} steps, {} colliders near",
+                                state.positions().len(),
+                                state.steps(),
+                                state.sim().active_colliders()
+                            ));
+                        }
+                        let mut c = *config;
+                        config_ui(ui, &mut c);
+                        if c != *config {
+                            *config = c;
+                        }
+                        if let Some(mut sub) = subdivision {
+                            let mut s = *sub;
+                            subdivision_ui(ui, &mut s);
+                            if s != *sub {
+                                *sub = s;
+                            }
+                        }
+                        ui.horizontal(|ui| {
+                            ui.label(format!("{} pins", pins.pins.len()));
+                            if ui.button("Release all").clicked() && !pins.pins.is_empty() {
+                                pins.release_all();
+                            }
+                        });
+                    });
+            }
+        });
+    Ok(())
+}
+
+fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f64) {
+    ui.horizontal(|ui| {
+        ui.label(label);
+        ui.add(egui::DragValue::new(&mut v.x).speed(speed));
+        ui.add(egui::DragValue::new(&mut v.y).speed(speed));
+        ui.add(egui::DragValue::new(&mut v.z).speed(speed));
+    });
+}
+
+fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
+    let s = &mut c.solver;
+    egui::ComboBox::from_label("integrator")
+        .selected_text(s.integrator.name())
+        .show_ui(ui, |ui| {
+            for i in Integrator::ALL {
+                ui.selectable_value(&mut s.integrator, i, i.name());
+            }
+        });
+    ui.add(
+        egui::Slider::new(&mut s.substeps, 1..=MAX_SUBSTEPS)
+            .logarithmic(true)
+            .text("substeps"),
+    );
+    ui.add(
+        egui::Slider::new(&mut s.iterations, 1..=MAX_ITERATIONS)
+            .logarithmic(true)
+            .text("iterations"),
+    );
+    ui.checkbox(&mut s.auto_substeps, "auto substeps (explicit integrators)");
+    for (value, label) in [
+        (&mut s.stiffness.structural, "structural k, N/m"),
+        (&mut s.stiffness.shear, "shear k, N/m"),
+        (&mut s.stiffness.bend, "bend k, N/m"),
+    ] {
+        ui.add(
+            egui::Slider::new(value, 0.0..=1e6)
+                .logarithmic(true)
+                .text(label),
+        );
+    }
+    ui.add(
+        egui::Slider::new(&mut s.particle_mass, 1e-5..=1.0)
+            .logarithmic(true)
+            .text("particle mass, kg"),
+    );
+    ui.add(egui::Slider::new(&mut s.damping, 0.0..=10.0).text("damping, 1/s"));
+    vec3_ui(ui, "gravity", &mut s.gravity, 0.1);
+    ui.add(egui::Slider::new(&mut s.drag_coefficient, 0.0..=3.0).text("drag coefficient"));
+    ui.add(egui::Slider::new(&mut s.lift_coefficient, 0.0..=3.0).text("lift coefficient"));
+    ui.checkbox(&mut c.interpolate, "interpolate display");
+    ui.horizontal(|ui| {
+        ui.label("collision mask");
+        ui.add(egui::DragValue::new(&mut c.collision_mask).hexadecimal(8, false, true));
+    });
+}
+
+fn subdivision_ui(ui: &mut egui::Ui, s: &mut ClothSubdivision) {
+    ui.add(
+        egui::Slider::new(&mut s.level, 0..=MAX_CLOTH_SUBDIVISION_LEVEL).text("subdivision level"),
+    );
+    egui::ComboBox::from_label("vertex rule")
+        .selected_text(format!("{:?}", s.rule))
+        .show_ui(ui, |ui| {
+            for r in VertexRule::ALL {
+                ui.selectable_value(&mut s.rule, r, format!("{r:?}"));
+            }
+        });
+    egui::ComboBox::from_label("boundary")
+        .selected_text(format!("{:?}", s.boundary))
+        .show_ui(ui, |ui| {
+            for b in [BoundaryMode::EdgeOnly, BoundaryMode::EdgeAndCorner] {
+                ui.selectable_value(&mut s.boundary, b, format!("{b:?}"));
+            }
+        });
+}
+
+fn wind_ui(ui: &mut egui::Ui, w: &mut Wind) {
+    ui.checkbox(&mut w.enabled, "wind");
+    vec3_ui(ui, "velocity, m/s", &mut w.velocity, 0.1);
+    let mut gusty = w.gusts.is_some();
+    ui.checkbox(&mut gusty, "gusts");
+    match (gusty, &mut w.gusts) {
+        (true, Some(g)) => {
+            ui.add(egui::Slider::new(&mut g.strength, 0.0..=1.0).text("gust strength"));
+            ui.add(egui::Slider::new(&mut g.frequency, 0.05..=5.0).text("gust frequency, Hz"));
+        }
+        (true, None) => w.gusts = Some(Default::default()),
+        (false, _) => w.gusts = None,
+    }
+    ui.add(egui::Slider::new(&mut w.air_density, 0.0..=5.0).text("air density, kg/m³"));
+}
