@@ -1,11 +1,11 @@
 //! Collisions between a cloth and kinematic colliders: spheres, capsules, cuboids and half-spaces.
 //!
 //! # Pipeline, per step and per substep
-//! 1. **Broad phase** (once per step, [`Contacts::begin_step`]): the cloth's bounding box, grown by
+//! 1. **Broad phase** (once per step, `Contacts::begin_step`): the cloth's bounding box, grown by
 //!    the farthest any particle can travel in the step, against each collider's box swept from its
 //!    start pose to its end pose and grown by its margin. Colliders that cannot be reached, or whose
 //!    `layers` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
-//! 2. **Narrow phase** (every substep, [`Contacts::resolve`]): the collider's pose is interpolated to
+//! 2. **Narrow phase** (every substep, `Contacts::resolve`): the collider's pose is interpolated to
 //!    the end of the substep; each free particle is taken into the collider's local frame and tested
 //!    by the shape's signed distance `d`. A particle with `d < margin` is in contact. A particle that
 //!    ends the substep outside, but whose path in the collider's frame (start to end of the substep)
