@@ -11,6 +11,7 @@ use bevy::reflect::prelude::*;
 use bevy::transform::components::Transform;
 
 use crate::error::ClothError;
+pub use crate::sim::aero::AIR_DENSITY;
 use crate::sim::collision::Pose;
 use crate::sim::{
     ClothSim, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
@@ -231,9 +232,6 @@ pub struct Wind {
     /// Switch the air off without removing the resource.
     pub enabled: bool,
 }
-
-/// Sea-level air density, kg/m³.
-pub const AIR_DENSITY: f32 = 1.225;
 
 impl Default for Wind {
     fn default() -> Self {

@@ -230,11 +230,9 @@ fn gather_wind(
         return;
     }
     let field = snapshot.0.get_or_insert_with(WindField::default);
-    let defaults = Wind {
-        velocity: Vec3::ZERO,
-        ..Default::default()
-    };
-    let w = global.unwrap_or(&defaults);
+    // Zones alone blow in still air of the default density.
+    let still = Wind::default();
+    let w = global.unwrap_or(&still);
     field.velocity = w.velocity;
     field.gusts = w.gusts;
     field.air_density = w.air_density;

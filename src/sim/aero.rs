@@ -27,6 +27,9 @@ const MIN_SPEED_SQ: f32 = 1e-12;
 /// Area (m²) below which a triangle is treated as degenerate and skipped.
 const MIN_AREA: f32 = 1e-12;
 
+/// Sea-level air density, kg/m³.
+pub const AIR_DENSITY: f32 = 1.225;
+
 /// Aerodynamic coefficients of the cloth and the density of the air around it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
 #[serde(default, deny_unknown_fields)]
@@ -43,7 +46,7 @@ impl Default for AeroParams {
     /// Sea-level air (1.225 kg/m³), `C_d = 1.0`, `C_l = 0.5`.
     fn default() -> Self {
         Self {
-            air_density: 1.225,
+            air_density: AIR_DENSITY,
             drag: 1.0,
             lift: 0.5,
         }
