@@ -120,6 +120,86 @@ pub struct Springs {
     pub kind: Vec<SpringKind>,
     /// Springs of colour `c` are `color_offsets[c]..color_offsets[c + 1]`.
     pub color_offsets: Vec<u32>,
+    /// The springs again, colour by colour, as runs that the XPBD kernel can load with whole
+    /// vector loads where the particle indices allow it (see [`SpringRun`]).
+    pub runs: Vec<SpringRun>,
+}
+
+/// How the particles of a [`SpringRun`] are laid out in memory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunLayout {
+    /// Spring `start + k` joins particles `a[start] + k` and `b[start] + k`: two contiguous blocks.
+    Contiguous,
+    /// Groups of eight springs over windows of 16 consecutive particles, with `d = 1` or `2`:
+    /// in the window starting at `a[start + 8q]`, lane `l` joins particle `2d⌊l/d⌋ + l mod d` of
+    /// the window to the one `d` places further (rows of a grid: `d = 1` for structural springs,
+    /// `d = 2` for bend springs).
+    Interleaved(u8),
+    /// Any particles, gathered one by one.
+    Scattered,
+}
+
+/// A stretch of springs of one colour, `start..start + len` in the spring arrays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SpringRun {
+    /// How the run's particles are laid out.
+    pub layout: RunLayout,
+    /// First spring.
+    pub start: u32,
+    /// Number of springs (a multiple of 8 for [`RunLayout::Interleaved`]).
+    pub len: u32,
+}
+
+/// Shortest run worth a vector kernel; shorter stretches are gathered.
+const MIN_RUN: usize = 8;
+
+/// Splits the springs `start..end` of one colour (sorted by index offset, then first particle)
+/// into runs.
+fn find_runs(a: &[u32], b: &[u32], start: usize, end: usize, runs: &mut Vec<SpringRun>) {
+    let mut scattered = start;
+    let mut i = start;
+    let push = |runs: &mut Vec<SpringRun>, layout, from: usize, to: usize| {
+        if to > from {
+            runs.push(SpringRun {
+                layout,
+                start: from as u32,
+                len: (to - from) as u32,
+            });
+        }
+    };
+    while i < end {
+        let contiguous = (i..end)
+            .take_while(|&k| a[k] == a[i] + (k - i) as u32 && b[k] == b[i] + (k - i) as u32)
+            .count();
+        let found = if contiguous >= MIN_RUN {
+            Some((RunLayout::Contiguous, contiguous))
+        } else {
+            let d = b[i] - a[i];
+            let interleaved = if d == 1 || d == 2 {
+                (i..end)
+                    .take_while(|&k| {
+                        let m = (k - i) as u32;
+                        a[k] == a[i] + 2 * d * (m / d) + m % d && b[k] == a[k] + d
+                    })
+                    .count()
+                    / MIN_RUN
+                    * MIN_RUN
+            } else {
+                0
+            };
+            (interleaved > 0).then_some((RunLayout::Interleaved(d as u8), interleaved))
+        };
+        match found {
+            Some((layout, len)) => {
+                push(runs, RunLayout::Scattered, scattered, i);
+                push(runs, layout, i, i + len);
+                i += len;
+                scattered = i;
+            }
+            None => i += 1,
+        }
+    }
+    push(runs, RunLayout::Scattered, scattered, end);
 }
 
 impl Springs {
@@ -147,46 +227,77 @@ impl Springs {
         n
     }
 
-    /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`.
-    /// Springs of zero rest length are dropped (they cannot define a direction).
+    /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`,
+    /// with a greedy edge colouring. Springs of zero rest length are dropped (they cannot define a
+    /// direction).
     fn build(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)]) -> Self {
-        let pairs: Vec<(u32, u32, SpringKind, f32)> = pairs
+        let colors = greedy_edge_coloring(positions.len(), pairs.iter().map(|p| (p.0, p.1)));
+        Self::build_colored(positions, pairs, &colors)
+    }
+
+    /// [`Self::build`] with a given colour per spring (no two springs of a colour may share a
+    /// particle). Within a colour, springs are ordered by index offset `b - a` and then by `a`, so
+    /// that regular topology (grid rows) forms long [`SpringRun`]s.
+    fn build_colored(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> Self {
+        debug_assert!(is_proper_edge_coloring(positions.len(), pairs, colors));
+        let pairs: Vec<(u32, u32, SpringKind, f32, u32)> = pairs
             .iter()
-            .map(|&(a, b, k)| {
+            .zip(colors)
+            .map(|(&(a, b, k), &c)| {
                 (
-                    a,
-                    b,
+                    a.min(b),
+                    a.max(b),
                     k,
                     positions[a as usize].distance(positions[b as usize]),
+                    c,
                 )
             })
             .filter(|p| p.3 > 0.0)
             .collect();
-        let colors = greedy_edge_coloring(positions.len(), pairs.iter().map(|p| (p.0, p.1)));
-        let color_count = colors.iter().copied().max().map_or(0, |c| c as usize + 1);
+        let color_count = pairs.iter().map(|p| p.4).max().map_or(0, |c| c as usize + 1);
         let mut order: Vec<usize> = (0..pairs.len()).collect();
-        // Stable sort: within a colour, springs keep their construction order (good locality).
-        order.sort_by_key(|&s| colors[s]);
+        order.sort_by_key(|&s| (pairs[s].4, pairs[s].1 - pairs[s].0, pairs[s].0));
         let mut springs = Springs {
             a: Vec::with_capacity(pairs.len()),
             b: Vec::with_capacity(pairs.len()),
             rest: Vec::with_capacity(pairs.len()),
             kind: Vec::with_capacity(pairs.len()),
             color_offsets: vec![0; color_count + 1],
+            runs: Vec::new(),
         };
         for &s in &order {
-            let (a, b, k, r) = pairs[s];
+            let (a, b, k, r, c) = pairs[s];
             springs.a.push(a);
             springs.b.push(b);
             springs.rest.push(r);
             springs.kind.push(k);
-            springs.color_offsets[colors[s] as usize + 1] += 1;
+            springs.color_offsets[c as usize + 1] += 1;
         }
         for c in 0..color_count {
             springs.color_offsets[c + 1] += springs.color_offsets[c];
         }
+        for c in 0..color_count {
+            let (start, end) = (springs.color_offsets[c], springs.color_offsets[c + 1]);
+            find_runs(
+                &springs.a,
+                &springs.b,
+                start as usize,
+                end as usize,
+                &mut springs.runs,
+            );
+        }
         springs
     }
+}
+
+/// Whether no two springs of the same colour share a particle.
+fn is_proper_edge_coloring(nodes: usize, pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> bool {
+    let mut seen = std::collections::HashSet::with_capacity(2 * pairs.len().min(nodes * 16));
+    pairs.len() == colors.len()
+        && pairs
+            .iter()
+            .zip(colors)
+            .all(|(&(a, b, _), &c)| a != b && seen.insert((a, c)) && seen.insert((b, c)))
 }
 
 /// Greedy colouring of the edges of a graph: each edge gets the smallest colour not yet used at
@@ -280,24 +391,33 @@ impl ClothModel {
             }
         }
         let id = |i: u32, j: u32| spec.index(i, j);
+        // Twelve colours by family and parity: rows of structural springs alternate by column
+        // (0, 1), columns by row (2, 3); both diagonals alternate by row (4–7); bend springs
+        // alternate by pairs of columns (8, 9) and pairs of rows (10, 11). Each colour is then a
+        // few long runs of regular index offset, which the XPBD kernel loads as whole vectors.
         let mut pairs = Vec::new();
+        let mut colors = Vec::new();
+        let mut add = |a, b, kind, color| {
+            pairs.push((a, b, kind));
+            colors.push(color);
+        };
         for j in 0..ny {
             for i in 0..nx {
                 if i + 1 < nx {
-                    pairs.push((id(i, j), id(i + 1, j), SpringKind::Structural));
+                    add(id(i, j), id(i + 1, j), SpringKind::Structural, i % 2);
                 }
                 if j + 1 < ny {
-                    pairs.push((id(i, j), id(i, j + 1), SpringKind::Structural));
+                    add(id(i, j), id(i, j + 1), SpringKind::Structural, 2 + j % 2);
                 }
                 if i + 1 < nx && j + 1 < ny {
-                    pairs.push((id(i, j), id(i + 1, j + 1), SpringKind::Shear));
-                    pairs.push((id(i + 1, j), id(i, j + 1), SpringKind::Shear));
+                    add(id(i, j), id(i + 1, j + 1), SpringKind::Shear, 4 + j % 2);
+                    add(id(i + 1, j), id(i, j + 1), SpringKind::Shear, 6 + j % 2);
                 }
                 if i + 2 < nx {
-                    pairs.push((id(i, j), id(i + 2, j), SpringKind::Bend));
+                    add(id(i, j), id(i + 2, j), SpringKind::Bend, 8 + (i / 2) % 2);
                 }
                 if j + 2 < ny {
-                    pairs.push((id(i, j), id(i, j + 2), SpringKind::Bend));
+                    add(id(i, j), id(i, j + 2), SpringKind::Bend, 10 + (j / 2) % 2);
                 }
             }
         }
@@ -311,7 +431,7 @@ impl ClothModel {
                 faces.extend_from_slice(&[a, c, d, b]);
             }
         }
-        let springs = Springs::build(&rest_positions, &pairs);
+        let springs = Springs::build_colored(&rest_positions, &pairs, &colors);
         Ok(Self {
             rest_positions,
             uvs,
@@ -536,6 +656,51 @@ mod tests {
         }
         assert_eq!(*s.color_offsets.last().unwrap() as usize, s.len());
         assert!(s.color_count() <= 23, "{} colours", s.color_count());
+    }
+
+    /// Checks that the runs tile the springs colour by colour and that every run's layout
+    /// describes its springs' particles exactly; returns the number of scattered springs.
+    fn check_runs(s: &Springs) -> usize {
+        let mut next = 0;
+        let mut scattered = 0;
+        for run in &s.runs {
+            assert_eq!(run.start, next, "runs must tile the springs in order");
+            let (start, len) = (run.start as usize, run.len as usize);
+            let color = s.color_offsets.partition_point(|&o| o as usize <= start) - 1;
+            assert!(start + len <= s.color_offsets[color + 1] as usize, "run crosses a colour");
+            for m in 0..len {
+                let (a, b) = (s.a[start + m], s.b[start + m]);
+                match run.layout {
+                    RunLayout::Contiguous => {
+                        assert_eq!((a, b), (s.a[start] + m as u32, s.b[start] + m as u32));
+                    }
+                    RunLayout::Interleaved(d) => {
+                        let (d, l) = (d as u32, (m % 8) as u32);
+                        let window = s.a[start + m / 8 * 8];
+                        assert_eq!(a, window + 2 * d * (l / d) + l % d);
+                        assert_eq!(b, a + d);
+                    }
+                    RunLayout::Scattered => scattered += 1,
+                }
+            }
+            next += run.len;
+        }
+        assert_eq!(next as usize, s.len());
+        scattered
+    }
+
+    #[test]
+    fn grid_springs_form_vector_runs() {
+        let s = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap().springs;
+        assert_eq!(s.color_count(), 12);
+        let scattered = check_runs(&s);
+        // Only the tails of the diagonal rows (63 springs = 7 × 8 + 7) are gathered.
+        assert!(scattered * 20 < s.len(), "{scattered} of {} scattered", s.len());
+        // Odd sizes break the row patterns but never the tiling.
+        check_runs(&ClothModel::grid(&GridSpec::new(9, 7, 0.1)).unwrap().springs);
+        let quad = [0, 1, 2, 3];
+        let p = [Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
+        check_runs(&ClothModel::from_mesh(&p, None, &quad, 4).unwrap().springs);
     }
 
     #[test]

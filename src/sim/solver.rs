@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use super::collision::{Collider, Contacts};
 use super::forces::{SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
-use super::model::{ClothModel, SpringKind, Springs};
+use super::model::{ClothModel, RunLayout, SpringKind, Springs};
 use super::wind::{WindField, WindScratch};
 use super::{explicit, implicit};
 use crate::error::{ClothError, count_in, non_negative, positive};
@@ -262,8 +262,8 @@ pub struct ClothSim {
     pub(super) model: ClothModel,
     /// Particle positions, m.
     pub(super) positions: Vec<Vec3>,
-    /// Positions after the unconstrained move of the current substep (XPBD scratch).
-    pub(super) predicted: Vec<Vec3>,
+    /// Positions during XPBD's constraint projection, one array per coordinate (scratch).
+    pub(super) soa: Soa,
     /// Particle velocities, m/s.
     pub(super) velocities: Vec<Vec3>,
     /// Particle masses, kg (whether pinned or not).
@@ -341,7 +341,7 @@ impl ClothSim {
         }
         let springs = model.springs.len();
         let mut sim = Self {
-            predicted: positions.clone(),
+            soa: Soa::new(n),
             positions,
             velocities: vec![Vec3::ZERO; n],
             mass: vec![0.0; n],
@@ -668,8 +668,8 @@ impl ClothSim {
         let keep = (-self.settings.damping * h).exp();
         for sub in 0..n {
             self.contacts.begin_substep(&self.positions);
-            // Integrate free particles (symplectic Euler) and remember where they would go without
-            // constraints. Wind forces are evaluated at the start of the substep.
+            // Integrate every particle (symplectic Euler) without constraints; pinned ones are then
+            // overwritten by their targets. Wind forces are evaluated at the start of the substep.
             if self.wind.active {
                 self.forces.fill(Vec3::ZERO);
                 self.wind.add_forces(
@@ -678,25 +678,20 @@ impl ClothSim {
                     &self.model.triangles,
                     &mut self.forces,
                 );
-            }
-            let wind = self.wind.active;
-            for (((x, predicted), (v, w)), f) in self
-                .positions
-                .iter_mut()
-                .zip(self.predicted.iter_mut())
-                .zip(self.velocities.iter_mut().zip(&self.inv_mass))
-                .zip(&self.forces)
-            {
-                if *w > 0.0 {
-                    let dv = if wind {
-                        gravity_dv + *f * (*w * h)
-                    } else {
-                        gravity_dv
-                    };
-                    *v = (*v + dv) * keep;
+                for ((x, v), (f, w)) in self
+                    .positions
+                    .iter_mut()
+                    .zip(self.velocities.iter_mut())
+                    .zip(self.forces.iter().zip(&self.inv_mass))
+                {
+                    *v = (*v + gravity_dv + *f * (*w * h)) * keep;
                     *x += *v * h;
                 }
-                *predicted = *x;
+            } else {
+                for (x, v) in self.positions.iter_mut().zip(self.velocities.iter_mut()) {
+                    *v = (*v + gravity_dv) * keep;
+                    *x += *v * h;
+                }
             }
             // Pinned particles move to their interpolated target, at the velocity that takes them there.
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
@@ -708,9 +703,7 @@ impl ClothSim {
                 &mut self.positions,
                 &mut self.velocities,
             );
-            for pin in &self.pins {
-                self.predicted[pin.particle as usize] = self.positions[pin.particle as usize];
-            }
+            self.soa.load(&self.positions);
             let springs = &self.model.springs;
             if self.settings.iterations == 1 {
                 // λ starts at 0 each substep, so one iteration needs no multiplier storage.
@@ -719,7 +712,7 @@ impl ClothSim {
                     &self.compliance,
                     &mut self.lambda,
                     &self.inv_mass,
-                    &mut self.positions,
+                    &mut self.soa,
                     inv_h2,
                 );
             } else {
@@ -730,21 +723,15 @@ impl ClothSim {
                         &self.compliance,
                         &mut self.lambda,
                         &self.inv_mass,
-                        &mut self.positions,
+                        &mut self.soa,
                         inv_h2,
                     );
                 }
             }
             // v = (x - x_start) / h, computed as v + (constraint correction) / h: the free-flight
             // part stays exact even far from the origin, where x - x_start would cancel in f32.
-            for ((v, x), predicted) in self
-                .velocities
-                .iter_mut()
-                .zip(&self.positions)
-                .zip(&self.predicted)
-            {
-                *v += (*x - *predicted) * inv_h;
-            }
+            // `positions` still holds the predicted positions here.
+            self.soa.store(&mut self.positions, &mut self.velocities, inv_h);
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `collision.rs`).
             self.resolve_contacts(sub, n, h);
@@ -752,7 +739,48 @@ impl ClothSim {
     }
 }
 
-/// Springs solved together in the batched XPBD kernel. Within one colour no two springs share a
+/// Particle positions as one array per coordinate, for the XPBD kernel's vector loads.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Soa {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl Soa {
+    fn new(n: usize) -> Self {
+        Self {
+            x: vec![0.0; n],
+            y: vec![0.0; n],
+            z: vec![0.0; n],
+        }
+    }
+
+    fn load(&mut self, positions: &[Vec3]) {
+        for (p, ((x, y), z)) in positions
+            .iter()
+            .zip(self.x.iter_mut().zip(self.y.iter_mut()).zip(self.z.iter_mut()))
+        {
+            (*x, *y, *z) = (p.x, p.y, p.z);
+        }
+    }
+
+    /// Writes the solved positions back into `positions` (which hold the predicted ones) and
+    /// adds the correction, divided by the substep `h`, to the velocities.
+    fn store(&self, positions: &mut [Vec3], velocities: &mut [Vec3], inv_h: f32) {
+        for ((p, v), ((x, y), z)) in positions
+            .iter_mut()
+            .zip(velocities.iter_mut())
+            .zip(self.x.iter().zip(&self.y).zip(&self.z))
+        {
+            let solved = Vec3::new(*x, *y, *z);
+            *v += (solved - *p) * inv_h;
+            *p = solved;
+        }
+    }
+}
+
+/// Springs solved together in the vector kernel. Within one colour no two springs share a
 /// particle, so a batch gives exactly the sequential Gauss-Seidel result.
 const LANES: usize = 8;
 
@@ -760,87 +788,272 @@ const LANES: usize = 8;
 /// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
 /// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
 ///
-/// Springs are processed in batches of [`LANES`] inside each colour: positions are gathered into
-/// small arrays, the arithmetic (square root and division included) runs as SIMD, and corrections
-/// are scattered back. With `ACCUMULATE = false` (one iteration per substep) λ is known to be 0
-/// and is neither read nor stored.
-#[inline(never)]
+/// Springs go in batches of [`LANES`] along the colour's [`SpringRun`]s: contiguous and
+/// interleaved runs are read and written with whole vector loads and stores, scattered ones
+/// gathered particle by particle; the arithmetic (square root and division included) is the same
+/// lane-wise code for all, so the layout never changes a result. With `ACCUMULATE = false` (one
+/// iteration per substep) λ is known to be 0 and is neither read nor stored.
+///
+/// On x86-64 CPUs with AVX2 the kernel runs as 8-wide vectors (chosen at run time); the results
+/// are bit-identical either way (no fused multiply-add: Rust never contracts `a * b + c`).
 fn solve_springs<const ACCUMULATE: bool>(
     springs: &Springs,
     compliance: &[f32],
     lambda: &mut [f32],
     inv_mass: &[f32],
-    x: &mut [Vec3],
+    x: &mut Soa,
     inv_h2: f32,
 ) {
-    for color in springs.color_offsets.windows(2) {
-        let (start, end) = (color[0] as usize, color[1] as usize);
-        let mut k = start;
-        while k + LANES <= end {
-            solve_batch::<ACCUMULATE, LANES>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
-            k += LANES;
-        }
-        // The colour's last few springs, one at a time.
-        for k in k..end {
-            solve_batch::<ACCUMULATE, 1>(springs, compliance, lambda, inv_mass, x, inv_h2, k);
-        }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports the feature the function is compiled for (checked above).
+        unsafe {
+            solve_springs_avx2::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2)
+        };
+        return;
     }
+    solve_springs_body::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2);
 }
 
-/// The XPBD step of one spring: `(Δλ / |d|, Δλ)`, or zeros for a spring of (near) zero length,
-/// which has no direction. Branch-free so that a batch of springs vectorises. A spring whose ends
-/// are both pinned (`w = 0`) gets a finite step that its zero inverse masses then ignore: `α̃ > 0`
-/// because every stiffness is finite.
-#[inline(always)]
-fn spring_scale(len2: f32, w: f32, rest: f32, alpha: f32, lambda: f32) -> (f32, f32) {
-    let len = len2.sqrt();
-    let scale = (rest - len - alpha * lambda) / ((w + alpha) * len);
-    let scale = if len2 > 1e-20 { scale } else { 0.0 };
-    (scale, scale * len)
-}
-
-/// Solves springs `k..k + N` of one colour: gather, vectorisable arithmetic, scatter.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn solve_batch<const ACCUMULATE: bool, const N: usize>(
-    s: &Springs,
+/// [`solve_springs_body`] compiled for AVX2 (8-lane vectors).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn solve_springs_avx2<const ACCUMULATE: bool>(
+    springs: &Springs,
     compliance: &[f32],
     lambda: &mut [f32],
     inv_mass: &[f32],
-    x: &mut [Vec3],
+    x: &mut Soa,
     inv_h2: f32,
+) {
+    solve_springs_body::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2);
+}
+
+/// The per-spring constants of a batch, and where its multipliers live.
+struct Batch<'a, const N: usize> {
+    rest: &'a [f32; N],
+    compliance: &'a [f32; N],
+    lambda: &'a mut [f32; N],
+}
+
+impl<'a> Batch<'a, LANES> {
+    /// Springs `k..k + LANES`, or `None` past the end (which the run builder never produces).
+    #[inline(always)]
+    fn at(
+        rest: &'a [f32],
+        compliance: &'a [f32],
+        lambda: &'a mut [f32],
+        k: usize,
+    ) -> Option<Self> {
+        Some(Self {
+            rest: rest.get(k..k + LANES)?.try_into().ok()?,
+            compliance: compliance.get(k..k + LANES)?.try_into().ok()?,
+            lambda: lambda.get_mut(k..k + LANES)?.try_into().ok()?,
+        })
+    }
+}
+
+#[inline(always)]
+fn solve_springs_body<const ACCUMULATE: bool>(
+    springs: &Springs,
+    compliance: &[f32],
+    lambda: &mut [f32],
+    inv_mass: &[f32],
+    x: &mut Soa,
+    inv_h2: f32,
+) {
+    let rest = &springs.rest;
+    for run in &springs.runs {
+        let (start, end) = (run.start as usize, (run.start + run.len) as usize);
+        let mut k = start;
+        match run.layout {
+            RunLayout::Contiguous => {
+                let (a0, b0) = (springs.a[start] as usize, springs.b[start] as usize);
+                while k + LANES <= end {
+                    let Some(b) = Batch::at(rest, compliance, lambda, k) else {
+                        break;
+                    };
+                    let (ia, ib) = (a0 + (k - start), b0 + (k - start));
+                    solve_contiguous::<ACCUMULATE>(x, inv_mass, ia, ib, b, inv_h2);
+                    k += LANES;
+                }
+            }
+            RunLayout::Interleaved(d) => {
+                while k + LANES <= end {
+                    let Some(b) = Batch::at(rest, compliance, lambda, k) else {
+                        break;
+                    };
+                    let window = springs.a[k] as usize;
+                    match d {
+                        1 => solve_interleaved::<ACCUMULATE, 1>(x, inv_mass, window, b, inv_h2),
+                        _ => solve_interleaved::<ACCUMULATE, 2>(x, inv_mass, window, b, inv_h2),
+                    }
+                    k += LANES;
+                }
+            }
+            RunLayout::Scattered => {
+                while k + LANES <= end {
+                    let Some(b) = Batch::at(rest, compliance, lambda, k) else {
+                        break;
+                    };
+                    solve_gathered::<ACCUMULATE, LANES>(springs, x, inv_mass, k, b, inv_h2);
+                    k += LANES;
+                }
+            }
+        }
+        // Whatever is left of the run, one spring at a time.
+        for k in k..end {
+            let b = Batch::<1> {
+                rest: std::array::from_ref(&springs.rest[k]),
+                compliance: std::array::from_ref(&compliance[k]),
+                lambda: std::array::from_mut(&mut lambda[k]),
+            };
+            solve_gathered::<ACCUMULATE, 1>(springs, x, inv_mass, k, b, inv_h2);
+        }
+    }
+}
+
+/// The lane-wise XPBD update of `N` independent springs: `p[0..3]` are the first ends' x, y, z,
+/// `p[3..6]` the second ends', moved in place.
+#[inline(always)]
+fn project<const ACCUMULATE: bool, const N: usize>(
+    p: &mut [[f32; N]; 6],
+    wa: &[f32; N],
+    wb: &[f32; N],
+    batch: Batch<'_, N>,
+    inv_h2: f32,
+) {
+    for l in 0..N {
+        let (dx, dy, dz) = (p[0][l] - p[3][l], p[1][l] - p[4][l], p[2][l] - p[5][l]);
+        let len2 = dx * dx + dy * dy + dz * dz;
+        let lam = if ACCUMULATE { batch.lambda[l] } else { 0.0 };
+        let alpha = batch.compliance[l] * inv_h2;
+        let len = len2.sqrt();
+        let scale = (batch.rest[l] - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
+        // A spring of (near) zero length has no direction and is skipped. A spring whose ends are
+        // both pinned (w = 0) gets a finite step (α̃ > 0) that its zero inverse masses ignore.
+        let scale = if len2 > 1e-20 { scale } else { 0.0 };
+        if ACCUMULATE {
+            batch.lambda[l] = lam + scale * len;
+        }
+        let (sa, sb) = (scale * wa[l], scale * wb[l]);
+        p[0][l] += dx * sa;
+        p[1][l] += dy * sa;
+        p[2][l] += dz * sa;
+        p[3][l] -= dx * sb;
+        p[4][l] -= dy * sb;
+        p[5][l] -= dz * sb;
+    }
+}
+
+/// Copies `N` values starting at `i` out of `v` (an empty batch past the end, which the run
+/// builder never produces).
+#[inline(always)]
+fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
+    v.get(i..i + N)
+        .and_then(|s| s.try_into().ok())
+        .unwrap_or([0.0; N])
+}
+
+#[inline(always)]
+fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
+    if let Some(s) = v.get_mut(i..i + N) {
+        s.copy_from_slice(values);
+    }
+}
+
+/// Springs joining particles `ia..ia + 8` to `ib..ib + 8`.
+#[inline(always)]
+fn solve_contiguous<const ACCUMULATE: bool>(
+    x: &mut Soa,
+    inv_mass: &[f32],
+    ia: usize,
+    ib: usize,
+    batch: Batch<'_, LANES>,
+    inv_h2: f32,
+) {
+    let mut p = [
+        load(&x.x, ia),
+        load(&x.y, ia),
+        load(&x.z, ia),
+        load(&x.x, ib),
+        load(&x.y, ib),
+        load(&x.z, ib),
+    ];
+    let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
+    project::<ACCUMULATE, LANES>(&mut p, &wa, &wb, batch, inv_h2);
+    for (c, coord) in [&mut x.x, &mut x.y, &mut x.z].into_iter().enumerate() {
+        store(coord, ia, &p[c]);
+        store(coord, ib, &p[c + 3]);
+    }
+}
+
+/// Window position of lane `l`'s first particle in an interleaved run with offset `D`.
+const fn lane_a<const D: usize>(l: usize) -> usize {
+    2 * D * (l / D) + l % D
+}
+
+/// Eight springs over the 16 particles `window..window + 16` (see `RunLayout::Interleaved`).
+#[inline(always)]
+fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
+    x: &mut Soa,
+    inv_mass: &[f32],
+    window: usize,
+    batch: Batch<'_, LANES>,
+    inv_h2: f32,
+) {
+    let win: [[f32; 16]; 4] = [
+        load(&x.x, window),
+        load(&x.y, window),
+        load(&x.z, window),
+        load(inv_mass, window),
+    ];
+    let mut p = [[0.0f32; LANES]; 6];
+    let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for l in 0..LANES {
+        let (a, b) = (lane_a::<D>(l), lane_a::<D>(l) + D);
+        for c in 0..3 {
+            p[c][l] = win[c][a];
+            p[c + 3][l] = win[c][b];
+        }
+        (wa[l], wb[l]) = (win[3][a], win[3][b]);
+    }
+    project::<ACCUMULATE, LANES>(&mut p, &wa, &wb, batch, inv_h2);
+    for (c, coord) in [&mut x.x, &mut x.y, &mut x.z].into_iter().enumerate() {
+        let mut out = [0.0f32; 16];
+        for l in 0..LANES {
+            out[lane_a::<D>(l)] = p[c][l];
+            out[lane_a::<D>(l) + D] = p[c + 3][l];
+        }
+        store(coord, window, &out);
+    }
+}
+
+/// Springs `k..k + N` of one colour at arbitrary particles: gather, project, scatter.
+#[inline(always)]
+fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
+    s: &Springs,
+    x: &mut Soa,
+    inv_mass: &[f32],
     k: usize,
+    batch: Batch<'_, N>,
+    inv_h2: f32,
 ) {
     let (a, b) = (&s.a[k..k + N], &s.b[k..k + N]);
-    let (rest, comp) = (&s.rest[k..k + N], &compliance[k..k + N]);
-    // Gather into lanes (structure of arrays), so the arithmetic below vectorises.
-    let (mut dx, mut dy, mut dz) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    let mut p = [[0.0f32; N]; 6];
     let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
     for l in 0..N {
         let (ia, ib) = (a[l] as usize, b[l] as usize);
-        let d = x[ia] - x[ib];
-        (dx[l], dy[l], dz[l]) = (d.x, d.y, d.z);
-        wa[l] = inv_mass[ia];
-        wb[l] = inv_mass[ib];
+        (p[0][l], p[1][l], p[2][l]) = (x.x[ia], x.y[ia], x.z[ia]);
+        (p[3][l], p[4][l], p[5][l]) = (x.x[ib], x.y[ib], x.z[ib]);
+        (wa[l], wb[l]) = (inv_mass[ia], inv_mass[ib]);
     }
-    let mut scale = [0.0f32; N];
-    let mut lam = [0.0f32; N];
-    if ACCUMULATE {
-        lam.copy_from_slice(&lambda[k..k + N]);
-    }
+    project::<ACCUMULATE, N>(&mut p, &wa, &wb, batch, inv_h2);
     for l in 0..N {
-        let len2 = dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l];
-        let (sc, dl) = spring_scale(len2, wa[l] + wb[l], rest[l], comp[l] * inv_h2, lam[l]);
-        scale[l] = sc;
-        lam[l] += dl;
-    }
-    if ACCUMULATE {
-        lambda[k..k + N].copy_from_slice(&lam);
-    }
-    for l in 0..N {
-        let corr = Vec3::new(dx[l], dy[l], dz[l]) * scale[l];
-        x[a[l] as usize] += corr * wa[l];
-        x[b[l] as usize] -= corr * wb[l];
+        let (ia, ib) = (a[l] as usize, b[l] as usize);
+        (x.x[ia], x.y[ia], x.z[ia]) = (p[0][l], p[1][l], p[2][l]);
+        (x.x[ib], x.y[ib], x.z[ib]) = (p[3][l], p[4][l], p[5][l]);
     }
 }
 
