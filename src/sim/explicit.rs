@@ -18,12 +18,7 @@ pub(super) fn compute_forces(sim: &mut ClothSim) {
     for (f, m) in sim.forces.iter_mut().zip(&sim.mass) {
         *f = *m * g;
     }
-    sim.wind.add_forces(
-        &sim.positions,
-        &sim.velocities,
-        &sim.model.triangles,
-        &mut sim.forces,
-    );
+    sim.wind.add_forces(&mut sim.forces);
     let springs = super::forces::SpringSet {
         a: &sim.model.springs.a,
         b: &sim.model.springs.b,

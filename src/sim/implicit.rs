@@ -145,7 +145,7 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
             *f = *m * g;
         }
         // Wind enters explicitly (not linearised).
-        wind.add_forces(x, v, &model.triangles, forces);
+        wind.add_forces(forces);
         add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
         // rhs = h f - h² K v.
         for (b, f) in s.rhs.iter_mut().zip(forces.iter()) {

@@ -353,7 +353,7 @@ impl ClothSim {
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
             contacts: Contacts::new(n, model.max_edge_length()),
-            wind: WindScratch::new(model.triangles.len() / 3),
+            wind: WindScratch::new(n, model.triangles.len() / 3),
             pins: Vec::new(),
             model,
             settings,
@@ -604,6 +604,7 @@ impl ClothSim {
                 self.settings.lift_coefficient,
             ),
             &self.positions,
+            &self.velocities,
             &self.model.triangles,
         );
         match self.settings.integrator {
@@ -669,20 +670,13 @@ impl ClothSim {
         for sub in 0..n {
             self.contacts.begin_substep(&self.positions);
             // Integrate every particle (symplectic Euler) without constraints; pinned ones are then
-            // overwritten by their targets. Wind forces are evaluated at the start of the substep.
+            // overwritten by their targets. Wind forces are held over the step (see `wind.rs`).
             if self.wind.active {
-                self.forces.fill(Vec3::ZERO);
-                self.wind.add_forces(
-                    &self.positions,
-                    &self.velocities,
-                    &self.model.triangles,
-                    &mut self.forces,
-                );
                 for ((x, v), (f, w)) in self
                     .positions
                     .iter_mut()
                     .zip(self.velocities.iter_mut())
-                    .zip(self.forces.iter().zip(&self.inv_mass))
+                    .zip(self.wind.particle_forces().iter().zip(&self.inv_mass))
                 {
                     *v = (*v + gravity_dv + *f * (*w * h)) * keep;
                     *x += *v * h;

@@ -1,6 +1,12 @@
-//! The wind field a cloth sits in, and the per-cloth scratch that turns it into forces: the field is
-//! sampled once per step at every triangle's centroid, then the aerodynamic forces of
-//! [`aero`](super::aero) are evaluated every substep from the current positions and velocities.
+//! The wind field a cloth sits in, and the per-cloth scratch that turns it into forces: once per
+//! step the field is sampled at every triangle's centroid and the aerodynamic forces of
+//! [`aero`](super::aero) are evaluated from the positions and velocities at the start of the step;
+//! every substep then applies those forces.
+//!
+//! Holding the forces over a step (rather than re-evaluating them every substep) costs a twentieth
+//! of the work at 20 substeps. Drag relaxes a particle's velocity toward the wind at the rate
+//! `ρ C_d A |u| / m`, which for cloth is slow next to a 1/60 s step (about 5 /s for 1 g particles
+//! 3 cm apart in 10 m/s wind), so the explicit-per-step force stays well inside its stability limit.
 
 use glam::Vec3;
 
@@ -127,26 +133,31 @@ pub(crate) struct WindScratch {
     params: AeroParams,
     centroids: Vec<Vec3>,
     triangle_wind: Vec<Vec3>,
+    /// Aerodynamic force on each particle for this step, N.
+    particle_force: Vec<Vec3>,
 }
 
 impl WindScratch {
-    /// Buffers for `triangles` triangles.
-    pub fn new(triangles: usize) -> Self {
+    /// Buffers for `particles` particles and `triangles` triangles.
+    pub fn new(particles: usize, triangles: usize) -> Self {
         Self {
             active: false,
             params: AeroParams::default(),
             centroids: vec![Vec3::ZERO; triangles],
             triangle_wind: vec![Vec3::ZERO; triangles],
+            particle_force: vec![Vec3::ZERO; particles],
         }
     }
 
-    /// Samples `field` at every triangle of the cloth for this step (or switches wind off).
-    /// `coefficients` are the cloth's drag and lift; the density comes from the field.
+    /// Samples `field` at every triangle of the cloth and evaluates the aerodynamic force on every
+    /// particle for this step (or switches wind off). `coefficients` are the cloth's drag and
+    /// lift; the density comes from the field.
     pub fn begin_step(
         &mut self,
         field: Option<&WindField>,
         coefficients: (f32, f32),
         positions: &[Vec3],
+        velocities: &[Vec3],
         triangles: &[u32],
     ) {
         let Some(field) = field else {
@@ -164,26 +175,28 @@ impl WindScratch {
         for (w, c) in self.triangle_wind.iter_mut().zip(&self.centroids) {
             *w = field.sample(*c);
         }
+        self.particle_force.fill(Vec3::ZERO);
+        add_aero_forces(
+            positions,
+            velocities,
+            triangles,
+            &self.triangle_wind,
+            &self.params,
+            &mut self.particle_force,
+        );
     }
 
-    /// Adds the aerodynamic forces at the current state to `forces` (when wind is on).
-    pub fn add_forces(
-        &self,
-        positions: &[Vec3],
-        velocities: &[Vec3],
-        triangles: &[u32],
-        forces: &mut [Vec3],
-    ) {
+    /// The aerodynamic force on each particle for this step, N (meaningful when `active`).
+    pub fn particle_forces(&self) -> &[Vec3] {
+        &self.particle_force
+    }
+
+    /// Adds this step's aerodynamic forces to `forces` (when wind is on).
+    pub fn add_forces(&self, forces: &mut [Vec3]) {
         if self.active {
-            let triangles = triangles.as_chunks::<3>().0;
-            add_aero_forces(
-                positions,
-                velocities,
-                triangles,
-                &self.triangle_wind,
-                &self.params,
-                forces,
-            );
+            for (f, a) in forces.iter_mut().zip(&self.particle_force) {
+                *f += *a;
+            }
         }
     }
 }
