@@ -433,6 +433,9 @@ pub struct ClothState {
     pub(crate) failure: Option<ClothError>,
     /// Whether the mesh must be written this frame.
     pub(crate) dirty: bool,
+    /// The cloth is asleep and both render states already hold its resting pose: nothing to
+    /// refresh, interpolate or write until it wakes.
+    pub(crate) at_rest: bool,
 }
 
 impl ClothState {

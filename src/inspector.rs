@@ -129,10 +129,15 @@ fn inspector_window(
                         }
                         if let Some(state) = state {
                             ui.label(format!(
-                                "{} particles, {} steps, {} colliders near",
+                                "{} particles, {} steps, {} colliders near{}",
                                 state.positions().len(),
                                 state.steps(),
-                                state.sim().active_colliders()
+                                state.sim().active_colliders(),
+                                if state.sim().is_sleeping() {
+                                    ", asleep"
+                                } else {
+                                    ""
+                                }
                             ));
                         }
                         let mut c = *config;
@@ -208,6 +213,8 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
     vec3_ui(ui, "gravity", &mut s.gravity, 0.1);
     ui.add(egui::Slider::new(&mut s.drag_coefficient, 0.0..=3.0).text("drag coefficient"));
     ui.add(egui::Slider::new(&mut s.lift_coefficient, 0.0..=3.0).text("lift coefficient"));
+    ui.add(egui::Slider::new(&mut s.sleep_speed, 0.0..=0.1).text("sleep below, m/s (0 = never)"));
+    ui.add(egui::Slider::new(&mut s.sleep_steps, 1..=600).text("sleep after steps"));
     ui.checkbox(&mut c.interpolate, "interpolate display");
     ui.horizontal(|ui| {
         ui.label("collision mask");

@@ -128,8 +128,8 @@ impl Plugin for ClothPlugin {
                     (
                         apply_edits,
                         resolve_pin_targets,
-                        gather_colliders,
-                        gather_wind,
+                        gather_colliders.run_if(colliders_present),
+                        gather_wind.run_if(wind_present),
                     )
                         .chain()
                         .in_set(ClothSystems::Prepare),
@@ -161,6 +161,23 @@ fn current_global(
         .compute_global_transform(entity)
         .ok()
         .or_else(|| globals.get(entity).ok().copied())
+}
+
+/// Whether there are colliders to gather, or last step's must be cleared.
+fn colliders_present(
+    colliders: Query<(), With<ClothCollider>>,
+    snapshot: Res<ColliderSnapshot>,
+) -> bool {
+    !(colliders.is_empty() && snapshot.0.is_empty())
+}
+
+/// Whether there is wind to sample, or last step's must be cleared.
+fn wind_present(
+    wind: Option<Res<Wind>>,
+    zones: Query<(), With<WindZone>>,
+    snapshot: Res<WindSnapshot>,
+) -> bool {
+    wind.is_some() || !zones.is_empty() || snapshot.0.is_some()
 }
 
 /// The colliders of this step, with their poses at its start and end.
@@ -323,6 +340,16 @@ fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<ClothInvalid
             return;
         }
         let s = &mut *state;
+        // A sleeping cloth did not move: one refresh makes both render states its resting pose,
+        // after which there is nothing to compute until it wakes.
+        if s.sim.slept_last_step() {
+            if s.at_rest {
+                return;
+            }
+            s.at_rest = true;
+        } else {
+            s.at_rest = false;
+        }
         std::mem::swap(&mut s.render_prev, &mut s.render_curr);
         std::mem::swap(&mut s.normals_prev, &mut s.normals_curr);
         s.failure = refresh_render(s).err();
@@ -534,6 +561,7 @@ fn build_state(
         pin_targets: Vec::new(),
         failure: None,
         dirty: true,
+        at_rest: false,
     };
     apply_pins(&mut state, pins, transform)?;
     let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
@@ -586,7 +614,7 @@ fn write_meshes(
         1.0
     };
     for (config, transform, mut state) in &mut cloths {
-        let interpolating = config.interpolate && fraction < 1.0;
+        let interpolating = config.interpolate && fraction < 1.0 && !state.at_rest;
         if !(state.dirty || interpolating || transform.is_changed()) {
             continue;
         }

@@ -151,6 +151,15 @@ impl ColliderShape {
     }
 }
 
+/// The axis-aligned bounding box `(min, max)` of `positions` (min > max when empty).
+pub fn bounds(positions: &[Vec3]) -> (Vec3, Vec3) {
+    positions
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        })
+}
+
 fn around(centre: Vec3, half: Vec3) -> (Vec3, Vec3) {
     (centre - half, centre + half)
 }
@@ -373,26 +382,22 @@ impl Contacts {
     }
 
     /// The broad phase: keeps the colliders on `mask` that the cloth can reach during a step of
-    /// `dt` seconds. `reach` bounds how far any particle can move in the step.
+    /// `dt` seconds. `bounds` is the cloth's bounding box at the start of the step (see
+    /// [`bounds`]); `reach` bounds how far any particle can move in the step.
     pub fn begin_step(
         &mut self,
         colliders: &[Collider],
         mask: u32,
-        positions: &[Vec3],
+        bounds: (Vec3, Vec3),
         reach: f32,
         dt: f32,
     ) {
         self.active.clear();
-        if colliders.is_empty() || positions.is_empty() {
+        if colliders.is_empty() || !(bounds.0.cmple(bounds.1).all()) {
             return;
         }
-        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for p in positions {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        lo -= Vec3::splat(reach);
-        hi += Vec3::splat(reach);
+        let lo = bounds.0 - Vec3::splat(reach);
+        let hi = bounds.1 + Vec3::splat(reach);
         let inv_dt = 1.0 / dt;
         for c in colliders {
             if c.layers & mask == 0 || c.validate().is_err() {
@@ -430,6 +435,13 @@ impl Contacts {
                 triangles: matches!(c.shape, ColliderShape::Sphere(s) if s.radius < self.max_edge),
             });
         }
+    }
+
+    /// Whether any collider that passed this step's broad phase moves during the step.
+    pub fn any_moving(&self) -> bool {
+        self.active
+            .iter()
+            .any(|c| c.collider.start != c.collider.end)
     }
 
     /// Records the particle positions at the start of a substep (only when a collider is active).
@@ -807,7 +819,7 @@ mod tests {
 
     fn active(collider: Collider, dt: f32, max_edge: f32) -> Contacts {
         let mut contacts = Contacts::new(1, max_edge);
-        contacts.begin_step(&[collider], u32::MAX, &[Vec3::ZERO], 10.0, dt);
+        contacts.begin_step(&[collider], u32::MAX, (Vec3::ZERO, Vec3::ZERO), 10.0, dt);
         contacts
     }
 
@@ -926,7 +938,13 @@ mod tests {
         };
         let mut c = Contacts::new(2, 0.1);
         let cloth = [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0)];
-        c.begin_step(&[near, far, masked, below, touching], 1, &cloth, 0.05, 0.01);
+        c.begin_step(
+            &[near, far, masked, below, touching],
+            1,
+            bounds(&cloth),
+            0.05,
+            0.01,
+        );
         assert_eq!(c.active_count(), 2);
         assert_eq!(c.active[0].collider, near);
         assert_eq!(c.active[1].collider, touching);

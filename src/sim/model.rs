@@ -254,7 +254,11 @@ impl Springs {
             })
             .filter(|p| p.3 > 0.0)
             .collect();
-        let color_count = pairs.iter().map(|p| p.4).max().map_or(0, |c| c as usize + 1);
+        let color_count = pairs
+            .iter()
+            .map(|p| p.4)
+            .max()
+            .map_or(0, |c| c as usize + 1);
         let mut order: Vec<usize> = (0..pairs.len()).collect();
         order.sort_by_key(|&s| (pairs[s].4, pairs[s].1 - pairs[s].0, pairs[s].0));
         let mut springs = Springs {
@@ -667,7 +671,10 @@ mod tests {
             assert_eq!(run.start, next, "runs must tile the springs in order");
             let (start, len) = (run.start as usize, run.len as usize);
             let color = s.color_offsets.partition_point(|&o| o as usize <= start) - 1;
-            assert!(start + len <= s.color_offsets[color + 1] as usize, "run crosses a colour");
+            assert!(
+                start + len <= s.color_offsets[color + 1] as usize,
+                "run crosses a colour"
+            );
             for m in 0..len {
                 let (a, b) = (s.a[start + m], s.b[start + m]);
                 match run.layout {
@@ -691,11 +698,17 @@ mod tests {
 
     #[test]
     fn grid_springs_form_vector_runs() {
-        let s = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap().springs;
+        let s = ClothModel::grid(&GridSpec::new(64, 64, 0.1))
+            .unwrap()
+            .springs;
         assert_eq!(s.color_count(), 12);
         let scattered = check_runs(&s);
         // Only the tails of the diagonal rows (63 springs = 7 × 8 + 7) are gathered.
-        assert!(scattered * 20 < s.len(), "{scattered} of {} scattered", s.len());
+        assert!(
+            scattered * 20 < s.len(),
+            "{scattered} of {} scattered",
+            s.len()
+        );
         // Odd sizes break the row patterns but never the tiling.
         check_runs(&ClothModel::grid(&GridSpec::new(9, 7, 0.1)).unwrap().springs);
         let quad = [0, 1, 2, 3];

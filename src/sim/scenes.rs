@@ -92,8 +92,9 @@ impl AccuracyScene {
         w.hypot(h)
     }
 
-    /// The scene's physical parameters (stiffness, uniform mass, gravity, no damping) with the
-    /// numerical ones (integrator, substeps, iterations, auto substeps) taken from `method`.
+    /// The scene's physical parameters (stiffness, uniform mass, gravity, no damping, no
+    /// sleeping) with the numerical ones (integrator, substeps, iterations, auto substeps) taken
+    /// from `method`.
     pub fn settings(self, method: &SolverSettings) -> SolverSettings {
         let (stiffness, particle_mass) = match self {
             AccuracyScene::Swing => (Stiffness::default(), 0.001),
@@ -119,6 +120,7 @@ impl AccuracyScene {
             particle_mass,
             damping: 0.0,
             gravity: Vec3::new(0.0, -9.81, 0.0),
+            sleep_speed: 0.0,
             ..*method
         }
     }

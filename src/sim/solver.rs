@@ -11,7 +11,7 @@ use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::collision::{Collider, Contacts};
+use super::collision::{Collider, Contacts, bounds};
 use super::forces::{SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, RunLayout, SpringKind, Springs};
@@ -158,6 +158,12 @@ pub struct SolverSettings {
     pub drag_coefficient: f32,
     /// Aerodynamic lift coefficient of the cloth's triangles (used only when there is wind).
     pub lift_coefficient: f32,
+    /// Sleeping: a cloth whose fastest free particle stays slower than this (m/s) for
+    /// [`sleep_steps`](Self::sleep_steps) consecutive steps stops stepping until something wakes it
+    /// (a moving pin or collider, a collider arriving or leaving, wind, or an edit). 0 disables it.
+    pub sleep_speed: f32,
+    /// Consecutive quiet steps before a cloth falls asleep.
+    pub sleep_steps: u32,
 }
 
 impl Default for SolverSettings {
@@ -173,6 +179,8 @@ impl Default for SolverSettings {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             drag_coefficient: 1.0,
             lift_coefficient: 0.5,
+            sleep_speed: 0.005,
+            sleep_steps: 30,
         }
     }
 }
@@ -187,6 +195,7 @@ impl SolverSettings {
         non_negative("damping", self.damping)?;
         non_negative("drag_coefficient", self.drag_coefficient)?;
         non_negative("lift_coefficient", self.lift_coefficient)?;
+        non_negative("sleep_speed", self.sleep_speed)?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -289,6 +298,22 @@ pub struct ClothSim {
     pub(super) pins: Vec<PinState>,
     pub(super) settings: SolverSettings,
     steps: u64,
+    sleep: Sleep,
+}
+
+/// The sleeping state of a cloth (see [`SolverSettings::sleep_speed`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct Sleep {
+    /// Consecutive steps with every free particle slower than the threshold.
+    quiet_steps: u32,
+    /// Asleep: steps are skipped until something wakes the cloth.
+    asleep: bool,
+    /// Colliders in reach when the cloth fell asleep (one arriving or leaving wakes it).
+    colliders: usize,
+    /// Whether the last step was skipped.
+    skipped: bool,
+    /// The cloth's bounding box while asleep.
+    bounds: (Vec3, Vec3),
 }
 
 /// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),
@@ -358,6 +383,7 @@ impl ClothSim {
             model,
             settings,
             steps: 0,
+            sleep: Sleep::default(),
         };
         sim.apply_settings();
         Ok(sim)
@@ -381,6 +407,24 @@ impl ClothSim {
     /// Sets every particle's velocity (for tests and initial conditions).
     pub fn set_velocities(&mut self, velocity: Vec3) {
         self.velocities.fill(velocity);
+        self.wake();
+    }
+
+    /// Wakes a sleeping cloth (see [`SolverSettings::sleep_speed`]); it steps again from the
+    /// next step and may fall asleep again after `sleep_steps` quiet steps.
+    pub fn wake(&mut self) {
+        self.sleep = Sleep::default();
+    }
+
+    /// Whether the cloth is asleep: its steps are skipped until something wakes it.
+    pub fn is_sleeping(&self) -> bool {
+        self.sleep.asleep
+    }
+
+    /// Whether the last step was skipped because the cloth was asleep (its positions did not
+    /// change).
+    pub fn slept_last_step(&self) -> bool {
+        self.sleep.skipped
     }
 
     /// Current settings.
@@ -399,6 +443,7 @@ impl ClothSim {
         settings.validate()?;
         self.settings = settings;
         self.apply_settings();
+        self.wake();
         Ok(())
     }
 
@@ -532,6 +577,7 @@ impl ClothSim {
         }
         self.pins = new;
         self.apply_settings();
+        self.wake();
         Ok(())
     }
 
@@ -586,17 +632,37 @@ impl ClothSim {
         }
         let substeps = self.substeps_for(dt);
         if env.colliders.is_empty() {
-            self.contacts.begin_step(&[], 0, &[], 0.0, dt);
+            self.contacts
+                .begin_step(&[], 0, (Vec3::ONE, Vec3::ZERO), 0.0, dt);
         } else {
-            let reach = self.reach(dt);
-            self.contacts.begin_step(
-                env.colliders,
-                env.collision_mask,
-                &self.positions,
-                reach,
-                dt,
-            );
+            // Asleep, the cloth has not moved since it fell asleep: its box is kept, and every
+            // particle is slower than the sleep threshold.
+            let (bounds, reach) = if self.sleep.asleep {
+                (
+                    self.sleep.bounds,
+                    self.reach_bound(dt, self.settings.sleep_speed),
+                )
+            } else {
+                let speed = self
+                    .velocities
+                    .iter()
+                    .map(|v| v.length_squared())
+                    .fold(0.0, f32::max)
+                    .sqrt();
+                // Never below the sleep threshold, so that falling asleep does not change which
+                // colliders are in reach.
+                let speed = speed.max(self.settings.sleep_speed);
+                (bounds(&self.positions), self.reach_bound(dt, speed))
+            };
+            self.contacts
+                .begin_step(env.colliders, env.collision_mask, bounds, reach, dt);
         }
+        if self.sleeps_through(env) {
+            self.steps += 1;
+            self.sleep.skipped = true;
+            return Ok(());
+        }
+        self.sleep.skipped = false;
         self.wind.begin_step(
             env.wind,
             (
@@ -625,18 +691,51 @@ impl ClothSim {
                 substeps,
             });
         }
+        self.update_sleep(env);
         Ok(())
     }
 
-    /// A generous bound on how far any particle can move in a step of `dt`: twice the free flight
-    /// of the fastest particle, plus gravity, plus the farthest pin jump.
-    fn reach(&self, dt: f32) -> f32 {
-        let speed = self
+    /// Whether this step can be skipped: the cloth is asleep and nothing wakes it (no pin moves,
+    /// no wind, no collider in reach moves, arrives or leaves). Runs after the broad phase.
+    fn sleeps_through(&mut self, env: &Environment) -> bool {
+        if !self.sleep.asleep {
+            return false;
+        }
+        let disturbed = env.wind.is_some()
+            || self.pins.iter().any(|p| p.from != p.to)
+            || self.contacts.any_moving()
+            || self.contacts.active_count() != self.sleep.colliders;
+        if disturbed {
+            self.wake();
+            return false;
+        }
+        true
+    }
+
+    /// Counts quiet steps after a step that ran, and puts the cloth to sleep after enough of them.
+    fn update_sleep(&mut self, env: &Environment) {
+        let threshold = self.settings.sleep_speed;
+        if threshold <= 0.0 || env.wind.is_some() || self.pins.iter().any(|p| p.from != p.to) {
+            self.sleep.quiet_steps = 0;
+            return;
+        }
+        let limit = threshold * threshold;
+        let quiet = self
             .velocities
             .iter()
-            .map(|v| v.length_squared())
-            .fold(0.0, f32::max)
-            .sqrt();
+            .zip(&self.inv_mass)
+            .all(|(v, w)| *w == 0.0 || v.length_squared() < limit);
+        self.sleep.quiet_steps = if quiet { self.sleep.quiet_steps + 1 } else { 0 };
+        if self.sleep.quiet_steps >= self.settings.sleep_steps {
+            self.sleep.asleep = true;
+            self.sleep.colliders = self.contacts.active_count();
+            self.sleep.bounds = bounds(&self.positions);
+        }
+    }
+
+    /// A generous bound on how far any particle can move in a step of `dt` when none is faster
+    /// than `speed`: twice its free flight, plus gravity, plus the farthest pin jump.
+    fn reach_bound(&self, dt: f32, speed: f32) -> f32 {
         let pin_jump = self
             .pins
             .iter()
@@ -725,7 +824,8 @@ impl ClothSim {
             // v = (x - x_start) / h, computed as v + (constraint correction) / h: the free-flight
             // part stays exact even far from the origin, where x - x_start would cancel in f32.
             // `positions` still holds the predicted positions here.
-            self.soa.store(&mut self.positions, &mut self.velocities, inv_h);
+            self.soa
+                .store(&mut self.positions, &mut self.velocities, inv_h);
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `collision.rs`).
             self.resolve_contacts(sub, n, h);
@@ -751,10 +851,12 @@ impl Soa {
     }
 
     fn load(&mut self, positions: &[Vec3]) {
-        for (p, ((x, y), z)) in positions
-            .iter()
-            .zip(self.x.iter_mut().zip(self.y.iter_mut()).zip(self.z.iter_mut()))
-        {
+        for (p, ((x, y), z)) in positions.iter().zip(
+            self.x
+                .iter_mut()
+                .zip(self.y.iter_mut())
+                .zip(self.z.iter_mut()),
+        ) {
             (*x, *y, *z) = (p.x, p.y, p.z);
         }
     }
@@ -834,12 +936,7 @@ struct Batch<'a, const N: usize> {
 impl<'a> Batch<'a, LANES> {
     /// Springs `k..k + LANES`, or `None` past the end (which the run builder never produces).
     #[inline(always)]
-    fn at(
-        rest: &'a [f32],
-        compliance: &'a [f32],
-        lambda: &'a mut [f32],
-        k: usize,
-    ) -> Option<Self> {
+    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: &'a mut [f32], k: usize) -> Option<Self> {
         Some(Self {
             rest: rest.get(k..k + LANES)?.try_into().ok()?,
             compliance: compliance.get(k..k + LANES)?.try_into().ok()?,

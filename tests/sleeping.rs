@@ -1,0 +1,201 @@
+//! Headless App tests of sleeping: a cloth at rest stops stepping (its positions and mesh stay
+//! exactly as they were), and a moving pin, a moving or arriving collider, wind, or an edit wakes it.
+
+use bevy::prelude::*;
+use bevy_cloth::prelude::*;
+use bevy_cloth::sim::ClothSim;
+
+const DT: f32 = 1.0 / 60.0;
+
+fn app() -> App {
+    bevy_cloth::plugin::headless_app(DT)
+}
+
+fn run(app: &mut App, steps: u32) {
+    for _ in 0..steps {
+        app.update();
+    }
+}
+
+fn sim(app: &App, e: Entity) -> &ClothSim {
+    app.world().get::<ClothState>(e).unwrap().sim()
+}
+
+/// A 12×12 cloth hanging from two corners, damped so that it settles within a few seconds.
+fn hanging(app: &mut App, solver: SolverSettings) -> Entity {
+    let e = app
+        .world_mut()
+        .spawn((
+            Cloth::grid(GridSpec::new(12, 12, 0.05).with_plane(GridPlane::Vertical)),
+            ClothPins::new([0, 11]),
+            ClothConfig {
+                solver: SolverSettings {
+                    damping: 4.0,
+                    ..solver
+                },
+                ..default()
+            },
+            Transform::from_xyz(0.0, 2.0, 0.0),
+        ))
+        .id();
+    app.update();
+    e
+}
+
+/// Runs until the cloth sleeps (at most `limit` steps); returns the steps taken.
+fn until_asleep(app: &mut App, e: Entity, limit: u32) -> u32 {
+    for n in 0..limit {
+        if sim(app, e).is_sleeping() {
+            return n;
+        }
+        app.update();
+    }
+    panic!("the cloth did not fall asleep in {limit} steps");
+}
+
+#[test]
+fn a_cloth_at_rest_sleeps_and_stays_exactly_where_it_was() {
+    let mut app = app();
+    let cloth = hanging(&mut app, SolverSettings::default());
+    let steps = until_asleep(&mut app, cloth, 900);
+    println!("asleep after {steps} steps");
+    let positions = sim(&app, cloth).positions().to_vec();
+    let mesh_handle = app.world().get::<ClothState>(cloth).unwrap().mesh().clone();
+    // Let the first sleeping step settle the render buffers, then watch for mesh writes.
+    run(&mut app, 2);
+    let written = |app: &App| {
+        app.world()
+            .resource::<Assets<Mesh>>()
+            .get(&mesh_handle)
+            .unwrap()
+            .attribute(Mesh::ATTRIBUTE_POSITION)
+            .unwrap()
+            .as_float3()
+            .unwrap()
+            .to_vec()
+    };
+    let mesh_before = written(&app);
+    run(&mut app, 120);
+    assert!(sim(&app, cloth).is_sleeping());
+    assert!(sim(&app, cloth).slept_last_step());
+    assert_eq!(sim(&app, cloth).positions(), &positions[..]);
+    assert_eq!(written(&app), mesh_before);
+    // The pose it sleeps in is the settled one: every free particle is nearly still.
+    assert!(
+        sim(&app, cloth)
+            .velocities()
+            .iter()
+            .all(|v| v.length() < SolverSettings::default().sleep_speed)
+    );
+}
+
+#[test]
+fn sleeping_can_be_switched_off() {
+    let mut app = app();
+    let cloth = hanging(
+        &mut app,
+        SolverSettings {
+            sleep_speed: 0.0,
+            ..default()
+        },
+    );
+    run(&mut app, 900);
+    assert!(!sim(&app, cloth).is_sleeping());
+    assert!(!sim(&app, cloth).slept_last_step());
+}
+
+#[test]
+fn a_moving_pin_wakes_the_cloth() {
+    let mut app = app();
+    let anchor = app
+        .world_mut()
+        .spawn(Transform::from_xyz(1.0, 2.0, 0.0))
+        .id();
+    let cloth = hanging(&mut app, SolverSettings::default());
+    app.world_mut().get_mut::<ClothPins>(cloth).unwrap().pin(
+        0,
+        PinAnchor::Entity {
+            entity: anchor,
+            offset: Vec3::ZERO,
+        },
+    );
+    until_asleep(&mut app, cloth, 900);
+    run(&mut app, 10);
+    assert!(sim(&app, cloth).slept_last_step());
+    app.world_mut()
+        .get_mut::<Transform>(anchor)
+        .unwrap()
+        .translation
+        .x += 0.2;
+    app.update();
+    assert!(!sim(&app, cloth).is_sleeping());
+    assert!(!sim(&app, cloth).slept_last_step());
+    assert!(sim(&app, cloth).positions()[0].distance(Vec3::new(1.2, 2.0, 0.0)) < 1e-5);
+}
+
+#[test]
+fn colliders_wake_the_cloth_when_they_move_arrive_or_leave() {
+    let mut app = app();
+    let cloth = hanging(&mut app, SolverSettings::default());
+    until_asleep(&mut app, cloth, 900);
+    // A collider far away changes nothing.
+    let far = app
+        .world_mut()
+        .spawn((
+            ClothCollider::sphere(0.2),
+            Transform::from_xyz(50.0, 0.0, 0.0),
+        ))
+        .id();
+    run(&mut app, 5);
+    assert!(sim(&app, cloth).slept_last_step());
+    // A sphere moving into the cloth wakes it and pushes it.
+    app.world_mut()
+        .get_mut::<Transform>(far)
+        .unwrap()
+        .translation = Vec3::new(0.0, 1.7, -0.5);
+    app.world_mut()
+        .entity_mut(far)
+        .insert(bevy_cloth::scene::ConstantVelocity(Vec3::new(
+            0.0, 0.0, 1.0,
+        )));
+    run(&mut app, 40);
+    assert!(!sim(&app, cloth).is_sleeping());
+    assert!(sim(&app, cloth).active_colliders() > 0);
+    // Stop the sphere inside the cloth's reach: the cloth settles on it and sleeps again.
+    app.world_mut()
+        .entity_mut(far)
+        .remove::<bevy_cloth::scene::ConstantVelocity>();
+    until_asleep(&mut app, cloth, 1200);
+    let resting = sim(&app, cloth).positions().to_vec();
+    // Removing the sphere it leans on wakes it, and it swings back.
+    app.world_mut().entity_mut(far).despawn();
+    run(&mut app, 30);
+    assert!(!sim(&app, cloth).slept_last_step());
+    assert_ne!(sim(&app, cloth).positions(), &resting[..]);
+}
+
+#[test]
+fn wind_and_edits_wake_the_cloth() {
+    let mut app = app();
+    let cloth = hanging(&mut app, SolverSettings::default());
+    until_asleep(&mut app, cloth, 900);
+    app.world_mut().insert_resource(Wind {
+        velocity: Vec3::new(0.0, 0.0, 5.0),
+        ..default()
+    });
+    app.update();
+    assert!(!sim(&app, cloth).slept_last_step());
+    // A cloth in wind never sleeps.
+    run(&mut app, 300);
+    assert!(!sim(&app, cloth).is_sleeping());
+    app.world_mut().remove_resource::<Wind>();
+    until_asleep(&mut app, cloth, 1200);
+    // An edit to the configuration wakes it.
+    app.world_mut()
+        .get_mut::<ClothConfig>(cloth)
+        .unwrap()
+        .solver
+        .gravity = Vec3::new(0.0, -9.81, -3.0);
+    run(&mut app, 2);
+    assert!(!sim(&app, cloth).slept_last_step());
+}
