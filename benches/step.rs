@@ -1,23 +1,34 @@
 //! Time per simulated 1/60 s frame of the canonical grid cloth at 20 substeps (XPBD, one
-//! iteration), on one thread: the solver alone, without ECS overhead. Then the same 64×64 frame
-//! among colliders (none, a sphere it drapes over, 100 far away) and in wind.
+//! iteration), on one thread: the solver alone, without ECS overhead, with the throughput in
+//! constraint solves (springs × substeps) per second; 128×128 also at 10 substeps. Then the same
+//! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
+//! whole App frames with one active cloth against 100 sleeping ones.
 
 use std::hint::black_box;
 
 use bevy::math::Vec3;
 use bevy::math::primitives::Sphere;
+use bevy::prelude::{Transform, default};
+use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
     ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Integrator,
     Pose, SolverSettings, WindField,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
+/// A 1 m cloth of `n`×`n` particles hanging from two corners, a little into its swing.
 fn hanging(n: u32) -> ClothSim {
+    hanging_with(n, 20)
+}
+
+fn hanging_with(n: u32, substeps: u32) -> ClothSim {
     let model = ClothModel::grid(&GridSpec::new(n, n, 1.0 / (n - 1) as f32)).unwrap();
     let settings = SolverSettings {
         integrator: Integrator::Xpbd,
-        substeps: 20,
+        substeps,
         iterations: 1,
+        // Never asleep: these benchmarks time steps.
+        sleep_speed: 0.0,
         ..Default::default()
     };
     let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
@@ -31,17 +42,21 @@ fn hanging(n: u32) -> ClothSim {
 }
 
 fn step(c: &mut Criterion) {
-    let mut group = c.benchmark_group("xpbd_frame_20_substeps");
-    for n in [32u32, 64, 128] {
-        let mut sim = hanging(n);
-        group.throughput(Throughput::Elements(sim.model().springs.len() as u64 * 20));
-        group.bench_with_input(
-            BenchmarkId::from_parameter(format!("{n}x{n}")),
-            &n,
-            |b, _| b.iter(|| sim.step(black_box(1.0 / 60.0)).unwrap()),
-        );
+    for (substeps, sizes) in [(20, &[32u32, 64, 128][..]), (10, &[128][..])] {
+        let mut group = c.benchmark_group(format!("xpbd_frame_{substeps}_substeps"));
+        for &n in sizes {
+            let mut sim = hanging_with(n, substeps);
+            group.throughput(Throughput::Elements(
+                sim.model().springs.len() as u64 * substeps as u64,
+            ));
+            group.bench_with_input(
+                BenchmarkId::from_parameter(format!("{n}x{n}")),
+                &n,
+                |b, _| b.iter(|| sim.step(black_box(1.0 / 60.0)).unwrap()),
+            );
+        }
+        group.finish();
     }
-    group.finish();
 }
 
 fn sphere_at(centre: Vec3) -> Collider {
@@ -67,7 +82,7 @@ fn environment(c: &mut Criterion) {
         air_density: 1.225,
         ..Default::default()
     };
-    let cases: [(&str, Environment); 4] = [
+    let cases: [(&str, Environment); 5] = [
         ("nothing", Environment::default()),
         (
             "one_sphere",
@@ -90,6 +105,14 @@ fn environment(c: &mut Criterion) {
                 ..Default::default()
             },
         ),
+        (
+            "sphere_and_wind",
+            Environment {
+                colliders: &touching,
+                wind: Some(&wind),
+                ..Default::default()
+            },
+        ),
     ];
     for (name, env) in cases {
         let mut sim = hanging(n);
@@ -100,5 +123,56 @@ fn environment(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, step, environment);
+/// A headless App with `active` hanging 64×64 cloths and `sleeping` ones at rest (weightless, so
+/// they fall asleep after `sleep_steps`), updated until every sleeper sleeps.
+fn app_with(active: u32, sleeping: u32) -> bevy::app::App {
+    let mut app = bevy_cloth::plugin::headless_app(1.0 / 60.0);
+    let grid = GridSpec::new(64, 64, 1.0 / 63.0);
+    for k in 0..active + sleeping {
+        let asleep = k >= active;
+        let solver = SolverSettings {
+            gravity: if asleep { Vec3::ZERO } else { default() },
+            sleep_speed: if asleep { 0.005 } else { 0.0 },
+            ..default()
+        };
+        app.world_mut().spawn((
+            Cloth::grid(grid),
+            ClothPins::new([0, 63]),
+            ClothConfig {
+                solver,
+                ..default()
+            },
+            Transform::from_xyz(2.0 * k as f32, 0.0, 0.0),
+        ));
+    }
+    for _ in 0..40 {
+        app.update();
+    }
+    let world = app.world_mut();
+    let asleep = world
+        .query::<&ClothState>()
+        .iter(world)
+        .filter(|s| s.sim().is_sleeping())
+        .count();
+    assert_eq!(
+        asleep, sleeping as usize,
+        "the weightless cloths must sleep"
+    );
+    app
+}
+
+fn sleeping(c: &mut Criterion) {
+    let mut group = c.benchmark_group("app_frame_64x64");
+    for (name, active, sleeping) in [
+        ("no_cloth", 0, 0),
+        ("one_active", 1, 0),
+        ("100_sleeping", 0, 100),
+    ] {
+        let mut app = app_with(active, sleeping);
+        group.bench_function(name, |b| b.iter(|| app.update()));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, step, environment, sleeping);
 criterion_main!(benches);

@@ -66,13 +66,21 @@ enum Command {
     /// Print the eigen-analysis of the three Catmull-Clark vertex rules (valence 3–12) and their
     /// curvature proxies at levels 1–5 on paraboloid discs.
     Analysis,
-    /// Time a scene: prints one JSON line with the median and spread of milliseconds per frame.
+    /// Time a scene: prints one JSON line with the median and spread of milliseconds per whole
+    /// App frame (one fixed step: simulation, render refresh, mesh write), the constraint solves
+    /// per second that implies, and how many frames the cloths slept through.
     Bench {
         /// Scene file (RON).
         scene: PathBuf,
         /// Number of timed frames (after 10 warm-up frames).
         #[arg(long, default_value_t = 300)]
         frames: u32,
+        /// Copies of the scene's cloth, side by side (they step in parallel across threads).
+        #[arg(long, default_value_t = 1)]
+        copies: u32,
+        /// Threads of Bevy's compute task pool (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Run time against error of every integrator on the accuracy scenes (solver only, against an
     /// f64 reference): writes work-precision.md, .json and .png into the output folder.
@@ -187,28 +195,59 @@ fn analysis() -> Result<(), Box<dyn std::error::Error>> {
 
 /// A headless app with the scene's cloth built and at rest.
 fn load(path: &PathBuf) -> Result<(App, Entity, ClothScene), ClothError> {
+    let (app, entities, scene) = load_copies(path, 1)?;
+    Ok((app, entities[0], scene))
+}
+
+/// A headless app with `copies` of the scene (each moved 1000 m further along +X, so that they
+/// never meet) built and at rest.
+fn load_copies(path: &PathBuf, copies: u32) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
     let scene = ClothScene::load(path)?;
     let mut app = headless_app(scene.dt);
-    let entity = scene.spawn(app.world_mut())?;
-    app.update();
-    if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
-        return Err(e.clone());
+    let mut entities = Vec::new();
+    for k in 0..copies.max(1) {
+        let mut copy = scene.clone();
+        copy.translation.x += 1000.0 * k as f32;
+        for c in &mut copy.colliders {
+            c.translation.x += 1000.0 * k as f32;
+        }
+        entities.push(copy.spawn(app.world_mut())?);
     }
-    Ok((app, entity, scene))
+    app.update();
+    for e in &entities {
+        if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
+            return Err(e.clone());
+        }
+    }
+    Ok((app, entities, scene))
 }
 
 /// Runs `frames` updates (one fixed step each), returning the wall time of each in milliseconds.
 fn run(app: &mut App, entity: Entity, frames: u32) -> Result<Vec<f64>, ClothError> {
+    Ok(run_counting_sleep(app, &[entity], frames)?.0)
+}
+
+/// [`run`] for several cloths; also counts the cloth-frames skipped asleep.
+fn run_counting_sleep(
+    app: &mut App,
+    entities: &[Entity],
+    frames: u32,
+) -> Result<(Vec<f64>, u32), ClothError> {
     let mut times = Vec::with_capacity(frames as usize);
+    let mut slept = 0;
     for _ in 0..frames {
         let t = Instant::now();
         app.update();
         times.push(t.elapsed().as_secs_f64() * 1e3);
-        if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
-            return Err(e.clone());
+        for e in entities {
+            if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
+                return Err(e.clone());
+            }
+            let state = app.world().get::<ClothState>(*e);
+            slept += state.is_some_and(|s| s.sim().slept_last_step()) as u32;
         }
     }
-    Ok(times)
+    Ok((times, slept))
 }
 
 /// Median, 10th and 90th percentile, min and max.
@@ -261,20 +300,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             output,
         } => subdivide(&input, level, rule, boundary, &output)?,
         Command::Analysis => analysis()?,
-        Command::Bench { scene, frames } => {
-            let (mut app, entity, parsed) = load(&scene)?;
-            run(&mut app, entity, 10)?;
-            let mut times = run(&mut app, entity, frames)?;
+        Command::Bench {
+            scene,
+            frames,
+            copies,
+            threads,
+        } => {
+            if let Some(threads) = threads {
+                // Before the App exists, so that its TaskPoolPlugin finds this pool.
+                bevy::tasks::ComputeTaskPool::get_or_init(|| {
+                    bevy::tasks::TaskPoolBuilder::new()
+                        .num_threads(threads.max(1))
+                        .build()
+                });
+            }
+            let (mut app, entities, parsed) = load_copies(&scene, copies)?;
+            run_counting_sleep(&mut app, &entities, 10)?;
+            let (mut times, slept) = run_counting_sleep(&mut app, &entities, frames)?;
             let state = app
                 .world()
-                .get::<ClothState>(entity)
+                .get::<ClothState>(entities[0])
                 .ok_or("cloth was not built")?;
+            let sim = state.sim();
+            let solves = sim.model().springs.len() as f64
+                * sim.substeps_for(parsed.dt) as f64
+                * parsed.solver.iterations as f64
+                * entities.len() as f64;
             let mut line = stats(&mut times);
+            let median_s = line["median_ms"].as_f64().unwrap_or(f64::NAN) * 1e-3;
             line["scene"] = scene.display().to_string().into();
             line["frames"] = frames.into();
+            line["copies"] = entities.len().into();
+            line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
             line["particles"] = state.positions().len().into();
-            line["springs"] = state.sim().model().springs.len().into();
-            line["substeps"] = parsed.solver.substeps.into();
+            line["springs"] = sim.model().springs.len().into();
+            line["substeps"] = sim.substeps_for(parsed.dt).into();
+            line["constraint_solves_per_s"] = (solves / median_s).round().into();
+            line["cloth_frames_asleep"] = slept.into();
             println!("{line}");
         }
         Command::WorkPrecision {

@@ -41,7 +41,7 @@ pub mod subdivision;
 
 pub use components::*;
 pub use error::ClothError;
-pub use plugin::{ClothPlugin, ClothSystems};
+pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
 
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {

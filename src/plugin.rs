@@ -2,7 +2,7 @@
 //! the ECS and [`crate::sim`]. Systems gather inputs into plain data, call the solver and write
 //! meshes; they hold no formulas.
 
-use bevy::app::{App, FixedUpdate, Plugin, PostUpdate};
+use bevy::app::{App, First, FixedUpdate, Plugin, PostUpdate};
 use bevy::asset::{AssetEventSystems, Assets, Handle};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::prelude::*;
@@ -66,17 +66,32 @@ pub enum ClothSystems {
 ///     .add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
 ///     .add_plugins((bevy::mesh::MeshPlugin, ClothPlugin::default()));
 /// ```
+///
+/// # Frame hitches
+/// After a long frame, [`FixedUpdate`] runs as many steps as it takes to catch up (Bevy's virtual
+/// clock clamps a frame to 250 ms: 15 steps at 60 Hz). Cloths step at most
+/// [`max_steps_per_frame`](Self::max_steps_per_frame) times per frame (default
+/// [`DEFAULT_MAX_STEPS_PER_FRAME`]); the steps beyond it are skipped, so after a hitch the cloth's
+/// time runs behind the game's instead of the hitch costing many steps at once (which would make
+/// the next frame long too). Pins and colliders that moved meanwhile are caught up in the next step
+/// taken. [`ClothStepBudget`] counts the skipped steps.
 #[derive(Debug, Clone)]
 pub struct ClothPlugin {
     /// The schedule that steps the simulation, [`FixedUpdate`] by default. With any other
     /// schedule the step uses that schedule's `Time` delta and display interpolation is off.
     pub schedule: Interned<dyn ScheduleLabel>,
+    /// Most cloth steps per frame (at least 1).
+    pub max_steps_per_frame: u32,
 }
+
+/// The default of [`ClothPlugin::max_steps_per_frame`].
+pub const DEFAULT_MAX_STEPS_PER_FRAME: u32 = 4;
 
 impl Default for ClothPlugin {
     fn default() -> Self {
         Self {
             schedule: FixedUpdate.intern(),
+            max_steps_per_frame: DEFAULT_MAX_STEPS_PER_FRAME,
         }
     }
 }
@@ -86,8 +101,45 @@ impl ClothPlugin {
     pub fn in_schedule(schedule: impl ScheduleLabel) -> Self {
         Self {
             schedule: schedule.intern(),
+            ..Self::default()
         }
     }
+
+    /// Sets [`max_steps_per_frame`](Self::max_steps_per_frame) (values below 1 count as 1).
+    pub fn with_max_steps_per_frame(mut self, steps: u32) -> Self {
+        self.max_steps_per_frame = steps;
+        self
+    }
+}
+
+/// How many cloth steps this frame has taken, and how many were skipped because a frame asked for
+/// more than [`ClothPlugin::max_steps_per_frame`].
+#[derive(Resource, Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClothStepBudget {
+    /// Most steps per frame.
+    pub max_per_frame: u32,
+    /// Steps asked for in the current frame (taken or not).
+    pub this_frame: u32,
+    /// Steps skipped since the app started.
+    pub skipped: u64,
+}
+
+/// Starts a frame's step count.
+fn reset_step_budget(mut budget: ResMut<ClothStepBudget>) {
+    budget.this_frame = 0;
+}
+
+/// Counts a step of the simulation schedule, and the skipped ones.
+fn count_step(mut budget: ResMut<ClothStepBudget>) {
+    budget.this_frame += 1;
+    if budget.this_frame > budget.max_per_frame {
+        budget.skipped += 1;
+    }
+}
+
+/// Whether this step is within the frame's budget.
+fn step_allowed(budget: Res<ClothStepBudget>) -> bool {
+    budget.this_frame <= budget.max_per_frame
 }
 
 /// Whether the simulation runs in [`FixedUpdate`] (so that display interpolation makes sense).
@@ -105,6 +157,11 @@ impl Plugin for ClothPlugin {
             .register_type::<WindZone>()
             .init_resource::<WindSnapshot>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
+            .insert_resource(ClothStepBudget {
+                max_per_frame: self.max_steps_per_frame.max(1),
+                this_frame: 0,
+                skipped: 0,
+            })
             .init_resource::<ColliderSnapshot>()
             .configure_sets(
                 self.schedule,
@@ -113,7 +170,8 @@ impl Plugin for ClothPlugin {
                     ClothSystems::Step,
                     ClothSystems::Subdivide,
                 )
-                    .chain(),
+                    .chain()
+                    .run_if(step_allowed),
             )
             .configure_sets(
                 PostUpdate,
@@ -138,6 +196,8 @@ impl Plugin for ClothPlugin {
                 )
                     .run_if(any_with_component::<ClothState>),
             )
+            .add_systems(First, reset_step_budget)
+            .add_systems(self.schedule, count_step.before(ClothSystems::Prepare))
             .add_systems(
                 PostUpdate,
                 (

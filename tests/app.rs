@@ -4,6 +4,7 @@
 use bevy::mesh::{Indices, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
+use bevy_cloth::ClothStepBudget;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::SpringKind;
 
@@ -58,6 +59,42 @@ fn exactly_n_fixed_steps_run() {
     app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
     run(&mut app, 5);
     assert_eq!(state(&app, e).steps(), 26);
+}
+
+#[test]
+fn a_one_second_hitch_runs_at_most_the_capped_steps_and_the_cloth_survives() {
+    #[derive(Resource, Default)]
+    struct FixedSteps(u64);
+    let mut app = app();
+    app.init_resource::<FixedSteps>()
+        .add_systems(FixedUpdate, |mut n: ResMut<FixedSteps>| n.0 += 1);
+    let e = spawn(&mut app, hanging(16));
+    run(&mut app, 60);
+    let before = state(&app, e).steps();
+    let fixed_before = app.world().resource::<FixedSteps>().0;
+    // One frame of a whole second: the virtual clock clamps it to 250 ms, about 15 fixed steps.
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(
+        std::time::Duration::from_secs(1),
+    ));
+    app.update();
+    app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    let fixed = app.world().resource::<FixedSteps>().0 - fixed_before;
+    assert!(fixed >= 14, "{fixed} fixed steps in the long frame");
+    let cap = bevy_cloth::plugin::DEFAULT_MAX_STEPS_PER_FRAME as u64;
+    assert_eq!(state(&app, e).steps() - before, cap);
+    assert_eq!(
+        app.world().resource::<ClothStepBudget>().skipped,
+        fixed - cap
+    );
+    run(&mut app, 60);
+    assert_eq!(state(&app, e).steps() - before, cap + 60);
+    let sim = state(&app, e).sim();
+    assert!(sim.positions().iter().all(|p| p.is_finite()));
+    let strain = sim.max_strain(SpringKind::Structural);
+    assert!(
+        strain < 0.05,
+        "max structural strain {strain} after the hitch"
+    );
 }
 
 #[test]
