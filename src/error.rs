@@ -75,6 +75,32 @@ pub enum ClothError {
         /// Number of vertices.
         count: usize,
     },
+    /// An explicit integrator ran past its stability limit `h ω_max < 2`: the cloth's energy grew
+    /// step after step with nothing to explain it. The cloth is stopped before values overflow.
+    #[error(
+        "{integrator} is unstable at step {step}: substep {h} s × highest spring frequency \
+         {omega_max} rad/s = {h_omega:.2} is past the limit 2 (energy grew {growth:.0}× in \
+         {steps} steps); use at least {substeps_needed} substeps (auto_substeps), lower the \
+         stiffness, or use XPBD or implicit Euler"
+    )]
+    Unstable {
+        /// The integrator's name.
+        integrator: &'static str,
+        /// Fixed step counter at which the runaway was detected.
+        step: u64,
+        /// The substep length, s.
+        h: f32,
+        /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
+        omega_max: f32,
+        /// `h · omega_max`.
+        h_omega: f32,
+        /// Substeps per frame that the stability bound asks for.
+        substeps_needed: u32,
+        /// Factor by which the kinetic plus elastic energy grew.
+        growth: f64,
+        /// Over how many steps.
+        steps: u32,
+    },
     /// The simulation produced a non-finite value; the cloth is stopped instead of spreading NaN.
     #[error(
         "simulation diverged at step {step}: particle {particle} became non-finite \

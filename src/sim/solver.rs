@@ -299,6 +299,24 @@ pub struct ClothSim {
     pub(super) settings: SolverSettings,
     steps: u64,
     sleep: Sleep,
+    runaway: Runaway,
+}
+
+/// Steps of consecutive energy growth after which an explicit integrator past its stability limit
+/// is declared unstable.
+const RUNAWAY_STEPS: u32 = 5;
+/// Growth per step of the kinetic plus elastic energy that counts towards a runaway.
+const RUNAWAY_GROWTH: f64 = 1.5;
+
+/// Energy watch for the explicit integrators when they run past `h ω_max < 2`.
+#[derive(Debug, Clone, Copy, Default)]
+struct Runaway {
+    /// Kinetic plus elastic energy after the last step, J.
+    energy: f64,
+    /// Energy when the current streak of growth began, J.
+    streak_start: f64,
+    /// Consecutive steps in which the energy grew by at least [`RUNAWAY_GROWTH`].
+    streak: u32,
 }
 
 /// The sleeping state of a cloth (see [`SolverSettings::sleep_speed`]).
@@ -384,6 +402,7 @@ impl ClothSim {
             settings,
             steps: 0,
             sleep: Sleep::default(),
+            runaway: Runaway::default(),
         };
         sim.apply_settings();
         Ok(sim)
@@ -691,7 +710,47 @@ impl ClothSim {
                 substeps,
             });
         }
+        self.check_runaway(dt, substeps)?;
         self.update_sleep(env);
+        Ok(())
+    }
+
+    /// For an explicit integrator run past its stability bound (`h ω_max ≥ 2`, possible with
+    /// `auto_substeps` off or at [`MAX_SUBSTEPS`]): an error once the kinetic plus elastic energy
+    /// has grown by [`RUNAWAY_GROWTH`]× in each of [`RUNAWAY_STEPS`] consecutive steps, the
+    /// signature of an unstable mode (gravity, pins or wind add energy far more slowly). Within
+    /// the bound this costs nothing.
+    fn check_runaway(&mut self, dt: f32, substeps: u32) -> Result<(), ClothError> {
+        let h = dt / substeps as f32;
+        let h_omega = h * self.omega_max;
+        if !(self.settings.integrator.is_explicit() && h_omega >= 2.0) {
+            self.runaway = Runaway::default();
+            return Ok(());
+        }
+        let e = self.energy();
+        let energy = e.kinetic + e.elastic;
+        let r = &mut self.runaway;
+        if energy > RUNAWAY_GROWTH * r.energy && energy > 1e-12 {
+            if r.streak == 0 {
+                r.streak_start = r.energy.max(f64::MIN_POSITIVE);
+            }
+            r.streak += 1;
+        } else {
+            r.streak = 0;
+        }
+        r.energy = energy;
+        if r.streak >= RUNAWAY_STEPS {
+            return Err(ClothError::Unstable {
+                integrator: self.settings.integrator.name(),
+                step: self.steps,
+                h,
+                omega_max: self.omega_max,
+                h_omega,
+                substeps_needed: (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil() as u32,
+                growth: energy / r.streak_start,
+                steps: r.streak,
+            });
+        }
         Ok(())
     }
 
@@ -1196,6 +1255,41 @@ mod tests {
         s.step(1.0 / 60.0).unwrap();
         assert!(s.positions()[0].distance(p0 + Vec3::X) < 1e-6);
         assert!(s.set_pins([(16, Vec3::ZERO)]).is_err());
+    }
+
+    #[test]
+    fn explicit_integrators_past_their_limit_are_stopped_with_the_limit_named() {
+        for integrator in [Integrator::SymplecticEuler, Integrator::Verlet] {
+            let mut s = sim(
+                8,
+                SolverSettings {
+                    integrator,
+                    substeps: 1,
+                    auto_substeps: false,
+                    ..Default::default()
+                },
+            );
+            let pins = [(0, s.positions()[0]), (7, s.positions()[7])];
+            s.set_pins(pins).unwrap();
+            let err = (0..200)
+                .find_map(|_| s.step(1.0 / 60.0).err())
+                .expect("the runaway is detected");
+            assert!(matches!(err, ClothError::Unstable { .. }), "{err}");
+            assert!(err.to_string().contains("past the limit 2"), "{err}");
+            assert!(s.positions().iter().all(|p| p.is_finite()));
+            // Within the bound the same cloth runs on.
+            let mut s = sim(
+                8,
+                SolverSettings {
+                    integrator,
+                    ..Default::default()
+                },
+            );
+            s.set_pins(pins).unwrap();
+            for _ in 0..200 {
+                s.step(1.0 / 60.0).unwrap();
+            }
+        }
     }
 
     #[test]
