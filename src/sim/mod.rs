@@ -1,6 +1,7 @@
 //! The engine-free cloth solver: topology ([`ClothModel`]), particle state and time stepping
 //! ([`ClothSim`]) with four integrators behind one [`Integrator`] enum, an f64 reference integrator
-//! ([`reference`](mod@reference)) and the accuracy benchmark scenes ([`scenes`]). Plain data in, plain data out;
+//! ([`reference`](mod@reference)), the accuracy benchmark scenes ([`scenes`]) and the stress suite
+//! ([`stress`]). Plain data in, plain data out;
 //! nothing here knows about ECS, assets or meshes, so it can be unit-tested and benchmarked on its
 //! own. Every formula of the simulation lives here.
 
@@ -13,12 +14,15 @@ mod model;
 pub mod reference;
 pub mod scenes;
 mod solver;
+pub mod stress;
 pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
 pub use implicit::CG_TOLERANCE;
-pub use model::{ClothModel, GridPlane, GridSpec, SpringKind, Springs, compute_normals};
+pub use model::{
+    ClothModel, GridPlane, GridSpec, RunLayout, SpringKind, SpringRun, Springs, compute_normals,
+};
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{
     ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
