@@ -6,6 +6,7 @@
 //! cargo run --release --example cloth_cli -- subdivide in.obj --level 2 --rule tuned --output out.obj
 //! cargo run --release --example cloth_cli -- analysis
 //! cargo run --release --example cloth_cli -- work-precision --quick
+//! cargo run --release --example cloth_cli -- stress --cases 10000 --seed 1
 //! ```
 
 use std::path::PathBuf;
@@ -22,6 +23,8 @@ use clap::{Parser, Subcommand};
 
 #[path = "cloth_cli/plot.rs"]
 mod plot;
+#[path = "cloth_cli/stress.rs"]
+mod stress;
 #[path = "cloth_cli/work_precision.rs"]
 mod work_precision;
 
@@ -81,6 +84,21 @@ enum Command {
         /// Threads of Bevy's compute task pool (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+    },
+    /// The stress suite: seeded random cloths at the limits of every setting, checked every step
+    /// (no NaN, no panic, bounded energy, nothing inside a collider, pins exact). Prints a table
+    /// per integrator and every failure; exits with an error if any case failed.
+    Stress {
+        /// Number of cases.
+        #[arg(long, default_value_t = 1000)]
+        cases: u64,
+        /// Seed of the suite (case i of seed s is always the same case).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Integrators to draw from (xpbd, symplectic-euler, verlet, implicit-euler); all by
+        /// default.
+        #[arg(long, value_delimiter = ',')]
+        integrators: Vec<String>,
     },
     /// Run time against error of every integrator on the accuracy scenes (solver only, against an
     /// f64 reference): writes work-precision.md, .json and .png into the output folder.
@@ -338,6 +356,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             line["constraint_solves_per_s"] = (solves / median_s).round().into();
             line["cloth_frames_asleep"] = slept.into();
             println!("{line}");
+        }
+        Command::Stress {
+            cases,
+            seed,
+            integrators,
+        } => {
+            let mut chosen = Vec::new();
+            for name in &integrators {
+                chosen.push(match name.as_str() {
+                    "xpbd" => Integrator::Xpbd,
+                    "symplectic-euler" => Integrator::SymplecticEuler,
+                    "verlet" => Integrator::Verlet,
+                    "implicit-euler" => Integrator::ImplicitEuler,
+                    other => return Err(format!("unknown integrator {other:?}").into()),
+                });
+            }
+            if !stress::run(cases, seed, &chosen) {
+                return Err("stress cases failed (listed above)".into());
+            }
         }
         Command::WorkPrecision {
             quick,

@@ -44,12 +44,12 @@ pub struct StressLimits {
 }
 
 impl Default for StressLimits {
-    /// Up to 128×128 particles and 4·10⁷ particle-substeps (tens of milliseconds in a release
-    /// build), half a second each.
+    /// Up to 128×128 particles and 10⁷ particle-substeps (tens of milliseconds in a release
+    /// build for XPBD), half a second each.
     fn default() -> Self {
         Self {
             max_side: 128,
-            max_work: 4e7,
+            max_work: 1e7,
             duration: 0.5,
         }
     }

@@ -1,0 +1,116 @@
+//! `cloth_cli stress`: runs the seeded stress suite of `bevy_cloth::sim::stress` with a progress
+//! bar, then prints a Markdown table per integrator (cases, stable, stopped as unstable, failures,
+//! worst values, and the stability limits the cases found) and every failure.
+
+use std::time::Instant;
+
+use bevy_cloth::sim::Integrator;
+use bevy_cloth::sim::stress::{
+    StressLimits, StressOutcome, StressResult, draw_case, run_case,
+};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Per-integrator tallies.
+#[derive(Default)]
+struct Tally {
+    cases: u32,
+    stable: u32,
+    unstable: u32,
+    failures: u32,
+    max_penetration: f32,
+    max_pin_error: f32,
+    max_speed: f32,
+    /// Largest dt, stiffness and h·ω_max among stable cases.
+    stable_dt: f32,
+    stable_stiffness: f32,
+    stable_h_omega: f32,
+    /// Smallest h·ω_max among cases stopped as unstable.
+    unstable_h_omega: f32,
+}
+
+/// Runs `cases` cases of suite `seed` over `integrators`; returns whether all passed.
+pub fn run(cases: u64, seed: u64, integrators: &[Integrator]) -> bool {
+    let limits = StressLimits::default();
+    let bar = ProgressBar::new(cases);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} cases, {elapsed} elapsed, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let start = Instant::now();
+    let mut tallies: Vec<(Integrator, Tally)> = Integrator::ALL
+        .iter()
+        .map(|i| (*i, Tally::default()))
+        .collect();
+    let mut failures: Vec<StressResult> = Vec::new();
+    for index in 0..cases {
+        let case = draw_case(seed, index, integrators, &limits);
+        let r = run_case(&case, &limits);
+        let Some((_, t)) = tallies
+            .iter_mut()
+            .find(|(i, _)| *i == r.case.settings.integrator)
+        else {
+            continue;
+        };
+        t.cases += 1;
+        t.max_penetration = t.max_penetration.max(r.max_penetration);
+        t.max_pin_error = t.max_pin_error.max(r.max_pin_error);
+        t.max_speed = t.max_speed.max(r.max_speed);
+        match &r.outcome {
+            StressOutcome::Stable => {
+                t.stable += 1;
+                t.stable_dt = t.stable_dt.max(r.case.dt);
+                t.stable_stiffness = t.stable_stiffness.max(r.case.settings.stiffness.structural);
+                t.stable_h_omega = t.stable_h_omega.max(r.h_omega);
+            }
+            StressOutcome::DetectedUnstable(_) => {
+                t.unstable += 1;
+                t.unstable_h_omega = if t.unstable_h_omega == 0.0 {
+                    r.h_omega
+                } else {
+                    t.unstable_h_omega.min(r.h_omega)
+                };
+            }
+            StressOutcome::Failure(_) => {
+                t.failures += 1;
+                failures.push(r);
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!(
+        "stress suite: seed {seed}, {cases} cases, {:.1} s\n",
+        start.elapsed().as_secs_f64()
+    );
+    println!(
+        "| integrator | cases | stable | stopped as unstable | failures | deepest in a collider (m) | worst pin error (m) | fastest particle (m/s) | largest stable dt (s) | stiffest stable (N/m) | largest stable hω | smallest unstable hω |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (integrator, t) in tallies.iter().filter(|(_, t)| t.cases > 0) {
+        println!(
+            "| {} | {} | {} | {} | {} | {:.1e} | {:.1e} | {:.0} | {:.4} | {:.2e} | {:.2} | {} |",
+            integrator.name(),
+            t.cases,
+            t.stable,
+            t.unstable,
+            t.failures,
+            t.max_penetration,
+            t.max_pin_error,
+            t.max_speed,
+            t.stable_dt,
+            t.stable_stiffness,
+            t.stable_h_omega,
+            if t.unstable > 0 {
+                format!("{:.2}", t.unstable_h_omega)
+            } else {
+                "–".into()
+            }
+        );
+    }
+    for f in &failures {
+        if let StressOutcome::Failure(why) = &f.outcome {
+            println!("\nFAILED case {} (seed {}): {why}\n{:?}", f.case.index, f.case.seed, f.case);
+        }
+    }
+    failures.is_empty()
+}
