@@ -18,7 +18,10 @@ pub mod wind;
 pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
 pub use implicit::CG_TOLERANCE;
-pub use model::{ClothModel, GridPlane, GridSpec, SpringKind, Springs, compute_normals};
+pub use model::{
+    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, SpringKind, Springs,
+    compute_normals,
+};
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{
     ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
