@@ -5,7 +5,11 @@ use bevy_cloth::subdivision::{BoundaryMode, PolyMesh, Subdivider, VertexRule};
 use glam::Vec3;
 
 /// Every rule and boundary mode.
-pub const RULES: [VertexRule; 3] = [VertexRule::Original, VertexRule::Enhanced, VertexRule::Tuned];
+pub const RULES: [VertexRule; 3] = [
+    VertexRule::Original,
+    VertexRule::Enhanced,
+    VertexRule::Tuned,
+];
 /// Both boundary modes.
 pub const BOUNDARIES: [BoundaryMode; 2] = [BoundaryMode::EdgeOnly, BoundaryMode::EdgeAndCorner];
 
@@ -30,7 +34,8 @@ pub fn refine_all(mesh: &PolyMesh, level: u32) {
             let mut refined = vec![Vec3::ZERO; n];
             let mut normals = vec![Vec3::ZERO; n];
             sub.apply(&control, &mut refined).expect("sizes match");
-            sub.compute_normals(&refined, &mut normals).expect("sizes match");
+            sub.compute_normals(&refined, &mut normals)
+                .expect("sizes match");
             let render = sub.topology().render_mesh();
             let mut out = vec![Vec3::ZERO; render.vertex_count()];
             render.expand(&refined, &mut out).expect("sizes match");

@@ -40,9 +40,8 @@ fuzz_target!(|data: &[u8]| {
         .map(|&p| (p, sim.positions()[p as usize]))
         .collect();
     sim.set_pins(pins).expect("validated pins");
-    let work = particles
-        * sim.substeps_for(scene.dt) as u64
-        * scene.solver.iterations.max(1) as u64;
+    let work =
+        particles * sim.substeps_for(scene.dt) as u64 * scene.solver.iterations.max(1) as u64;
     if work <= MAX_WORK {
         let _ = sim.step(scene.dt);
     }

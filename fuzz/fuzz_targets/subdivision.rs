@@ -56,7 +56,9 @@ fn build(u: &mut Unstructured) -> Result<std::result::Result<PolyMesh, Subdivisi
             let polys = (0..faces)
                 .map(|_| {
                     let k = u.int_in_range(0..=8usize)?;
-                    (0..k).map(|_| index(u, vertices)).collect::<Result<Vec<_>>>()
+                    (0..k)
+                        .map(|_| index(u, vertices))
+                        .collect::<Result<Vec<_>>>()
                 })
                 .collect::<Result<Vec<_>>>()?;
             PolyMesh::from_polygons(positions, &polys)
@@ -88,7 +90,10 @@ fn build(u: &mut Unstructured) -> Result<std::result::Result<PolyMesh, Subdivisi
                             Ok(if u.ratio(1, 32)? {
                                 Vec2::new(f32::from_bits(u.arbitrary()?), 0.5)
                             } else {
-                                Vec2::new(u.int_in_range(0..=8u8)? as f32, u.int_in_range(0..=8u8)? as f32) / 8.0
+                                Vec2::new(
+                                    u.int_in_range(0..=8u8)? as f32,
+                                    u.int_in_range(0..=8u8)? as f32,
+                                ) / 8.0
                             })
                         })
                         .collect::<Result<Vec<_>>>()?,
