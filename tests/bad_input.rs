@@ -44,8 +44,11 @@ fn invalid_value(result: Result<(), ClothError>, field: &str) {
 // ClothConfig / SolverSettings
 // ---------------------------------------------------------------------------------------------
 
+/// Sets one field of the settings.
+type Setter<T> = fn(&mut SolverSettings, T);
+
 /// Every float field of the solver settings, with a setter.
-fn float_fields() -> Vec<(&'static str, fn(&mut SolverSettings, f32))> {
+fn float_fields() -> Vec<(&'static str, Setter<f32>)> {
     vec![
         ("stiffness.structural", |s, v| s.stiffness.structural = v),
         ("stiffness.shear", |s, v| s.stiffness.shear = v),
@@ -101,7 +104,7 @@ fn solver_settings_reject_nan_infinite_negative_and_zero_where_meaningless() {
 
 #[test]
 fn solver_counts_out_of_range_name_the_field_and_bounds() {
-    let cases: [(&str, u32, fn(&mut SolverSettings, u32)); 4] = [
+    let cases: [(&str, u32, Setter<u32>); 4] = [
         ("substeps", 0, |s, v| s.substeps = v),
         ("substeps", MAX_SUBSTEPS + 1, |s, v| s.substeps = v),
         ("iterations", 0, |s, v| s.iterations = v),
@@ -873,7 +876,8 @@ fn wind_validation_names_the_field() {
     assert!(field(|_| {}).is_ok());
     assert!(field(|w| w.air_density = 0.0).is_ok(), "no air, no force");
     assert!(field(|w| w.zones[0].falloff = 1.0).is_ok());
-    let cases: [(fn(&mut WindField), &str); 13] = [
+    type Edit = fn(&mut WindField);
+    let cases: [(Edit, &str); 13] = [
         (|w| w.air_density = -1.0, "wind.air_density"),
         (|w| w.air_density = f32::NAN, "wind.air_density"),
         (|w| w.velocity.y = f32::INFINITY, "wind.velocity.y"),
