@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::headless_app;
+use bevy_cloth::plugin::try_headless_app;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
 use bevy_cloth::sim::AccuracyScene;
@@ -188,7 +188,7 @@ fn analysis() -> Result<(), Box<dyn std::error::Error>> {
 /// A headless app with the scene's cloth built and at rest.
 fn load(path: &PathBuf) -> Result<(App, Entity, ClothScene), ClothError> {
     let scene = ClothScene::load(path)?;
-    let mut app = headless_app(scene.dt);
+    let mut app = try_headless_app(scene.dt)?;
     let entity = scene.spawn(app.world_mut())?;
     app.update();
     if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {

@@ -26,7 +26,7 @@ use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
 
 use crate::components::{Cloth, ClothCollider, ClothConfig, ClothPins, DEFAULT_COLLIDER_MARGIN};
-use crate::error::{ClothError, finite_vec3, positive};
+use crate::error::{ClothError, finite_vec3};
 use crate::plugin::ClothSystems;
 use crate::sim::{ClothModel, ColliderShape, Friction, GridSpec, SolverSettings};
 
@@ -225,7 +225,8 @@ pub struct ClothScene {
     /// Particles pinned at their initial positions.
     #[serde(default)]
     pub pins: Vec<u32>,
-    /// The fixed time step, s.
+    /// The fixed time step, s: [`MIN_FIXED_STEP`](crate::plugin::MIN_FIXED_STEP)`..=`
+    /// [`MAX_FIXED_STEP`](crate::plugin::MAX_FIXED_STEP).
     #[serde(default = "default_dt")]
     pub dt: f32,
     /// Integrator, substeps, iterations, stiffness, mass, damping, gravity.
@@ -259,7 +260,7 @@ impl ClothScene {
     /// field and value; an error in a collider is a [`ClothError::InScene`] saying which one
     /// (`colliders[2]`).
     pub fn validate(&self) -> Result<(), ClothError> {
-        positive("dt", self.dt)?;
+        crate::plugin::validate_fixed_step(self.dt)?;
         self.solver.validate()?;
         let count = match &self.cloth {
             SceneCloth::Grid(spec) => {

@@ -719,6 +719,11 @@ fn scenes_with_out_of_range_values_name_the_field() {
     invalid_value(scene(", dt: -0.01").map(drop), "dt");
     invalid_value(scene(", dt: inf").map(drop), "dt");
     invalid_value(scene(", dt: NaN").map(drop), "dt");
+    // Bevy's fixed clock counts nanoseconds and overflows past 1.8e19 s: steps stay in 1 µs..1 s.
+    invalid_value(scene(", dt: 1e-9").map(drop), "dt");
+    invalid_value(scene(", dt: 1e30").map(drop), "dt");
+    invalid_value(scene(", dt: 1.5").map(drop), "dt");
+    assert!(scene(", dt: 1.0").is_ok() && scene(", dt: 0.000001").is_ok());
     invalid_value(
         scene(", solver: (particle_mass: 0.0)").map(drop),
         "particle_mass",
@@ -944,6 +949,15 @@ fn wind_validation_names_the_field() {
 
 fn app() -> App {
     bevy_cloth::plugin::headless_app(1.0 / 60.0)
+}
+
+#[test]
+fn a_headless_app_with_a_bad_step_is_an_error() {
+    use bevy_cloth::plugin::try_headless_app;
+    for dt in [0.0, -1.0 / 60.0, f32::NAN, f32::INFINITY, 1e-12, 1e30] {
+        invalid_value(try_headless_app(dt).map(drop), "dt");
+    }
+    assert!(try_headless_app(1.0 / 60.0).is_ok());
 }
 
 fn run(app: &mut App, updates: u32) {

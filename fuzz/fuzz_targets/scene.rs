@@ -20,6 +20,10 @@ fuzz_target!(|data: &[u8]| {
     let Ok(scene) = ClothScene::from_ron(text) else {
         return;
     };
+    // The step must make a valid Bevy fixed clock (`Time::<Fixed>::from_seconds` panics on a
+    // step that is zero in nanoseconds or overflows a `Duration`).
+    let step = std::time::Duration::try_from_secs_f64(scene.dt as f64);
+    assert!(step.is_ok_and(|d| !d.is_zero()), "dt {}", scene.dt);
     for c in &scene.colliders {
         c.component().expect("a validated collider builds");
     }
