@@ -31,7 +31,7 @@ for t in "${targets[@]}"; do
   $nice cargo +nightly fuzz run -s "$sanitizer" "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
     -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
     -print_final_stats=1 > "fuzz/logs/$t.log" 2>&1 || status=$?
-  grep -E "^#[0-9]+ +(INITED|DONE)|^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb|new_units_added)|^Done|SUMMARY|panicked" \
+  grep -E "^#[0-9]+[[:space:]]+(INITED|DONE)|^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb|new_units_added)|^Done|SUMMARY|panicked" \
     "fuzz/logs/$t.log" || true
   if [ "$status" -ne 0 ]; then
     echo "!! $t failed (exit $status): see fuzz/logs/$t.log and fuzz/artifacts/$t/" >&2
