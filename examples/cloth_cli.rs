@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::headless_app;
+use bevy_cloth::plugin::try_headless_app;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
 use bevy_cloth::sim::AccuracyScene;
@@ -221,7 +221,7 @@ fn load(path: &PathBuf) -> Result<(App, Entity, ClothScene), ClothError> {
 /// never meet) built and at rest.
 fn load_copies(path: &PathBuf, copies: u32) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
     let scene = ClothScene::load(path)?;
-    let mut app = headless_app(scene.dt);
+    let mut app = try_headless_app(scene.dt)?;
     let mut entities = Vec::new();
     for k in 0..copies.max(1) {
         let mut copy = scene.clone();

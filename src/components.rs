@@ -25,7 +25,10 @@ pub enum ClothSource {
     Grid(GridSpec),
     /// A triangle-list mesh asset: one particle per vertex. The plugin copies the mesh into a new
     /// asset that it then deforms, so other users of the handle are not affected; the copy keeps the
-    /// vertex count, index buffer and every other attribute.
+    /// vertex count, index buffer and every other attribute. The mesh is checked as
+    /// [`ClothModel::from_mesh`](crate::sim::ClothModel::from_mesh) describes (degenerate faces,
+    /// zero-length and non-manifold edges are errors; coincident vertices that no edge joins are a
+    /// seam that can open).
     Mesh(Handle<Mesh>),
 }
 
@@ -96,6 +99,14 @@ pub struct ClothConfig {
     /// Collision layers this cloth collides with: a [`ClothCollider`] touches the cloth when its
     /// `layers` share a bit with this mask. Every layer by default.
     pub collision_mask: u32,
+}
+
+impl ClothConfig {
+    /// Checks the settings; the error names the first bad field (only
+    /// [`solver`](Self::solver) has values that can be wrong: see [`SolverSettings::validate`]).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        self.solver.validate()
+    }
 }
 
 impl Default for ClothConfig {

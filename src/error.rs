@@ -19,8 +19,12 @@ pub enum ClothError {
         /// The value given.
         value: u32,
     },
-    /// A grid larger than the index type can address.
-    #[error("grid {nx}×{ny} has more particles than fit in a u32 index")]
+    /// A grid with more particles than [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES).
+    #[error(
+        "grid {nx}×{ny} has {} particles, more than the supported maximum {}",
+        *.nx as u64 * *.ny as u64,
+        crate::sim::MAX_PARTICLES
+    )]
     GridTooLarge {
         /// Particles along x.
         nx: u32,
@@ -101,6 +105,45 @@ pub enum ClothError {
         /// Over how many steps.
         steps: u32,
     },
+    /// A mesh face that cannot carry cloth: it uses a vertex twice, or it (or, for a quad, one of
+    /// the two triangles it is drawn with) has no area because its corners are collinear.
+    #[error("mesh face {face} (vertices {vertices:?}) is degenerate: {reason}")]
+    DegenerateFace {
+        /// Index of the face (the `face`-th group of `face_size` indices).
+        face: usize,
+        /// Its vertex indices.
+        vertices: Vec<u32>,
+        /// What is wrong, e.g. `"it uses vertex 4 more than once"`.
+        reason: String,
+    },
+    /// Two distinct vertices at the same position are joined by an edge, so the spring along it
+    /// would have no length and no direction.
+    #[error("mesh face {face} has a zero-length edge: vertices {a} and {b} are both at {position}")]
+    ZeroLengthEdge {
+        /// Index of the face with the edge.
+        face: usize,
+        /// One end of the edge.
+        a: u32,
+        /// The other end.
+        b: u32,
+        /// Where both vertices are.
+        position: glam::Vec3,
+    },
+    /// An edge shared by more than two faces (a fin or a "book" of pages): cloth is a surface, so
+    /// each edge borders one face (a boundary) or two.
+    #[error(
+        "mesh edge ({a}, {b}) is shared by {} faces (faces {faces:?}); an edge of a cloth borders \
+         at most two",
+        .faces.len()
+    )]
+    NonManifoldEdge {
+        /// Smaller vertex index of the edge.
+        a: u32,
+        /// Larger vertex index of the edge.
+        b: u32,
+        /// Every face that uses the edge, in index order.
+        faces: Vec<usize>,
+    },
     /// The simulation produced a non-finite value; the cloth is stopped instead of spreading NaN.
     #[error(
         "simulation diverged at step {step}: particle {particle} became non-finite \
@@ -125,9 +168,41 @@ pub enum ClothError {
         /// What went wrong, e.g. `"step size underflow at t = 0.3 s"`.
         what: String,
     },
-    /// A scene file could not be read or parsed.
+    /// A scene file could not be read or parsed (the message has the parser's line and column).
     #[error("scene: {0}")]
     Scene(String),
+    /// A bad value inside one item of a scene, e.g. the third collider: `location` says which
+    /// (`"colliders[2]"`), `error` what is wrong with it.
+    #[error("{location}: {error}")]
+    InScene {
+        /// Which item, e.g. `"colliders[2]"`.
+        location: String,
+        /// What is wrong with it.
+        error: Box<ClothError>,
+    },
+}
+
+impl ClothError {
+    /// The error itself, or for [`ClothError::InScene`] the error inside (however deeply nested),
+    /// so that callers can match on what went wrong regardless of where.
+    ///
+    /// ```
+    /// use bevy_cloth::scene::ClothScene;
+    /// use bevy_cloth::ClothError;
+    ///
+    /// let e = ClothScene::from_ron(
+    ///     "(cloth: Grid((nx: 4, ny: 4, spacing: 0.1)), colliders: [(shape: Sphere(radius: -1.0))])",
+    /// )
+    /// .unwrap_err();
+    /// assert!(e.to_string().starts_with("colliders[0]: collider.radius"));
+    /// assert!(matches!(e.innermost(), ClothError::InvalidValue { field: "collider.radius", .. }));
+    /// ```
+    pub fn innermost(&self) -> &ClothError {
+        match self {
+            ClothError::InScene { error, .. } => error.innermost(),
+            other => other,
+        }
+    }
 }
 
 /// Checks that `value` is finite and strictly positive.
@@ -151,6 +226,41 @@ pub(crate) fn non_negative(field: &'static str, value: f32) -> Result<(), ClothE
         Err(ClothError::InvalidValue {
             field,
             expected: "finite and >= 0",
+            value: value as f64,
+        })
+    }
+}
+
+/// Checks that `value` is finite.
+pub(crate) fn finite(field: &'static str, value: f32) -> Result<(), ClothError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(ClothError::InvalidValue {
+            field,
+            expected: "finite",
+            value: value as f64,
+        })
+    }
+}
+
+/// Checks that every component of `value` is finite; the error names the component
+/// (`fields[0]` for x, `fields[1]` for y, `fields[2]` for z) and its value.
+pub(crate) fn finite_vec3(fields: [&'static str; 3], value: glam::Vec3) -> Result<(), ClothError> {
+    for (field, v) in fields.into_iter().zip(value.to_array()) {
+        finite(field, v)?;
+    }
+    Ok(())
+}
+
+/// Checks that `value` lies in `0..=1`.
+pub(crate) fn unit_interval(field: &'static str, value: f32) -> Result<(), ClothError> {
+    if (0.0..=1.0).contains(&value) {
+        Ok(())
+    } else {
+        Err(ClothError::InvalidValue {
+            field,
+            expected: "in 0..=1",
             value: value as f64,
         })
     }

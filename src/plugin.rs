@@ -698,14 +698,43 @@ fn write_meshes(
     }
 }
 
+/// Shortest fixed time step accepted by [`try_headless_app`] and by scene files, s (1 µs; Bevy's
+/// fixed clock counts whole nanoseconds and rejects a zero step).
+pub const MIN_FIXED_STEP: f32 = 1e-6;
+/// Longest fixed time step accepted by [`try_headless_app`] and by scene files, s.
+pub const MAX_FIXED_STEP: f32 = 1.0;
+
+/// Checks a fixed time step of `dt` seconds: in [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`].
+pub fn validate_fixed_step(dt: f32) -> Result<(), ClothError> {
+    if (MIN_FIXED_STEP..=MAX_FIXED_STEP).contains(&dt) {
+        Ok(())
+    } else {
+        Err(ClothError::InvalidValue {
+            field: "dt",
+            expected: "in 1e-6..=1 s",
+            value: dt as f64,
+        })
+    }
+}
+
+/// [`try_headless_app`] for a step known to be valid.
+///
+/// # Panics
+/// If `dt` is outside [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] (NaN included).
+pub fn headless_app(dt: f32) -> App {
+    try_headless_app(dt).unwrap_or_else(|e| panic!("headless_app: {e}"))
+}
+
 /// A windowless app ready for cloths: `MinimalPlugins`, transforms, assets, meshes,
 /// [`ClothPlugin`] and [`ScenePlugin`](crate::scene::ScenePlugin), with a fixed step of `dt` seconds and manual time so that every `update()` runs
 /// exactly one fixed step. It has already been updated once (Bevy's first update has zero delta).
 /// A cloth spawned now is built at the end of the next `update()` (after that update's fixed step),
-/// so it starts at rest and steps from the update after.
+/// so it starts at rest and steps from the update after. A step outside
+/// [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] is an error (see [`validate_fixed_step`]).
 ///
 /// Used by the tests, benchmarks and `cloth_cli`; servers and tools can use it too.
-pub fn headless_app(dt: f32) -> App {
+pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
+    validate_fixed_step(dt)?;
     let mut app = App::new();
     app.add_plugins((
         bevy::MinimalPlugins,
@@ -720,5 +749,5 @@ pub fn headless_app(dt: f32) -> App {
     app.finish();
     app.cleanup();
     app.update();
-    app
+    Ok(app)
 }

@@ -26,7 +26,7 @@ use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
 
 use crate::components::{Cloth, ClothCollider, ClothConfig, ClothPins, DEFAULT_COLLIDER_MARGIN};
-use crate::error::{ClothError, positive};
+use crate::error::{ClothError, finite_vec3};
 use crate::plugin::ClothSystems;
 use crate::sim::{ClothModel, ColliderShape, Friction, GridSpec, SolverSettings};
 
@@ -39,6 +39,7 @@ pub enum SceneCloth {
 
 /// The shape of a scene collider (see [`ColliderShape`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum SceneShape {
     /// A ball.
     Sphere {
@@ -78,7 +79,7 @@ impl SceneShape {
             SceneShape::Cuboid { half_size } => ColliderShape::Cuboid(Cuboid { half_size }),
             SceneShape::Plane { normal } => {
                 let normal = Dir3::new(normal).map_err(|_| ClothError::InvalidValue {
-                    field: "colliders.shape.normal",
+                    field: "collider.normal",
                     expected: "a non-zero finite vector",
                     value: normal.length() as f64,
                 })?;
@@ -126,8 +127,26 @@ impl SceneCollider {
             ..ClothCollider::new(self.shape.shape()?)
         };
         collider.friction.validate()?;
-        crate::error::non_negative("colliders.margin", collider.margin)?;
+        crate::error::non_negative("collider.margin", collider.margin)?;
         Ok(collider)
+    }
+
+    /// Checks the shape, friction, margin, placement and velocity; the error names the field.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        self.component()?;
+        finite_vec3(
+            ["translation.x", "translation.y", "translation.z"],
+            self.translation,
+        )?;
+        finite_vec3(
+            [
+                "rotation_degrees.x",
+                "rotation_degrees.y",
+                "rotation_degrees.z",
+            ],
+            self.rotation_degrees,
+        )?;
+        finite_vec3(["velocity.x", "velocity.y", "velocity.z"], self.velocity)
     }
 
     /// The components of the collider entity.
@@ -206,7 +225,8 @@ pub struct ClothScene {
     /// Particles pinned at their initial positions.
     #[serde(default)]
     pub pins: Vec<u32>,
-    /// The fixed time step, s.
+    /// The fixed time step, s: [`MIN_FIXED_STEP`](crate::plugin::MIN_FIXED_STEP)`..=`
+    /// [`MAX_FIXED_STEP`](crate::plugin::MAX_FIXED_STEP).
     #[serde(default = "default_dt")]
     pub dt: f32,
     /// Integrator, substeps, iterations, stiffness, mass, damping, gravity.
@@ -236,9 +256,11 @@ impl ClothScene {
         Self::from_ron(&text).map_err(|e| ClothError::Scene(format!("{}: {e}", path.display())))
     }
 
-    /// Checks every value the scene carries, including that the pins exist.
+    /// Checks every value the scene carries, including that the pins exist. The error names the
+    /// field and value; an error in a collider is a [`ClothError::InScene`] saying which one
+    /// (`colliders[2]`).
     pub fn validate(&self) -> Result<(), ClothError> {
-        positive("dt", self.dt)?;
+        crate::plugin::validate_fixed_step(self.dt)?;
         self.solver.validate()?;
         let count = match &self.cloth {
             SceneCloth::Grid(spec) => {
@@ -249,25 +271,23 @@ impl ClothScene {
         if let Some(&index) = self.pins.iter().find(|&&p| p as usize >= count) {
             return Err(ClothError::PinOutOfRange { index, count });
         }
-        if !(self.translation.is_finite() && self.rotation_degrees.is_finite()) {
-            return Err(ClothError::InvalidValue {
-                field: "translation/rotation_degrees",
-                expected: "finite",
-                value: f64::NAN,
-            });
-        }
-        for c in &self.colliders {
-            c.component()?;
-            if !(c.translation.is_finite()
-                && c.rotation_degrees.is_finite()
-                && c.velocity.is_finite())
-            {
-                return Err(ClothError::InvalidValue {
-                    field: "colliders.translation/rotation_degrees/velocity",
-                    expected: "finite",
-                    value: f64::NAN,
-                });
-            }
+        finite_vec3(
+            ["translation.x", "translation.y", "translation.z"],
+            self.translation,
+        )?;
+        finite_vec3(
+            [
+                "rotation_degrees.x",
+                "rotation_degrees.y",
+                "rotation_degrees.z",
+            ],
+            self.rotation_degrees,
+        )?;
+        for (i, c) in self.colliders.iter().enumerate() {
+            c.validate().map_err(|e| ClothError::InScene {
+                location: format!("colliders[{i}]"),
+                error: Box::new(e),
+            })?;
         }
         Ok(())
     }

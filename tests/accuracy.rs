@@ -36,13 +36,12 @@ fn method(integrator: Integrator) -> SolverSettings {
     }
 }
 
-/// A chain (or single spring) from degenerate triangles `[i, i+1, i+1]`: exactly one structural
-/// spring per consecutive pair, nothing else.
+/// A chain (or single spring): exactly one structural spring per consecutive pair, nothing else.
 fn chain(points: &[Vec3]) -> ClothModel {
-    let indices: Vec<u32> = (0..points.len() as u32 - 1)
-        .flat_map(|i| [i, i + 1, i + 1])
+    let springs: Vec<_> = (0..points.len() as u32 - 1)
+        .map(|i| (i, i + 1, bevy_cloth::sim::SpringKind::Structural))
         .collect();
-    let model = ClothModel::from_mesh(points, None, &indices, 3).unwrap();
+    let model = ClothModel::from_springs(points, &springs).unwrap();
     assert_eq!(model.springs.len(), points.len() - 1);
     model
 }

@@ -201,6 +201,15 @@ const SPEED_WEIGHTS: [f32; 3] = [1.0, 0.35, 0.2];
 const WOBBLE_FREQUENCY: f32 = 1.7;
 
 impl Gusts {
+    /// Checks that `strength`, `frequency` and `turbulence` are finite and not negative; the error
+    /// names the first bad one.
+    pub fn validate(&self) -> Result<(), crate::error::ClothError> {
+        use crate::error::non_negative;
+        non_negative("gusts.strength", self.strength)?;
+        non_negative("gusts.frequency", self.frequency)?;
+        non_negative("gusts.turbulence", self.turbulence)
+    }
+
     /// The gusty wind velocity (m/s) at `position` (m) and `time` (s), around the mean wind
     /// `base` (m/s).
     ///

@@ -21,7 +21,8 @@ pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
 pub use implicit::CG_TOLERANCE;
 pub use model::{
-    ClothModel, GridPlane, GridSpec, RunLayout, SpringKind, SpringRun, Springs, compute_normals,
+    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, RunLayout, SpringKind,
+    SpringRun, Springs, compute_normals,
 };
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{

@@ -41,12 +41,22 @@ pub enum GridPlane {
     Vertical,
 }
 
+/// Largest number of particles a cloth may have (16,777,216, a 4096 × 4096 grid): far beyond
+/// real time, and small enough that building the cloth's springs fits in memory.
+pub const MAX_PARTICLES: usize = 1 << 24;
+
+/// A triangle whose doubled area is at most this fraction of the square of its longest edge (its
+/// height is at most a millionth of that edge) counts as having zero area: [`ClothModel::from_mesh`]
+/// rejects it as degenerate.
+pub const DEGENERATE_TRIANGLE_RATIO: f64 = 1e-6;
+
 /// The canonical rectangular grid cloth of DESIGN.md.
 ///
 /// Particle `(i, j)` has index `j * nx + i`. Springs: structural `(i,j)-(i+1,j)`, `(i,j)-(i,j+1)`;
 /// shear `(i,j)-(i+1,j+1)`, `(i+1,j)-(i,j+1)`; bend `(i,j)-(i+2,j)`, `(i,j)-(i,j+2)`. Rest lengths are
 /// the initial distances.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(deny_unknown_fields)]
 pub struct GridSpec {
     /// Particles along the first axis (`i`), at least 2.
     pub nx: u32,
@@ -81,7 +91,9 @@ impl GridSpec {
         j * self.nx + i
     }
 
-    /// Checks the spec; the error names the bad field.
+    /// Checks the spec; the error names the bad field: `nx` and `ny` at least 2, at most
+    /// [`MAX_PARTICLES`] particles, `spacing` finite and positive and small enough that the grid's
+    /// diagonal is finite in `f32`.
     pub fn validate(&self) -> Result<(), ClothError> {
         if self.nx < 2 {
             return Err(ClothError::GridTooSmall {
@@ -95,13 +107,27 @@ impl GridSpec {
                 value: self.ny,
             });
         }
-        if (self.nx as u64) * (self.ny as u64) > u32::MAX as u64 / 2 {
+        if (self.nx as u64) * (self.ny as u64) > MAX_PARTICLES as u64 {
             return Err(ClothError::GridTooLarge {
                 nx: self.nx,
                 ny: self.ny,
             });
         }
-        positive("spacing", self.spacing)
+        positive("spacing", self.spacing)?;
+        // Every spring is shorter than the diagonal; its length must not overflow.
+        let diagonal = Vec2::new(
+            (self.nx - 1) as f32 * self.spacing,
+            (self.ny - 1) as f32 * self.spacing,
+        )
+        .length();
+        if !diagonal.is_finite() {
+            return Err(ClothError::InvalidValue {
+                field: "spacing",
+                expected: "small enough that the grid's diagonal is finite",
+                value: self.spacing as f64,
+            });
+        }
+        Ok(())
     }
 }
 
@@ -485,87 +511,63 @@ impl ClothModel {
     }
 
     /// Builds a cloth from an indexed mesh whose faces are all triangles (`face_size == 3`) or all
-    /// quads (`face_size == 4`). Structural springs run along every edge; bend springs connect the
-    /// two vertices opposite each interior edge (for quads, the far corners across the edge); quads
-    /// also get both diagonals as shear springs. Triangles for rendering keep the input's order
-    /// (quads are split along their first diagonal).
+    /// quads (`face_size == 4`), one particle per vertex. Structural springs run along every edge;
+    /// bend springs connect the two vertices opposite each interior edge (for quads, the far
+    /// corners across the edge); quads also get both diagonals as shear springs. Triangles for
+    /// rendering keep the input's order (quads are split along their first diagonal).
+    ///
+    /// # Errors
+    ///
+    /// The whole mesh is checked before anything is built; the error names the problem and where:
+    /// - [`ClothError::InvalidMesh`]: no positions, no indices, a face size other than 3 or 4, an
+    ///   index count that is not a multiple of it, more than [`MAX_PARTICLES`] vertices, a
+    ///   non-finite position or texture coordinate (naming the vertex), a texture coordinate count
+    ///   that differs from the vertex count, or vertices so far apart that the distances between
+    ///   them overflow `f32`;
+    /// - [`ClothError::MeshIndexOutOfRange`]: an index past the last vertex (with its position in
+    ///   the index buffer);
+    /// - [`ClothError::DegenerateFace`]: a face that uses a vertex twice, or a triangle (for a quad,
+    ///   either triangle of its split) with zero area (see [`DEGENERATE_TRIANGLE_RATIO`]);
+    /// - [`ClothError::ZeroLengthEdge`]: an edge between two distinct vertices at the same position;
+    /// - [`ClothError::NonManifoldEdge`]: an edge shared by more than two faces.
+    ///
+    /// # Duplicate vertices and other legal oddities
+    ///
+    /// Distinct vertices at the same position that no edge joins are legal. They are separate
+    /// particles with no spring between them, so the cloth is *cut* there, like a seam that was
+    /// never sewn: the two sides move independently and can pull apart. Exported meshes often have
+    /// such duplicates along UV seams and hard edges; weld them (merge vertices by position) before
+    /// building the cloth if the seam should hold. Vertices that no face uses are particles without
+    /// springs: they fall freely and are not drawn. Faces need not be consistently oriented and
+    /// several fans may meet at a vertex, but subdivision of the render mesh
+    /// ([`ClothSubdivision`](crate::ClothSubdivision)) needs both and otherwise reports a
+    /// [`ClothError::Subdivision`] error. A bend spring whose two vertices coincide (two faces folded
+    /// flat onto each other) is left out, as are quad diagonals of zero length.
     pub fn from_mesh(
         positions: &[Vec3],
         uvs: Option<&[Vec2]>,
         indices: &[u32],
         face_size: usize,
     ) -> Result<Self, ClothError> {
-        if positions.is_empty() {
-            return Err(ClothError::InvalidMesh {
-                what: "has no vertex positions".into(),
-            });
-        }
-        if indices.is_empty() {
-            return Err(ClothError::InvalidMesh {
-                what: "has no indices".into(),
-            });
-        }
-        if face_size != 3 && face_size != 4 {
-            return Err(ClothError::InvalidMesh {
-                what: format!("faces must have 3 or 4 vertices, got {face_size}"),
-            });
-        }
-        if !indices.len().is_multiple_of(face_size) {
-            return Err(ClothError::InvalidMesh {
-                what: format!(
-                    "index count {} is not a multiple of the face size {face_size}",
-                    indices.len()
-                ),
-            });
-        }
-        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-            return Err(ClothError::InvalidMesh {
-                what: format!("vertex {i} has a non-finite position {p}"),
-            });
-        }
-        if let Some(uvs) = uvs
-            && uvs.len() != positions.len()
-        {
-            return Err(ClothError::InvalidMesh {
-                what: format!(
-                    "has {} texture coordinates for {} vertices",
-                    uvs.len(),
-                    positions.len()
-                ),
-            });
-        }
+        check_mesh(positions, uvs, indices, face_size)?;
         let count = positions.len();
-        if let Some((position, &index)) = indices
-            .iter()
-            .enumerate()
-            .find(|(_, i)| **i as usize >= count)
-        {
-            return Err(ClothError::MeshIndexOutOfRange {
-                index,
-                position,
-                count,
-            });
-        }
 
-        // Undirected edge -> the vertices opposite it in each adjacent face (at most two kept).
-        let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        // Undirected edge -> (opposite vertex, face) for each face using it. The opposite vertex is
+        // the third corner of a triangle, or the corner after the edge's second end in a quad.
+        let mut edges: HashMap<(u32, u32), Vec<(u32, usize)>> = HashMap::new();
         let mut edge_order: Vec<(u32, u32)> = Vec::new();
         let mut pairs = Vec::new();
         let mut triangles = Vec::with_capacity(indices.len() / face_size * 3 * (face_size - 2));
-        for face in indices.chunks_exact(face_size) {
+        for (f, face) in indices.chunks_exact(face_size).enumerate() {
             for k in 0..face_size {
                 let (a, b) = (face[k], face[(k + 1) % face_size]);
-                if a == b {
-                    continue;
-                }
-                // The opposite vertex: for triangles the third corner, for quads the corner after b.
                 let opposite = face[(k + 2) % face_size];
                 let key = (a.min(b), a.max(b));
                 let entry = edges.entry(key).or_insert_with(|| {
                     edge_order.push(key);
                     Vec::new()
                 });
-                entry.push(opposite);
+                entry.push((opposite, f));
             }
             if face_size == 4 {
                 pairs.push((face[0], face[2], SpringKind::Shear));
@@ -577,8 +579,16 @@ impl ClothModel {
             }
         }
         for key in &edge_order {
+            let uses = &edges[key];
+            if uses.len() > 2 {
+                return Err(ClothError::NonManifoldEdge {
+                    a: key.0,
+                    b: key.1,
+                    faces: uses.iter().map(|&(_, f)| f).collect(),
+                });
+            }
             pairs.push((key.0, key.1, SpringKind::Structural));
-            if let [o1, o2] = edges[key][..]
+            if let [(o1, _), (o2, _)] = uses[..]
                 && o1 != o2
             {
                 pairs.push((o1, o2, SpringKind::Bend));
@@ -596,6 +606,206 @@ impl ClothModel {
             particle_masses: None,
         })
     }
+}
+
+impl ClothModel {
+    /// Builds a cloth of explicit springs and no faces, one particle per position: a chain, a
+    /// rope, a net, or a single spring for a test. Rest lengths are the initial distances. The
+    /// model has no triangles (so no aerodynamic forces and nothing to draw or subdivide) and
+    /// `face_size` 3.
+    ///
+    /// Errors name the problem: the vertex checks of [`ClothModel::from_mesh`]
+    /// ([`ClothError::InvalidMesh`]), a spring end past the last position
+    /// ([`ClothError::MeshIndexOutOfRange`], `position` being `2 · spring + end`), and a spring
+    /// from a particle to itself or between two particles at the same place
+    /// ([`ClothError::InvalidMesh`], naming the spring).
+    ///
+    /// ```
+    /// use bevy_cloth::sim::{ClothModel, SpringKind};
+    /// use glam::Vec3;
+    ///
+    /// let points = [Vec3::ZERO, Vec3::X, Vec3::new(2.0, 0.0, 0.0)];
+    /// let chain = ClothModel::from_springs(
+    ///     &points,
+    ///     &[(0, 1, SpringKind::Structural), (1, 2, SpringKind::Structural)],
+    /// )
+    /// .unwrap();
+    /// assert_eq!(chain.springs.len(), 2);
+    /// ```
+    pub fn from_springs(
+        positions: &[Vec3],
+        springs: &[(u32, u32, SpringKind)],
+    ) -> Result<Self, ClothError> {
+        check_vertices(positions, None)?;
+        let count = positions.len();
+        for (k, &(a, b, _)) in springs.iter().enumerate() {
+            for (end, v) in [a, b].into_iter().enumerate() {
+                if v as usize >= count {
+                    return Err(ClothError::MeshIndexOutOfRange {
+                        index: v,
+                        position: 2 * k + end,
+                        count,
+                    });
+                }
+            }
+            let p = positions[a as usize];
+            if a == b || p == positions[b as usize] {
+                return Err(ClothError::InvalidMesh {
+                    what: format!("spring {k} ({a}, {b}) has zero length: both ends are at {p}"),
+                });
+            }
+        }
+        Ok(Self {
+            rest_positions: positions.to_vec(),
+            uvs: vec![Vec2::ZERO; count],
+            triangles: Vec::new(),
+            faces: Vec::new(),
+            face_size: 3,
+            springs: Springs::build(positions, springs),
+            grid: None,
+            particle_masses: None,
+        })
+    }
+}
+
+/// Every check of [`ClothModel::from_mesh`] that does not need the edge map: buffers, sizes,
+/// values, index ranges, then each face.
+fn check_mesh(
+    positions: &[Vec3],
+    uvs: Option<&[Vec2]>,
+    indices: &[u32],
+    face_size: usize,
+) -> Result<(), ClothError> {
+    let invalid = |what: String| Err(ClothError::InvalidMesh { what });
+    check_vertices(positions, uvs)?;
+    if indices.is_empty() {
+        return invalid("has no indices".into());
+    }
+    if face_size != 3 && face_size != 4 {
+        return invalid(format!("faces must have 3 or 4 vertices, got {face_size}"));
+    }
+    if !indices.len().is_multiple_of(face_size) {
+        return invalid(format!(
+            "index count {} is not a multiple of the face size {face_size}",
+            indices.len()
+        ));
+    }
+    let count = positions.len();
+    if let Some((position, &index)) = indices
+        .iter()
+        .enumerate()
+        .find(|(_, i)| **i as usize >= count)
+    {
+        return Err(ClothError::MeshIndexOutOfRange {
+            index,
+            position,
+            count,
+        });
+    }
+    for (f, face) in indices.chunks_exact(face_size).enumerate() {
+        check_face(positions, f, face)?;
+    }
+    Ok(())
+}
+
+/// The vertex checks shared by [`ClothModel::from_mesh`] and [`ClothModel::from_springs`]: some
+/// vertices but not too many, finite positions and texture coordinates (one per vertex), and no
+/// distance between two vertices that overflows `f32`.
+fn check_vertices(positions: &[Vec3], uvs: Option<&[Vec2]>) -> Result<(), ClothError> {
+    let invalid = |what: String| Err(ClothError::InvalidMesh { what });
+    if positions.is_empty() {
+        return invalid("has no vertex positions".into());
+    }
+    let count = positions.len();
+    if count > MAX_PARTICLES {
+        return invalid(format!(
+            "has {count} vertices, more than the supported maximum {MAX_PARTICLES}"
+        ));
+    }
+    if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+        return invalid(format!("vertex {i} has a non-finite position {p}"));
+    }
+    if let Some(uvs) = uvs {
+        if uvs.len() != count {
+            return invalid(format!(
+                "has {} texture coordinates for {count} vertices",
+                uvs.len()
+            ));
+        }
+        if let Some((i, uv)) = uvs.iter().enumerate().find(|(_, uv)| !uv.is_finite()) {
+            return invalid(format!(
+                "vertex {i} has a non-finite texture coordinate {uv}"
+            ));
+        }
+    }
+    // Every distance between two vertices is at most the bounding box's diagonal.
+    let (lo, hi) = positions.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    if !(hi - lo).length().is_finite() {
+        let e = |v: Vec3| format!("({:e}, {:e}, {:e})", v.x, v.y, v.z);
+        return invalid(format!(
+            "is too large: its vertices span {} to {}, so distances between them overflow f32",
+            e(lo),
+            e(hi)
+        ));
+    }
+    Ok(())
+}
+
+/// Checks one face of a mesh cloth: no vertex twice, no zero-length edge, and no triangle of zero
+/// area (for a quad, neither triangle of its split along the first diagonal).
+fn check_face(positions: &[Vec3], face: usize, corners: &[u32]) -> Result<(), ClothError> {
+    let degenerate = |reason: String| ClothError::DegenerateFace {
+        face,
+        vertices: corners.to_vec(),
+        reason,
+    };
+    if let Some(&v) = corners
+        .iter()
+        .enumerate()
+        .find_map(|(k, v)| corners[..k].contains(v).then_some(v))
+    {
+        return Err(degenerate(format!("it uses vertex {v} more than once")));
+    }
+    let p = |v: u32| positions[v as usize];
+    for k in 0..corners.len() {
+        let (a, b) = (corners[k], corners[(k + 1) % corners.len()]);
+        if p(a) == p(b) {
+            return Err(ClothError::ZeroLengthEdge {
+                face,
+                a,
+                b,
+                position: p(a),
+            });
+        }
+    }
+    let split: &[[usize; 3]] = if corners.len() == 4 {
+        &[[0, 1, 2], [0, 2, 3]]
+    } else {
+        &[[0, 1, 2]]
+    };
+    for t in split {
+        // In f64, so that collinear f32 points give (almost exactly) zero.
+        let [a, b, c] = t.map(|k| p(corners[k]).as_dvec3());
+        let doubled_area = (b - a).cross(c - a).length();
+        let longest = (b - a)
+            .length_squared()
+            .max((c - b).length_squared())
+            .max((a - c).length_squared());
+        if doubled_area <= DEGENERATE_TRIANGLE_RATIO * longest {
+            return Err(degenerate(if corners.len() == 4 {
+                format!(
+                    "its triangle {:?} has zero area (collinear corners)",
+                    t.map(|k| corners[k])
+                )
+            } else {
+                "it has zero area (its corners are collinear)".into()
+            }));
+        }
+    }
+    Ok(())
 }
 
 impl ClothModel {

@@ -11,7 +11,7 @@
 use glam::Vec3;
 
 use super::aero::{AeroParams, Gusts, add_aero_forces, triangle_centroids};
-use crate::error::{ClothError, non_negative};
+use crate::error::{ClothError, finite_vec3, non_negative, unit_interval};
 
 /// A region of extra wind: inside `shape` (in the zone's frame, placed by `to_local`), `velocity` is
 /// added to the global wind, fading linearly to zero over the outer `falloff` fraction of the
@@ -107,19 +107,39 @@ impl WindField {
         wind
     }
 
-    /// Checks the density, the velocity and the zones.
+    /// Checks the density, the velocity, the gusts and the zones (shape, velocity, gusts, falloff
+    /// in `0..=1`, and a finite placement: a zone scaled to zero has none); the error names the
+    /// first bad field and its value.
     pub fn validate(&self) -> Result<(), ClothError> {
         non_negative("wind.air_density", self.air_density)?;
-        if !self.velocity.is_finite() {
-            return Err(ClothError::InvalidValue {
-                field: "wind.velocity",
-                expected: "finite",
-                value: f64::NAN,
-            });
+        finite_vec3(
+            ["wind.velocity.x", "wind.velocity.y", "wind.velocity.z"],
+            self.velocity,
+        )?;
+        if let Some(g) = &self.gusts {
+            g.validate()?;
         }
         for z in &self.zones {
             z.shape.validate()?;
-            non_negative("wind_zone.falloff", z.falloff)?;
+            finite_vec3(
+                [
+                    "wind_zone.velocity.x",
+                    "wind_zone.velocity.y",
+                    "wind_zone.velocity.z",
+                ],
+                z.velocity,
+            )?;
+            if let Some(g) = &z.gusts {
+                g.validate()?;
+            }
+            unit_interval("wind_zone.falloff", z.falloff)?;
+            if !z.to_local.is_finite() {
+                return Err(ClothError::InvalidValue {
+                    field: "wind_zone transform",
+                    expected: "invertible (finite, with non-zero scale)",
+                    value: f64::NAN,
+                });
+            }
         }
         Ok(())
     }
