@@ -90,6 +90,31 @@ fn a_cloth_at_rest_sleeps_and_stays_exactly_where_it_was() {
 }
 
 #[test]
+fn a_weightless_cloth_far_from_the_origin_sleeps_despite_rounding_jitter() {
+    // At 500 m one f32 step is 61 µm: the springs can never be exactly at rest length there, and
+    // each substep's tiny corrections read as velocities of centimetres per second.
+    let mut app = app();
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Cloth::grid(GridSpec::new(32, 32, 1.0 / 31.0)),
+            ClothPins::new([0, 31]),
+            ClothConfig {
+                solver: SolverSettings {
+                    gravity: Vec3::ZERO,
+                    ..default()
+                },
+                ..default()
+            },
+            Transform::from_xyz(500.0, 0.0, -300.0),
+        ))
+        .id();
+    app.update();
+    let steps = until_asleep(&mut app, cloth, 120);
+    assert!(steps <= 40, "asleep only after {steps} steps");
+}
+
+#[test]
 fn sleeping_can_be_switched_off() {
     let mut app = app();
     let cloth = hanging(

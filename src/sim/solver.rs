@@ -158,9 +158,12 @@ pub struct SolverSettings {
     pub drag_coefficient: f32,
     /// Aerodynamic lift coefficient of the cloth's triangles (used only when there is wind).
     pub lift_coefficient: f32,
-    /// Sleeping: a cloth whose fastest free particle stays slower than this (m/s) for
-    /// [`sleep_steps`](Self::sleep_steps) consecutive steps stops stepping until something wakes it
-    /// (a moving pin or collider, a collider arriving or leaving, wind, or an edit). 0 disables it.
+    /// Sleeping: a cloth whose free particles all move slower than this (m/s, measured as the
+    /// displacement over a whole step divided by the step) for [`sleep_steps`](Self::sleep_steps)
+    /// consecutive steps stops stepping until something wakes it (a moving pin or collider, a
+    /// collider arriving or leaving, wind, or an edit). 0 disables it. Measuring over the step, not
+    /// the last substep's velocity, keeps the rounding jitter of a cloth far from the origin (one
+    /// f32 step of 15 µm at 200 m) below the default threshold.
     pub sleep_speed: f32,
     /// Consecutive quiet steps before a cloth falls asleep.
     pub sleep_steps: u32,
@@ -299,6 +302,8 @@ pub struct ClothSim {
     pub(super) settings: SolverSettings,
     steps: u64,
     sleep: Sleep,
+    /// Positions at the start of the current step, for the sleep test (empty when sleeping is off).
+    step_start: Vec<Vec3>,
     runaway: Runaway,
 }
 
@@ -402,6 +407,7 @@ impl ClothSim {
             settings,
             steps: 0,
             sleep: Sleep::default(),
+            step_start: Vec::with_capacity(n),
             runaway: Runaway::default(),
         };
         sim.apply_settings();
@@ -682,6 +688,10 @@ impl ClothSim {
             return Ok(());
         }
         self.sleep.skipped = false;
+        if self.settings.sleep_speed > 0.0 {
+            self.step_start.clear();
+            self.step_start.extend_from_slice(&self.positions);
+        }
         self.wind.begin_step(
             env.wind,
             (
@@ -711,7 +721,7 @@ impl ClothSim {
             });
         }
         self.check_runaway(dt, substeps)?;
-        self.update_sleep(env);
+        self.update_sleep(env, dt);
         Ok(())
     }
 
@@ -772,18 +782,19 @@ impl ClothSim {
     }
 
     /// Counts quiet steps after a step that ran, and puts the cloth to sleep after enough of them.
-    fn update_sleep(&mut self, env: &Environment) {
+    fn update_sleep(&mut self, env: &Environment, dt: f32) {
         let threshold = self.settings.sleep_speed;
         if threshold <= 0.0 || env.wind.is_some() || self.pins.iter().any(|p| p.from != p.to) {
             self.sleep.quiet_steps = 0;
             return;
         }
-        let limit = threshold * threshold;
+        let limit = (threshold * dt).powi(2);
         let quiet = self
-            .velocities
+            .positions
             .iter()
+            .zip(&self.step_start)
             .zip(&self.inv_mass)
-            .all(|(v, w)| *w == 0.0 || v.length_squared() < limit);
+            .all(|((x, x0), w)| *w == 0.0 || x.distance_squared(*x0) < limit);
         self.sleep.quiet_steps = if quiet { self.sleep.quiet_steps + 1 } else { 0 };
         if self.sleep.quiet_steps >= self.settings.sleep_steps {
             self.sleep.asleep = true;
