@@ -6,6 +6,7 @@
 
 pub mod aero;
 pub mod collision;
+mod disc;
 mod explicit;
 mod forces;
 mod implicit;
@@ -17,6 +18,7 @@ pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
+pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use implicit::CG_TOLERANCE;
 pub use model::{ClothModel, GridPlane, GridSpec, SpringKind, Springs, compute_normals};
 pub use scenes::{AccuracyScene, relative_rms_error};
