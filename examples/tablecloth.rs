@@ -24,7 +24,7 @@ use bevy_cloth::sim::ClothModel;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
 /// Radius of the cloth, m.
-const CLOTH_RADIUS: f32 = 0.8;
+const CLOTH_RADIUS: f32 = 0.85;
 /// Quads along each spoke of the disc.
 const RINGS: u32 = 14;
 /// Height the cloth is dropped from, above the table top, m.
@@ -47,8 +47,8 @@ fn main() {
     App::new()
         .add_plugins(common::ExamplePlugin {
             title: "bevy_cloth: tablecloth",
-            focus: Vec3::new(0.0, 0.6, 0.0),
-            eye: Vec3::new(1.3, 1.55, 1.75),
+            focus: Vec3::new(0.0, 0.55, 0.0),
+            eye: Vec3::new(1.35, 1.3, 1.8),
         })
         .add_plugins((
             ClothPlugin::default(),
@@ -91,8 +91,13 @@ fn setup(
             Name::new("tablecloth"),
             tablecloth(sectors)?,
             ClothConfig {
+                // A soft fabric: low bending stiffness lets the skirt fold.
                 solver: SolverSettings {
                     damping: 1.0,
+                    stiffness: Stiffness {
+                        bend: 10.0,
+                        ..default()
+                    },
                     ..default()
                 },
                 ..default()
