@@ -603,3 +603,33 @@ fn a_round_tablecloth_drapes_over_a_round_table() {
         .count();
     assert_eq!(inside, 0, "particles inside the table top");
 }
+
+#[test]
+fn the_paper_scene_preset_drapes_its_cloth_over_the_sphere() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/drape.ron");
+    let scene = bevy_cloth::scene::ClothScene::load(path).unwrap();
+    // The paper's Figure 5: a 32 × 32 cloth pinned at its four corners, a sphere and the floor.
+    let n = 32u32;
+    let bevy_cloth::scene::SceneCloth::Grid(spec) = scene.cloth;
+    assert_eq!((spec.nx, spec.ny), (n, n));
+    assert_eq!(scene.pins, vec![0, n - 1, n * (n - 1), n * n - 1]);
+    assert_eq!(scene.colliders.len(), 2);
+    let mut app = bevy_cloth::plugin::headless_app(scene.dt);
+    let cloth = scene.spawn(app.world_mut()).unwrap();
+    let corners: Vec<Vec3> = {
+        app.update();
+        let p = state(&app, cloth).positions();
+        scene.pins.iter().map(|&i| p[i as usize]).collect()
+    };
+    run(&mut app, 120);
+    let p = state(&app, cloth).positions();
+    // The middle of the cloth rests on top of the sphere (radius 0.4 at y = 1.2, 1 cm margin).
+    let middle = p[(n / 2 * n + n / 2) as usize];
+    assert!(
+        (middle.y - 1.61).abs() < 0.02 && middle.xz().length() < 0.1,
+        "middle of the cloth at {middle}"
+    );
+    for (&i, c) in scene.pins.iter().zip(&corners) {
+        assert_eq!(p[i as usize], *c, "corner {i} moved");
+    }
+}
