@@ -153,7 +153,7 @@ impl Cloth {
     ///     ));
     ///     Ok(())
     /// }
-    /// # bevy::ecs::system::assert_is_system(spawn);
+    /// # bevy::ecs::system::assert_is_system::<(), Result, _>(spawn);
     /// ```
     pub fn from_model(model: impl Into<SharedClothModel>) -> Self {
         Self {
