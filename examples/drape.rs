@@ -18,13 +18,12 @@ use bevy::pbr::wireframe::{Wireframe, WireframePlugin};
 use bevy::prelude::*;
 use bevy_cloth::inspector::ClothInspectorPlugin;
 use bevy_cloth::prelude::*;
+use bevy_cloth::scene::{ClothScene, SceneShape};
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
-/// Particles per side of the cloth.
-const N: u32 = 32;
-const SPACING: f32 = 0.05;
-const CLOTH_HEIGHT: f32 = 1.75;
-const SPHERE_RADIUS: f32 = 0.4;
+/// The scene itself (cloth, pins, solver, sphere and floor), shared with `benches/pipeline.rs` and
+/// `cloth_cli bench assets/scenes/drape.ron`.
+const PAPER_SCENE: &str = include_str!("../assets/scenes/drape.ron");
 
 fn main() {
     let mut app = App::new();
@@ -64,15 +63,13 @@ fn main() {
 struct Scene {
     cloth: Entity,
     sphere: Entity,
+    sphere_radius: f32,
+    /// The pinned corner particles.
+    corners: Vec<u32>,
     fabric: Handle<StandardMaterial>,
     plain: Handle<StandardMaterial>,
     textured: bool,
     wireframe: bool,
-}
-
-/// The four corner particles.
-fn corners() -> [u32; 4] {
-    [0, N - 1, N * (N - 1), N * N - 1]
 }
 
 fn setup(
@@ -80,7 +77,8 @@ fn setup(
     asset_server: Res<AssetServer>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
-) {
+) -> Result {
+    let paper = ClothScene::from_ron(PAPER_SCENE)?;
     let fabric = common::fabric(&asset_server, &mut materials);
     let plain = materials.add(StandardMaterial {
         base_color: Color::srgb(0.75, 0.2, 0.2),
@@ -90,40 +88,48 @@ fn setup(
         ..default()
     });
     let cloth = commands
-        .spawn((
-            Name::new("drape"),
-            Cloth::grid(GridSpec::new(N, N, SPACING)),
-            ClothPins::new(corners()),
+        .spawn((Name::new("drape"), paper.bundle()))
+        .insert((
+            // Scenes show the exact simulated state; on screen, interpolate between fixed steps.
+            ClothConfig {
+                solver: paper.solver,
+                ..default()
+            },
             // The paper renders the first subdivision level.
             ClothSubdivision {
                 level: 1,
                 ..default()
             },
-            Transform::from_xyz(0.0, CLOTH_HEIGHT, 0.0),
             MeshMaterial3d(fabric.clone()),
         ))
         .id();
-    let sphere = commands
-        .spawn((
-            ClothCollider::sphere(SPHERE_RADIUS).with_friction(Friction::new(0.6)),
-            Mesh3d(meshes.add(Sphere::new(SPHERE_RADIUS).mesh().ico(5).unwrap())),
-            MeshMaterial3d(materials.add(StandardMaterial {
-                base_color: Color::srgb(0.85, 0.8, 0.35),
-                ..default()
-            })),
-            Transform::from_xyz(0.0, 1.2, 0.0),
-        ))
-        .id();
-    // The floor, so a released cloth has somewhere to land.
-    commands.spawn((ClothCollider::half_space(Vec3::Y), Transform::IDENTITY));
+    // The sphere (drawn too) and the floor, so that a released cloth has somewhere to land.
+    let mut sphere = None;
+    for collider in &paper.colliders {
+        let mut entity = commands.spawn(collider.bundle()?);
+        if let SceneShape::Sphere { radius } = collider.shape {
+            entity.insert((
+                Mesh3d(meshes.add(Sphere::new(radius).mesh().ico(5)?)),
+                MeshMaterial3d(materials.add(StandardMaterial {
+                    base_color: Color::srgb(0.85, 0.8, 0.35),
+                    ..default()
+                })),
+            ));
+            sphere = Some((entity.id(), radius));
+        }
+    }
+    let (sphere, sphere_radius) = sphere.ok_or("the paper's scene has a sphere")?;
     commands.insert_resource(Scene {
         cloth,
         sphere,
+        sphere_radius,
+        corners: paper.pins.clone(),
         fabric,
         plain,
         textured: true,
         wireframe: false,
     });
+    Ok(())
 }
 
 /// What the panel and the keys can change.
@@ -147,7 +153,7 @@ fn apply(
     }
     if t.release {
         if pins.pins.is_empty() {
-            *pins = ClothPins::new(corners());
+            *pins = ClothPins::new(scene.corners.iter().copied());
         } else {
             pins.release_all();
         }
@@ -214,9 +220,9 @@ fn keys(
 /// Keeps the sphere above the floor.
 fn follow_sphere(scene: Res<Scene>, mut transforms: Query<&mut Transform>) {
     if let Ok(mut t) = transforms.get_mut(scene.sphere)
-        && t.translation.y < SPHERE_RADIUS
+        && t.translation.y < scene.sphere_radius
     {
-        t.translation.y = SPHERE_RADIUS;
+        t.translation.y = scene.sphere_radius;
     }
 }
 
@@ -250,7 +256,7 @@ fn scene_panel(
                 let mut p = t.translation;
                 ui.label("sphere (arrows, PageUp/PageDown)");
                 ui.add(egui::Slider::new(&mut p.x, -1.5..=1.5).text("x"));
-                ui.add(egui::Slider::new(&mut p.y, SPHERE_RADIUS..=2.5).text("y"));
+                ui.add(egui::Slider::new(&mut p.y, scene.sphere_radius..=2.5).text("y"));
                 ui.add(egui::Slider::new(&mut p.z, -1.5..=1.5).text("z"));
                 if p != t.translation {
                     t.translation = p;

@@ -2,6 +2,8 @@
 //! read-only [`ClothState`] / [`ClothInvalid`] the plugin attaches. No formulas live here: the
 //! solver is in [`crate::sim`].
 
+use std::sync::Arc;
+
 use bevy::asset::Handle;
 use bevy::ecs::prelude::*;
 use bevy::math::Vec3;
@@ -14,7 +16,7 @@ use crate::error::ClothError;
 pub use crate::sim::aero::AIR_DENSITY;
 use crate::sim::collision::Pose;
 use crate::sim::{
-    ClothSim, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
+    ClothModel, ClothSim, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
 };
 use crate::subdivision::{BoundaryMode, Subdivider, VertexRule};
 
@@ -30,6 +32,60 @@ pub enum ClothSource {
     /// zero-length and non-manifold edges are errors; coincident vertices that no edge joins are a
     /// seam that can open).
     Mesh(Handle<Mesh>),
+    /// A prebuilt [`ClothModel`]: one particle per model vertex, and the model's own faces (quads
+    /// stay quads, so subdivision refines them as quads). This is how a quad or triangle polygon
+    /// mesh becomes a cloth ([`ClothModel::from_mesh`]), or a round one ([`ClothModel::disc`]).
+    /// The plugin checks the model ([`ClothModel::validate`]) and renders it into a new mesh.
+    Model(SharedClothModel),
+}
+
+/// A [`ClothModel`] behind an [`Arc`], so that a [`Cloth`] component stays cheap to clone and many
+/// cloths can share one model. Two values are equal when they share the same model.
+///
+/// Reflected as an opaque value: the inspector and scene tools see it, but not inside it.
+#[derive(Clone, Reflect)]
+#[reflect(opaque, Debug, PartialEq, Clone)]
+pub struct SharedClothModel(pub Arc<ClothModel>);
+
+impl SharedClothModel {
+    /// Shares `model`.
+    pub fn new(model: ClothModel) -> Self {
+        Self(Arc::new(model))
+    }
+
+    /// The model.
+    pub fn model(&self) -> &ClothModel {
+        &self.0
+    }
+}
+
+impl From<ClothModel> for SharedClothModel {
+    fn from(model: ClothModel) -> Self {
+        Self::new(model)
+    }
+}
+
+impl From<Arc<ClothModel>> for SharedClothModel {
+    fn from(model: Arc<ClothModel>) -> Self {
+        Self(model)
+    }
+}
+
+impl PartialEq for SharedClothModel {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl std::fmt::Debug for SharedClothModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ClothModel")
+            .field("particles", &self.0.particle_count())
+            .field("faces", &(self.0.faces.len() / self.0.face_size.max(1)))
+            .field("face_size", &self.0.face_size)
+            .field("springs", &self.0.springs.len())
+            .finish()
+    }
 }
 
 /// A simulated cloth. Spawn it with a [`Transform`] that places the rest shape in the world; the
@@ -72,6 +128,39 @@ impl Cloth {
     pub fn from_mesh(mesh: Handle<Mesh>) -> Self {
         Self {
             source: ClothSource::Mesh(mesh),
+        }
+    }
+
+    /// A cloth from a prebuilt [`ClothModel`] (or an `Arc` of one, to share it between cloths).
+    /// Use it for polygon meshes that a triangle-list `Mesh` cannot carry, such as quads:
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use bevy_cloth::prelude::*;
+    /// use bevy_cloth::sim::{ClothModel, DiscSpec};
+    ///
+    /// fn spawn(mut commands: Commands) -> Result {
+    ///     // Two quads side by side, 10 cm each, facing +Y.
+    ///     let positions = [
+    ///         Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.2, 0.0, 0.0),
+    ///         Vec3::new(0.0, 0.0, 0.1), Vec3::new(0.1, 0.0, 0.1), Vec3::new(0.2, 0.0, 0.1),
+    ///     ];
+    ///     let quads = [0, 3, 4, 1, 1, 4, 5, 2];
+    ///     let model = ClothModel::from_mesh(&positions, None, &quads, 4)?;
+    ///     commands.spawn((Cloth::from_model(model), Transform::from_xyz(0.0, 1.0, 0.0)));
+    ///     // A round tablecloth whose centre has valence 5, subdivided as quads.
+    ///     commands.spawn((
+    ///         Cloth::from_model(ClothModel::disc(&DiscSpec::new(5, 12, 0.8))?),
+    ///         ClothSubdivision { level: 2, rule: VertexRule::Tuned, boundary: BoundaryMode::EdgeOnly },
+    ///         Transform::from_xyz(2.0, 1.0, 0.0),
+    ///     ));
+    ///     Ok(())
+    /// }
+    /// # bevy::ecs::system::assert_is_system::<(), Result, _>(spawn);
+    /// ```
+    pub fn from_model(model: impl Into<SharedClothModel>) -> Self {
+        Self {
+            source: ClothSource::Model(model.into()),
         }
     }
 }

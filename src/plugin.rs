@@ -608,6 +608,10 @@ fn build_state(
                 Some(render::prepare_user_mesh(source.clone())),
             )
         }
+        ClothSource::Model(shared) => {
+            shared.model().validate()?;
+            (shared.model().clone(), None)
+        }
     };
     let sim = ClothSim::new(model, config.solver, |p| transform.transform_point(p))?;
     let mut state = ClothState {

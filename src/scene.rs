@@ -1,4 +1,4 @@
-//! Scene files: a RON description of one cloth and its surroundings, used by `cloth_cli`, the tests
+//! Scene files: a RON description of one cloth and its surroundings (colliders, wind), used by `cloth_cli`, the tests
 //! and the presets in `assets/scenes/`. Parsing and validation only; spawning is a few lines of ECS.
 //!
 //! ```ron
@@ -12,6 +12,7 @@
 //!         (shape: Sphere(radius: 0.4), translation: (0.0, 1.0, 0.0), margin: 0.01),
 //!         (shape: Plane(normal: (0.0, 1.0, 0.0)), friction: (static_coefficient: 0.8, kinetic_coefficient: 0.6)),
 //!     ],
+//!     wind: Some((velocity: (6.0, 0.0, 0.0), gusts: Some((seed: 7)))),
 //! )
 //! ```
 
@@ -25,10 +26,15 @@ use bevy::time::Time;
 use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
 
-use crate::components::{Cloth, ClothCollider, ClothConfig, ClothPins, DEFAULT_COLLIDER_MARGIN};
-use crate::error::{ClothError, finite_vec3};
+use crate::components::{
+    AIR_DENSITY, Cloth, ClothCollider, ClothConfig, ClothPins, DEFAULT_COLLIDER_MARGIN, Wind,
+    WindZone,
+};
+use crate::error::{ClothError, finite_vec3, non_negative, positive};
 use crate::plugin::ClothSystems;
-use crate::sim::{ClothModel, ColliderShape, Friction, GridSpec, SolverSettings};
+use crate::sim::{
+    ClothModel, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
+};
 
 /// The cloth of a scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -200,9 +206,196 @@ fn placement(translation: Vec3, rotation_degrees: Vec3) -> Transform {
     ))
 }
 
-/// Wind in a scene. No wind model exists yet, so a scene's `wind` must be `None`.
+/// The shape of a scene wind zone (see [`WindZoneShape`]), centred on the zone's translation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum SceneWindZoneShape {
+    /// A ball.
+    Sphere {
+        /// Radius, m.
+        radius: f32,
+    },
+    /// A box, turned by the zone's rotation.
+    Cuboid {
+        /// Half extents, m.
+        half_size: Vec3,
+    },
+}
+
+impl SceneWindZoneShape {
+    fn shape(&self) -> Result<WindZoneShape, ClothError> {
+        match *self {
+            SceneWindZoneShape::Sphere { radius } => {
+                positive("wind.zones.shape.radius", radius)?;
+                Ok(WindZoneShape::Sphere(radius))
+            }
+            SceneWindZoneShape::Cuboid { half_size } => {
+                for h in half_size.to_array() {
+                    positive("wind.zones.shape.half_size", h)?;
+                }
+                Ok(WindZoneShape::Cuboid(half_size))
+            }
+        }
+    }
+}
+
+fn default_falloff() -> f32 {
+    DEFAULT_SCENE_WIND_ZONE_FALLOFF
+}
+
+/// Default [`SceneWindZone::falloff`]: the zone's wind fades out over its outer fifth.
+pub const DEFAULT_SCENE_WIND_ZONE_FALLOFF: f32 = 0.2;
+
+/// A local wind in a scene: a [`WindZone`] entity placed by `translation` and `rotation_degrees`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum SceneWind {}
+#[serde(deny_unknown_fields)]
+pub struct SceneWindZone {
+    /// Extent of the zone.
+    pub shape: SceneWindZoneShape,
+    /// Centre of the zone, m.
+    #[serde(default)]
+    pub translation: Vec3,
+    /// Rotation of the zone as Euler angles XYZ, degrees.
+    #[serde(default)]
+    pub rotation_degrees: Vec3,
+    /// Wind added to the global wind inside the zone, m/s (world frame).
+    pub velocity: Vec3,
+    /// Gusts of the zone's wind (none by default).
+    #[serde(default)]
+    pub gusts: Option<Gusts>,
+    /// Fraction (0..=1) of the zone's size over which its wind fades out at the edge; default
+    /// [`DEFAULT_SCENE_WIND_ZONE_FALLOFF`].
+    #[serde(default = "default_falloff")]
+    pub falloff: f32,
+}
+
+impl SceneWindZone {
+    /// The zone component; the error names the bad field.
+    pub fn component(&self) -> Result<WindZone, ClothError> {
+        let shape = self.shape.shape()?;
+        finite_vec("wind.zones.velocity", self.velocity)?;
+        finite_vec("wind.zones.translation", self.translation)?;
+        finite_vec("wind.zones.rotation_degrees", self.rotation_degrees)?;
+        if let Some(g) = &self.gusts {
+            validate_gusts(
+                g,
+                [
+                    "wind.zones.gusts.strength",
+                    "wind.zones.gusts.frequency",
+                    "wind.zones.gusts.turbulence",
+                ],
+            )?;
+        }
+        if !(0.0..=1.0).contains(&self.falloff) {
+            return Err(ClothError::InvalidValue {
+                field: "wind.zones.falloff",
+                expected: "in 0..=1",
+                value: self.falloff as f64,
+            });
+        }
+        Ok(WindZone {
+            shape,
+            velocity: self.velocity,
+            gusts: self.gusts,
+            falloff: self.falloff,
+        })
+    }
+
+    /// The components of the zone's entity.
+    pub fn bundle(&self) -> Result<impl Bundle, ClothError> {
+        Ok((
+            self.component()?,
+            placement(self.translation, self.rotation_degrees),
+        ))
+    }
+}
+
+/// The air of a scene: the global [`Wind`] (mean velocity, gusts, air density) and any number of
+/// local [`SceneWindZone`]s. Every field is optional; unknown fields are errors.
+///
+/// ```ron
+/// wind: Some((
+///     velocity: (7.0, 0.0, -1.5),
+///     gusts: Some((seed: 42, strength: 0.45, frequency: 0.7, turbulence: 0.2)),
+///     air_density: 1.225,
+///     zones: [(shape: Sphere(radius: 0.6), translation: (1.2, 2.6, 0.0), velocity: (0.0, 3.0, 0.0))],
+/// )),
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SceneWind {
+    /// Mean wind velocity, m/s; default zero (still air, which still damps the cloth).
+    pub velocity: Vec3,
+    /// Seeded gusts on the mean wind; none by default. Fields as in [`Gusts`], each optional.
+    pub gusts: Option<Gusts>,
+    /// Air density, kg/m³; default [`AIR_DENSITY`].
+    pub air_density: f32,
+    /// Local winds.
+    pub zones: Vec<SceneWindZone>,
+}
+
+impl Default for SceneWind {
+    fn default() -> Self {
+        Self {
+            velocity: Vec3::ZERO,
+            gusts: None,
+            air_density: AIR_DENSITY,
+            zones: Vec::new(),
+        }
+    }
+}
+
+impl SceneWind {
+    /// Checks every value, including the zones'; the error names the bad field.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        finite_vec("wind.velocity", self.velocity)?;
+        non_negative("wind.air_density", self.air_density)?;
+        if let Some(g) = &self.gusts {
+            validate_gusts(
+                g,
+                [
+                    "wind.gusts.strength",
+                    "wind.gusts.frequency",
+                    "wind.gusts.turbulence",
+                ],
+            )?;
+        }
+        for z in &self.zones {
+            z.component()?;
+        }
+        Ok(())
+    }
+
+    /// The global wind resource.
+    pub fn resource(&self) -> Wind {
+        Wind {
+            velocity: self.velocity,
+            gusts: self.gusts,
+            air_density: self.air_density,
+            enabled: true,
+        }
+    }
+}
+
+/// Checks that the three gust amplitudes and the rate are finite and not negative.
+fn validate_gusts(
+    g: &Gusts,
+    [strength, frequency, turbulence]: [&'static str; 3],
+) -> Result<(), ClothError> {
+    non_negative(strength, g.strength)?;
+    non_negative(frequency, g.frequency)?;
+    non_negative(turbulence, g.turbulence)
+}
+
+fn finite_vec(field: &'static str, v: Vec3) -> Result<(), ClothError> {
+    match v.to_array().into_iter().find(|c| !c.is_finite()) {
+        None => Ok(()),
+        Some(c) => Err(ClothError::InvalidValue {
+            field,
+            expected: "finite",
+            value: c as f64,
+        }),
+    }
+}
 
 fn default_dt() -> f32 {
     1.0 / 60.0
@@ -235,7 +428,7 @@ pub struct ClothScene {
     /// Kinematic colliders.
     #[serde(default)]
     pub colliders: Vec<SceneCollider>,
-    /// Wind (none exists yet).
+    /// Wind and wind zones; none by default (no aerodynamic forces at all).
     #[serde(default)]
     pub wind: Option<SceneWind>,
 }
@@ -289,6 +482,9 @@ impl ClothScene {
                 error: Box::new(e),
             })?;
         }
+        if let Some(wind) = &self.wind {
+            wind.validate()?;
+        }
         Ok(())
     }
 
@@ -297,12 +493,19 @@ impl ClothScene {
         placement(self.translation, self.rotation_degrees)
     }
 
-    /// Spawns the scene into a world (validated when parsed): the cloth entity, returned, and its
-    /// colliders. Moving colliders need [`ScenePlugin`] (which [`crate::plugin::headless_app`]
-    /// adds).
+    /// Spawns the scene into a world (validated when parsed): the cloth entity, returned, its
+    /// colliders, and its wind (the [`Wind`] resource, replacing any, and [`WindZone`] entities).
+    /// Moving colliders need [`ScenePlugin`] (which [`crate::plugin::headless_app`] adds).
     pub fn spawn(&self, world: &mut World) -> Result<Entity, ClothError> {
         for c in &self.colliders {
             world.spawn(c.bundle()?);
+        }
+        if let Some(wind) = &self.wind {
+            wind.validate()?;
+            for z in &wind.zones {
+                world.spawn(z.bundle()?);
+            }
+            world.insert_resource(wind.resource());
         }
         Ok(world.spawn(self.bundle()).id())
     }
@@ -371,6 +574,88 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("normal"), "{e}");
+    }
+
+    #[test]
+    fn wind_parses_with_defaults() {
+        let s = ClothScene::from_ron(
+            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), wind: Some((
+                velocity: (6.0, 0.0, 0.0),
+                gusts: Some((seed: 7, strength: 0.4)),
+                zones: [
+                    (shape: Sphere(radius: 0.5), translation: (0.0, 1.0, 0.0), velocity: (0.0, 2.0, 0.0)),
+                    (shape: Cuboid(half_size: (1.0, 0.5, 1.0)), rotation_degrees: (0.0, 45.0, 0.0),
+                     velocity: (1.0, 0.0, 0.0), gusts: Some(()), falloff: 0.0),
+                ],
+            )))",
+        )
+        .unwrap();
+        let wind = s.wind.as_ref().unwrap();
+        let resource = wind.resource();
+        assert_eq!(resource.velocity, Vec3::new(6.0, 0.0, 0.0));
+        assert_eq!(resource.air_density, AIR_DENSITY);
+        assert!(resource.enabled);
+        let gusts = resource.gusts.unwrap();
+        assert_eq!((gusts.seed, gusts.strength), (7, 0.4));
+        assert_eq!(gusts.frequency, Gusts::default().frequency);
+        let zone = wind.zones[0].component().unwrap();
+        assert_eq!(zone.shape, WindZoneShape::Sphere(0.5));
+        assert_eq!(zone.falloff, DEFAULT_SCENE_WIND_ZONE_FALLOFF);
+        assert_eq!(zone.gusts, None);
+        let boxed = wind.zones[1].component().unwrap();
+        assert_eq!(boxed.shape, WindZoneShape::Cuboid(Vec3::new(1.0, 0.5, 1.0)));
+        assert_eq!(boxed.gusts, Some(Gusts::default()));
+        // An empty wind is still air of the default density; `None` is no air at all.
+        let still =
+            ClothScene::from_ron("(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), wind: Some(()))")
+                .unwrap();
+        assert_eq!(still.wind, Some(SceneWind::default()));
+        let none = ClothScene::from_ron("(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), wind: None)")
+            .unwrap();
+        assert_eq!(none.wind, None);
+    }
+
+    #[test]
+    fn bad_wind_values_name_the_field() {
+        let scene = |wind: &str| {
+            ClothScene::from_ron(&format!(
+                "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), wind: Some({wind}))"
+            ))
+        };
+        for (wind, field) in [
+            ("(air_density: -1.0)", "wind.air_density"),
+            ("(velocity: (inf, 0.0, 0.0))", "wind.velocity"),
+            ("(gusts: Some((strength: -0.5)))", "wind.gusts.strength"),
+            ("(gusts: Some((frequency: NaN)))", "wind.gusts.frequency"),
+            ("(gusts: Some((turbulence: -1.0)))", "wind.gusts.turbulence"),
+            (
+                "(zones: [(shape: Sphere(radius: 0.0), velocity: (1.0, 0.0, 0.0))])",
+                "wind.zones.shape.radius",
+            ),
+            (
+                "(zones: [(shape: Cuboid(half_size: (1.0, -1.0, 1.0)), velocity: (1.0, 0.0, 0.0))])",
+                "wind.zones.shape.half_size",
+            ),
+            (
+                "(zones: [(shape: Sphere(radius: 1.0), velocity: (1.0, 0.0, 0.0), falloff: 1.5)])",
+                "wind.zones.falloff",
+            ),
+            (
+                "(zones: [(shape: Sphere(radius: 1.0), velocity: (NaN, 0.0, 0.0))])",
+                "wind.zones.velocity",
+            ),
+            (
+                "(zones: [(shape: Sphere(radius: 1.0), velocity: (1.0, 0.0, 0.0), gusts: Some((strength: -2.0)))])",
+                "wind.zones.gusts.strength",
+            ),
+            // Unknown and missing fields are named by the parser.
+            ("(speed: 3.0)", "speed"),
+            ("(gusts: Some((sead: 3)))", "sead"),
+            ("(zones: [(shape: Sphere(radius: 1.0))])", "velocity"),
+        ] {
+            let e = scene(wind).unwrap_err();
+            assert!(e.to_string().contains(field), "{wind}: {e}");
+        }
     }
 
     #[test]

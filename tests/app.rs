@@ -503,3 +503,195 @@ fn a_mesh_whose_buffers_were_replaced_stops_the_cloth_once() {
     let err = &app.world().get::<ClothInvalid>(e).expect("stopped").0;
     assert!(err.to_string().contains("buffer has 3 entries"), "{err}");
 }
+
+#[test]
+fn a_prebuilt_quad_model_keeps_its_quads_shares_and_steps() {
+    use bevy_cloth::sim::ClothModel;
+    use std::sync::Arc;
+
+    let mut app = app();
+    let model = ClothModel::disc(&DiscSpec::new(5, 4, 0.5)).unwrap();
+    let (v, f) = (model.particle_count(), model.faces.len() / 4);
+    // A disc: V − E + F = 1.
+    let e = v + f - 1;
+    let shared = Arc::new(model);
+    let subdivided = spawn(
+        &mut app,
+        (
+            Cloth::from_model(shared.clone()),
+            ClothSubdivision {
+                level: 1,
+                rule: VertexRule::Tuned,
+                boundary: BoundaryMode::EdgeOnly,
+            },
+            Transform::from_xyz(0.0, 2.0, 0.0),
+        ),
+    );
+    let plain = spawn(
+        &mut app,
+        (
+            Cloth::from_model(shared.clone()),
+            Transform::from_xyz(3.0, 2.0, 0.0),
+        ),
+    );
+    assert_eq!(
+        app.world().get::<Cloth>(subdivided),
+        app.world().get::<Cloth>(plain),
+        "both cloths share one model"
+    );
+    // One level of Catmull-Clark on quads: a vertex per control vertex, edge and face. Had the
+    // model been a triangle list, the faces would be triangles and the count different.
+    assert_eq!(vertex_count(&app, subdivided), v + e + f);
+    assert_eq!(vertex_count(&app, plain), v);
+    let before = [subdivided, plain].map(|c| state(&app, c).steps());
+    run(&mut app, 30);
+    for (cloth, before) in [subdivided, plain].into_iter().zip(before) {
+        let s = state(&app, cloth);
+        assert_eq!(s.steps(), before + 30);
+        assert_eq!(s.positions().len(), v);
+        // Unpinned: it falls (half a second: about 1.2 m, less the air damping).
+        assert!(s.positions()[0].y < 2.0 - 1.0, "{}", s.positions()[0]);
+    }
+    // The subdivided mesh is finite and follows the cloth down.
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    let mesh = meshes.get(state(&app, subdivided).mesh()).unwrap();
+    let Some(VertexAttributeValues::Float32x3(p)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
+        panic!("positions")
+    };
+    assert!(p.iter().flatten().all(|v| v.is_finite()));
+}
+
+#[test]
+fn a_broken_prebuilt_model_is_reported_and_skipped() {
+    use bevy_cloth::sim::ClothModel;
+
+    let mut app = app();
+    let mut model = ClothModel::grid(&GridSpec::new(4, 4, 0.1)).unwrap();
+    model.triangles[5] = 1000;
+    let bad = spawn(&mut app, Cloth::from_model(model));
+    let good = spawn(&mut app, hanging(4));
+    run(&mut app, 2);
+    let err = &app.world().get::<ClothInvalid>(bad).expect("reported").0;
+    assert!(err.to_string().contains("1000"), "{err}");
+    assert_eq!(state(&app, good).steps(), 2);
+}
+
+#[test]
+fn a_round_tablecloth_drapes_over_a_round_table() {
+    use bevy_cloth::sim::ClothModel;
+    use std::f32::consts::PI;
+
+    // The tablecloth example's scene: a 16-gon table top of 8 boxes, 0.5 m circumradius, its top
+    // at 0.75 m; a soft 0.85 m disc (valence-5 centre) dropped from 0.3 m above it.
+    let mut app = app();
+    let (radius, top, thickness, margin) = (0.5f32, 0.75f32, 0.04f32, 0.015f32);
+    let half = Vec3::new(
+        radius * (PI / 16.0).cos(),
+        thickness / 2.0,
+        radius * (PI / 16.0).sin(),
+    );
+    for k in 0..8 {
+        app.world_mut().spawn((
+            ClothCollider::cuboid(half)
+                .with_friction(Friction::new(0.6))
+                .with_margin(margin),
+            Transform::from_xyz(0.0, top - thickness / 2.0, 0.0)
+                .with_rotation(Quat::from_rotation_y(k as f32 * PI / 8.0)),
+        ));
+    }
+    app.world_mut().spawn(ClothCollider::half_space(Vec3::Y));
+    let spec = DiscSpec::new(5, 14, 0.85);
+    let cloth = spawn(
+        &mut app,
+        (
+            Cloth::from_model(ClothModel::disc(&spec).unwrap()),
+            ClothConfig {
+                solver: SolverSettings {
+                    damping: 1.0,
+                    stiffness: Stiffness {
+                        bend: 10.0,
+                        ..default()
+                    },
+                    ..default()
+                },
+                ..default()
+            },
+            Transform::from_xyz(0.0, top + 0.3, 0.0),
+        ),
+    );
+    run(&mut app, 180);
+    let p = state(&app, cloth).positions();
+    // The centre lies on the top, one margin above it.
+    assert!((p[0].y - (top + margin)).abs() < 3e-3, "centre at {}", p[0]);
+    assert!(
+        p[0].xz().length() < 0.05,
+        "the cloth slid: centre at {}",
+        p[0]
+    );
+    // The hem hangs below the top, and nothing went through the table or the floor.
+    for i in spec.hem() {
+        let q = p[i as usize];
+        assert!(q.y < top - 0.1, "hem particle {i} at {q}");
+        assert!(q.y > 0.0);
+    }
+    let inside = p
+        .iter()
+        .filter(|q| q.xz().length() < radius * 0.95 && q.y < top && q.y > top - thickness)
+        .count();
+    assert_eq!(inside, 0, "particles inside the table top");
+}
+
+#[test]
+fn the_paper_scene_preset_drapes_its_cloth_over_the_sphere() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/drape.ron");
+    let scene = bevy_cloth::scene::ClothScene::load(path).unwrap();
+    // The paper's Figure 5: a 32 × 32 cloth pinned at its four corners, a sphere and the floor.
+    let n = 32u32;
+    let bevy_cloth::scene::SceneCloth::Grid(spec) = scene.cloth;
+    assert_eq!((spec.nx, spec.ny), (n, n));
+    assert_eq!(scene.pins, vec![0, n - 1, n * (n - 1), n * n - 1]);
+    assert_eq!(scene.colliders.len(), 2);
+    let mut app = bevy_cloth::plugin::headless_app(scene.dt);
+    let cloth = scene.spawn(app.world_mut()).unwrap();
+    let corners: Vec<Vec3> = {
+        app.update();
+        let p = state(&app, cloth).positions();
+        scene.pins.iter().map(|&i| p[i as usize]).collect()
+    };
+    // The cloth lands on the sphere (radius 0.4 at y = 1.2, 1 cm margin) and, held taut by its
+    // corners, bounces on it like a trampoline while the bounce dies down. Over the second second:
+    // it keeps touching the sphere, never goes into it, and its middle stays on the sphere's top,
+    // well below the corners.
+    run(&mut app, 60);
+    let (centre, surface) = (Vec3::new(0.0, 1.2, 0.0), 0.4 + 0.01);
+    let (mut closest, mut deepest, mut highest_middle) = (f32::INFINITY, f32::INFINITY, 0.0f32);
+    for _ in 0..60 {
+        run(&mut app, 1);
+        let p = state(&app, cloth).positions();
+        let gap = p
+            .iter()
+            .map(|q| q.distance(centre) - surface)
+            .fold(f32::INFINITY, f32::min);
+        closest = closest.min(gap.abs());
+        deepest = deepest.min(gap);
+        let middle = p[(n / 2 * n + n / 2) as usize];
+        assert!(middle.xz().length() < 0.1, "the middle slid to {middle}");
+        highest_middle = highest_middle.max(middle.y);
+    }
+    assert!(
+        closest < 1e-3,
+        "the cloth never touched the sphere: {closest} m"
+    );
+    assert!(
+        deepest > -3e-3,
+        "a particle went {deepest} m into the sphere"
+    );
+    assert!(
+        highest_middle < 1.75 - 0.05,
+        "middle up to y = {highest_middle}"
+    );
+    let p = state(&app, cloth).positions();
+    for (&i, c) in scene.pins.iter().zip(&corners) {
+        assert_eq!(p[i as usize], *c, "corner {i} moved");
+    }
+}

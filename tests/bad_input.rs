@@ -682,7 +682,7 @@ fn scenes_with_missing_fields_or_wrong_types_are_parse_errors() {
             &["Rk4"],
         ),
         (
-            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), wind: Some(()))",
+            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1)), wind: Some((velocity: 3.0)))",
             &["1:"],
         ),
         // Truncated and garbage text.

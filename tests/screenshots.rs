@@ -146,3 +146,20 @@ fn flag_shows_the_flag_beside_its_pole() {
     let left = cloth_fraction(&p, (0.3, 0.3, 0.37, 0.6));
     assert!(left < 0.05, "flag colour left of the pole: {left}");
 }
+
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn tablecloth_covers_the_table_and_hangs_above_the_floor() {
+    let p = load("tablecloth");
+    assert_not_blank(&p);
+    // The cloth covers the table top and its skirt in the middle of the picture.
+    let cloth = cloth_fraction(&p, (0.42, 0.42, 0.62, 0.6));
+    assert!(
+        cloth > 0.5,
+        "only {:.0}% cloth pixels over the table",
+        cloth * 100.0
+    );
+    // Below the skirt the table's foot shows: the cloth did not fall through to the floor.
+    let foot = cloth_fraction(&p, (0.4, 0.75, 0.6, 0.82));
+    assert!(foot < 0.05, "cloth colour at the table's foot: {foot}");
+}

@@ -5,9 +5,7 @@
 use std::time::Instant;
 
 use bevy_cloth::sim::Integrator;
-use bevy_cloth::sim::stress::{
-    StressLimits, StressOutcome, StressResult, draw_case, run_case,
-};
+use bevy_cloth::sim::stress::{StressLimits, StressOutcome, StressResult, draw_case, run_case};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Per-integrator tallies.
@@ -109,7 +107,10 @@ pub fn run(cases: u64, seed: u64, integrators: &[Integrator]) -> bool {
     }
     for f in &failures {
         if let StressOutcome::Failure(why) = &f.outcome {
-            println!("\nFAILED case {} (seed {}): {why}\n{:?}", f.case.index, f.case.seed, f.case);
+            println!(
+                "\nFAILED case {} (seed {}): {why}\n{:?}",
+                f.case.index, f.case.seed, f.case
+            );
         }
     }
     failures.is_empty()

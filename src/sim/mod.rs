@@ -7,6 +7,7 @@
 
 pub mod aero;
 pub mod collision;
+mod disc;
 mod explicit;
 mod forces;
 mod implicit;
@@ -19,10 +20,11 @@ pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
+pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use implicit::CG_TOLERANCE;
 pub use model::{
-    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, RunLayout, SpringKind,
-    SpringRun, Springs, compute_normals,
+    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, RunLayout,
+    SpringKind, SpringRun, Springs, compute_normals,
 };
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{

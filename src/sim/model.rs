@@ -253,6 +253,57 @@ impl Springs {
         n
     }
 
+    /// Checks that [`runs`](Self::runs) tile the springs in order without crossing a colour, and
+    /// that every run's [`RunLayout`] describes its springs' particles exactly (the XPBD kernel
+    /// relies on it). The message names the first bad run.
+    pub fn check_runs(&self) -> Result<(), String> {
+        let mut next = 0;
+        for (r, run) in self.runs.iter().enumerate() {
+            let (start, len) = (run.start as usize, run.len as usize);
+            if run.start != next || start + len > self.len() {
+                return Err(format!(
+                    "spring run {r} ({start}..{}) does not continue the runs before it",
+                    start + len
+                ));
+            }
+            let color = self.color_offsets.partition_point(|&o| o as usize <= start);
+            if color == 0 || start + len > self.color_offsets[color] as usize {
+                return Err(format!("spring run {r} crosses a colour boundary"));
+            }
+            let fits = (0..len).all(|m| {
+                let (a, b) = (self.a[start + m], self.b[start + m]);
+                match run.layout {
+                    RunLayout::Contiguous => {
+                        (a, b) == (self.a[start] + m as u32, self.b[start] + m as u32)
+                    }
+                    RunLayout::Interleaved(d) => {
+                        let (d, l) = (d as u32, (m % 8) as u32);
+                        let window = self.a[start + m / 8 * 8];
+                        len % 8 == 0
+                            && (d == 1 || d == 2)
+                            && a == window + 2 * d * (l / d) + l % d
+                            && b == a + d
+                    }
+                    RunLayout::Scattered => true,
+                }
+            });
+            if !fits {
+                return Err(format!(
+                    "spring run {r} does not have the {:?} layout it claims",
+                    run.layout
+                ));
+            }
+            next += run.len;
+        }
+        if next as usize != self.len() {
+            return Err(format!(
+                "spring runs cover {next} of {} springs",
+                self.len()
+            ));
+        }
+        Ok(())
+    }
+
     /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`,
     /// with a greedy edge colouring. Springs of zero rest length are dropped (they cannot define a
     /// direction).
@@ -609,6 +660,121 @@ impl ClothModel {
 }
 
 impl ClothModel {
+    /// Checks that the model is consistent, for models assembled or edited by hand (its fields are
+    /// public): finite rest positions, one texture coordinate (and mass, if any) per particle,
+    /// triangles and faces whose indices are in range, a face size of 3 or 4, and springs whose
+    /// arrays agree, whose particles exist, whose rest lengths are finite and positive, and whose
+    /// colours partition them with no particle twice in a colour. The builders
+    /// ([`grid`](Self::grid), [`from_mesh`](Self::from_mesh), [`disc`](Self::disc)) always pass.
+    /// The error names the first problem.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        let bad = |what: String| Err(ClothError::InvalidMesh { what });
+        let n = self.particle_count();
+        if n == 0 {
+            return bad("has no vertex positions".into());
+        }
+        if let Some((i, p)) = self
+            .rest_positions
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !p.is_finite())
+        {
+            return bad(format!("vertex {i} has a non-finite position {p}"));
+        }
+        if self.uvs.len() != n {
+            return bad(format!(
+                "has {} texture coordinates for {n} vertices",
+                self.uvs.len()
+            ));
+        }
+        if let Some(masses) = &self.particle_masses {
+            if masses.len() != n {
+                return bad(format!(
+                    "has {} particle masses for {n} particles",
+                    masses.len()
+                ));
+            }
+            for m in masses {
+                positive("particle_masses", *m)?;
+            }
+        }
+        let in_range = |indices: &[u32]| -> Result<(), ClothError> {
+            match indices.iter().enumerate().find(|(_, i)| **i as usize >= n) {
+                Some((position, &index)) => Err(ClothError::MeshIndexOutOfRange {
+                    index,
+                    position,
+                    count: n,
+                }),
+                None => Ok(()),
+            }
+        };
+        if !self.triangles.len().is_multiple_of(3) {
+            return bad(format!(
+                "triangle index count {} is not a multiple of 3",
+                self.triangles.len()
+            ));
+        }
+        in_range(&self.triangles)?;
+        if self.face_size != 3 && self.face_size != 4 {
+            return bad(format!(
+                "faces must have 3 or 4 vertices, got {}",
+                self.face_size
+            ));
+        }
+        if !self.faces.len().is_multiple_of(self.face_size) {
+            return bad(format!(
+                "face index count {} is not a multiple of the face size {}",
+                self.faces.len(),
+                self.face_size
+            ));
+        }
+        in_range(&self.faces)?;
+        let s = &self.springs;
+        let len = s.len();
+        if s.b.len() != len || s.rest.len() != len || s.kind.len() != len {
+            return bad(format!(
+                "springs have {} first particles, {} second particles, {} rest lengths and {} kinds",
+                len,
+                s.b.len(),
+                s.rest.len(),
+                s.kind.len()
+            ));
+        }
+        in_range(&s.a)?;
+        in_range(&s.b)?;
+        if let Some((k, r)) = s
+            .rest
+            .iter()
+            .enumerate()
+            .find(|(_, r)| !(r.is_finite() && **r > 0.0))
+        {
+            return bad(format!(
+                "spring {k} has rest length {r}, expected finite and > 0"
+            ));
+        }
+        let offsets = &s.color_offsets;
+        let partition = offsets.first().is_none_or(|&o| o == 0)
+            && offsets.windows(2).all(|w| w[0] <= w[1])
+            && offsets.last().map_or(len == 0, |&o| o as usize == len);
+        if !partition {
+            return bad(format!(
+                "spring colour offsets {offsets:?} do not partition {len} springs"
+            ));
+        }
+        let mut last_colour = vec![usize::MAX; n];
+        for c in 0..s.color_count() {
+            for k in offsets[c] as usize..offsets[c + 1] as usize {
+                for p in [s.a[k] as usize, s.b[k] as usize] {
+                    if last_colour[p] == c {
+                        return bad(format!("spring colour {c} uses particle {p} twice"));
+                    }
+                    last_colour[p] = c;
+                }
+            }
+        }
+        s.check_runs().or_else(bad)
+    }
+
     /// Builds a cloth of explicit springs and no faces, one particle per position: a chain, a
     /// rope, a net, or a single spring for a test. Rest lengths are the initial distances. The
     /// model has no triangles (so no aerodynamic forces and nothing to draw or subdivide) and
@@ -872,38 +1038,14 @@ mod tests {
         assert!(s.color_count() <= 23, "{} colours", s.color_count());
     }
 
-    /// Checks that the runs tile the springs colour by colour and that every run's layout
-    /// describes its springs' particles exactly; returns the number of scattered springs.
+    /// Checks the runs and returns the number of scattered springs.
     fn check_runs(s: &Springs) -> usize {
-        let mut next = 0;
-        let mut scattered = 0;
-        for run in &s.runs {
-            assert_eq!(run.start, next, "runs must tile the springs in order");
-            let (start, len) = (run.start as usize, run.len as usize);
-            let color = s.color_offsets.partition_point(|&o| o as usize <= start) - 1;
-            assert!(
-                start + len <= s.color_offsets[color + 1] as usize,
-                "run crosses a colour"
-            );
-            for m in 0..len {
-                let (a, b) = (s.a[start + m], s.b[start + m]);
-                match run.layout {
-                    RunLayout::Contiguous => {
-                        assert_eq!((a, b), (s.a[start] + m as u32, s.b[start] + m as u32));
-                    }
-                    RunLayout::Interleaved(d) => {
-                        let (d, l) = (d as u32, (m % 8) as u32);
-                        let window = s.a[start + m / 8 * 8];
-                        assert_eq!(a, window + 2 * d * (l / d) + l % d);
-                        assert_eq!(b, a + d);
-                    }
-                    RunLayout::Scattered => scattered += 1,
-                }
-            }
-            next += run.len;
-        }
-        assert_eq!(next as usize, s.len());
-        scattered
+        s.check_runs().unwrap();
+        s.runs
+            .iter()
+            .filter(|r| r.layout == RunLayout::Scattered)
+            .map(|r| r.len as usize)
+            .sum()
     }
 
     #[test]
@@ -982,6 +1124,37 @@ mod tests {
             }
         );
         assert!(ClothModel::from_mesh(&p, None, &[0, 1], 3).is_err());
+    }
+
+    #[test]
+    fn built_models_are_valid_and_broken_ones_are_errors() {
+        let m = ClothModel::grid(&GridSpec::new(5, 4, 0.1)).unwrap();
+        assert_eq!(m.validate(), Ok(()));
+        let mut t = m.clone();
+        t.triangles[4] = 99;
+        assert!(matches!(
+            t.validate(),
+            Err(ClothError::MeshIndexOutOfRange { index: 99, .. })
+        ));
+        let mut u = m.clone();
+        u.uvs.pop();
+        assert!(u.validate().unwrap_err().to_string().contains("texture"));
+        let mut s = m.clone();
+        s.springs.rest[3] = 0.0;
+        assert!(s.validate().unwrap_err().to_string().contains("spring 3"));
+        let mut c = m.clone();
+        let last = c.springs.color_offsets.len() - 1;
+        c.springs.color_offsets[last] += 1;
+        assert!(c.validate().unwrap_err().to_string().contains("partition"));
+        // Two springs of colour 0 that share particle 0.
+        let mut shared = m.clone();
+        shared.springs.a[1] = shared.springs.a[0];
+        let first_colour_len = shared.springs.color_offsets[1];
+        assert!(first_colour_len >= 2);
+        assert!(shared.validate().unwrap_err().to_string().contains("twice"));
+        let mut f = m;
+        f.face_size = 5;
+        assert!(f.validate().unwrap_err().to_string().contains("3 or 4"));
     }
 
     #[test]
