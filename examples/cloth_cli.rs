@@ -95,6 +95,9 @@ enum Command {
         /// Seed of the suite (case i of seed s is always the same case).
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Index of the first case (to rerun one case: `--from I --cases 1`).
+        #[arg(long, default_value_t = 0)]
+        from: u64,
         /// Integrators to draw from (xpbd, symplectic-euler, verlet, implicit-euler); all by
         /// default.
         #[arg(long, value_delimiter = ',')]
@@ -360,6 +363,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Command::Stress {
             cases,
             seed,
+            from,
             integrators,
         } => {
             let mut chosen = Vec::new();
@@ -372,7 +376,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => return Err(format!("unknown integrator {other:?}").into()),
                 });
             }
-            if !stress::run(cases, seed, &chosen) {
+            if !stress::run(from..from + cases, seed, &chosen) {
                 return Err("stress cases failed (listed above)".into());
             }
         }

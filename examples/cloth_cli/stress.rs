@@ -26,10 +26,10 @@ struct Tally {
     unstable_h_omega: f32,
 }
 
-/// Runs `cases` cases of suite `seed` over `integrators`; returns whether all passed.
-pub fn run(cases: u64, seed: u64, integrators: &[Integrator]) -> bool {
+/// Runs cases `cases` of suite `seed` over `integrators`; returns whether all passed.
+pub fn run(cases: std::ops::Range<u64>, seed: u64, integrators: &[Integrator]) -> bool {
     let limits = StressLimits::default();
-    let bar = ProgressBar::new(cases);
+    let bar = ProgressBar::new(cases.end - cases.start);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} cases, {elapsed} elapsed, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -40,7 +40,7 @@ pub fn run(cases: u64, seed: u64, integrators: &[Integrator]) -> bool {
         .map(|i| (*i, Tally::default()))
         .collect();
     let mut failures: Vec<StressResult> = Vec::new();
-    for index in 0..cases {
+    for index in cases.clone() {
         let case = draw_case(seed, index, integrators, &limits);
         let r = run_case(&case, &limits);
         let Some((_, t)) = tallies
@@ -77,7 +77,9 @@ pub fn run(cases: u64, seed: u64, integrators: &[Integrator]) -> bool {
     }
     bar.finish_and_clear();
     println!(
-        "stress suite: seed {seed}, {cases} cases, {:.1} s\n",
+        "stress suite: seed {seed}, cases {}..{}, {:.1} s\n",
+        cases.start,
+        cases.end,
         start.elapsed().as_secs_f64()
     );
     println!(

@@ -652,7 +652,12 @@ fn collide_triangles(
             if inv_mass[i] <= 0.0 {
                 continue;
             }
-            let push = depth * weights[k] / denom;
+            // With all corners free no corner moves more than 3× the depth (Σ b² ≥ 1/3). With
+            // pinned corners a free one far from the contact point would have to move depth / b,
+            // without bound as b → 0 (the sphere presses next to a pinned corner): the push is
+            // capped there, and the pinned triangle lets the sphere sink in instead of flinging
+            // the corner.
+            let push = (depth * weights[k] / denom).min(3.0 * depth);
             x[i] -= dir * push;
             let vc = c.velocity_at(x[i], centre);
             respond(

@@ -700,6 +700,7 @@ impl ClothSim {
             ),
             &self.positions,
             &self.velocities,
+            (&self.inv_mass, dt),
             &self.model.triangles,
         );
         match self.settings.integrator {

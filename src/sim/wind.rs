@@ -155,6 +155,8 @@ pub(crate) struct WindScratch {
     triangle_wind: Vec<Vec3>,
     /// Aerodynamic force on each particle for this step, N.
     particle_force: Vec<Vec3>,
+    /// Sum and count of the winds of each particle's triangles (scratch).
+    wind_sum: Vec<(Vec3, u32)>,
 }
 
 impl WindScratch {
@@ -166,6 +168,7 @@ impl WindScratch {
             centroids: vec![Vec3::ZERO; triangles],
             triangle_wind: vec![Vec3::ZERO; triangles],
             particle_force: vec![Vec3::ZERO; particles],
+            wind_sum: vec![(Vec3::ZERO, 0); particles],
         }
     }
 
@@ -178,6 +181,7 @@ impl WindScratch {
         coefficients: (f32, f32),
         positions: &[Vec3],
         velocities: &[Vec3],
+        (inv_mass, dt): (&[f32], f32),
         triangles: &[u32],
     ) {
         let Some(field) = field else {
@@ -204,6 +208,46 @@ impl WindScratch {
             &self.params,
             &mut self.particle_force,
         );
+        self.limit_to_relative_speed(velocities, inv_mass, dt, triangles);
+    }
+
+    /// Held over a step, drag is an explicit force: at relative speeds where `ρ C_d A |u| dt / m`
+    /// nears 2 it would overshoot the wind and grow without bound. The air can at most bring a
+    /// particle to its own speed, so each particle's aerodynamic velocity change over the step is
+    /// capped at its speed relative to the mean wind of its triangles. At ordinary speeds (for
+    /// cloth the rate is a few per second) the cap never binds.
+    fn limit_to_relative_speed(
+        &mut self,
+        velocities: &[Vec3],
+        inv_mass: &[f32],
+        dt: f32,
+        triangles: &[[u32; 3]],
+    ) {
+        // The mean wind around each particle.
+        self.wind_sum.fill((Vec3::ZERO, 0));
+        for (tri, w) in triangles.iter().zip(&self.triangle_wind) {
+            for &i in tri {
+                let slot = &mut self.wind_sum[i as usize];
+                slot.0 += *w;
+                slot.1 += 1;
+            }
+        }
+        for (((f, v), w), (sum, n)) in self
+            .particle_force
+            .iter_mut()
+            .zip(velocities)
+            .zip(inv_mass)
+            .zip(&self.wind_sum)
+        {
+            if *n == 0 || *w <= 0.0 {
+                continue;
+            }
+            let relative = (*sum / *n as f32 - *v).length();
+            let dv = f.length() * w * dt;
+            if dv > relative {
+                *f *= relative / dv;
+            }
+        }
     }
 
     /// The aerodynamic force on each particle for this step, N (meaningful when `active`).
