@@ -468,9 +468,17 @@ impl Contacts {
         for c in &self.active {
             let pose0 = c.collider.start.lerp(&c.collider.end, t0);
             let pose1 = c.collider.start.lerp(&c.collider.end, t1);
+            let still = pose0 == pose1;
             for i in 0..x.len() {
                 if inv_mass[i] > 0.0 {
-                    collide_particle(c, &pose0, &pose1, h, self.start[i], &mut x[i], &mut v[i]);
+                    collide_particle(
+                        c,
+                        (&pose0, &pose1, still),
+                        h,
+                        self.start[i],
+                        &mut x[i],
+                        &mut v[i],
+                    );
                 }
             }
             if c.triangles {
@@ -496,8 +504,7 @@ impl Contacts {
 /// and Coulomb friction described in the module docs.
 fn collide_particle(
     c: &ActiveCollider,
-    pose0: &Pose,
-    pose1: &Pose,
+    (pose0, pose1, still): (&Pose, &Pose, bool),
     h: f32,
     start: Vec3,
     x: &mut Vec3,
@@ -507,6 +514,11 @@ fn collide_particle(
     let margin = c.collider.margin;
     let mut local = pose1.inverse_transform_point(*x);
     let (mut d, mut normal) = shape.signed_distance(local);
+    // The signed distance changes no faster than the point moves: a particle that ends the
+    // substep farther from a collider at rest than it travelled cannot have passed through it.
+    if d >= margin && still && d - margin > x.distance(start) {
+        return;
+    }
     if d >= margin {
         let local0 = pose0.inverse_transform_point(start);
         match sweep(shape, local0, local, margin) {
