@@ -162,6 +162,35 @@ fn app_with(active: u32, sleeping: u32) -> bevy::app::App {
 }
 
 fn sleeping(c: &mut Criterion) {
+    // The solver alone: 100 sleeping 64×64 cloths stepped against one active one.
+    let mut group = c.benchmark_group("solver_frame_64x64");
+    let mut active = hanging(64);
+    group.bench_function("one_active", |b| {
+        b.iter(|| active.step(black_box(1.0 / 60.0)).unwrap())
+    });
+    let mut sleepers: Vec<ClothSim> = (0..100)
+        .map(|_| {
+            let model = ClothModel::grid(&GridSpec::new(64, 64, 1.0 / 63.0)).unwrap();
+            let settings = SolverSettings {
+                gravity: Vec3::ZERO,
+                ..Default::default()
+            };
+            let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+            while !sim.is_sleeping() {
+                sim.step(1.0 / 60.0).unwrap();
+            }
+            sim
+        })
+        .collect();
+    group.bench_function("100_sleeping", |b| {
+        b.iter(|| {
+            for sim in &mut sleepers {
+                sim.step(black_box(1.0 / 60.0)).unwrap();
+            }
+        })
+    });
+    group.finish();
+
     let mut group = c.benchmark_group("app_frame_64x64");
     for (name, active, sleeping) in [
         ("no_cloth", 0, 0),
