@@ -140,18 +140,7 @@ impl SceneCollider {
     /// Checks the shape, friction, margin, placement and velocity; the error names the field.
     pub fn validate(&self) -> Result<(), ClothError> {
         self.component()?;
-        finite_vec3(
-            ["translation.x", "translation.y", "translation.z"],
-            self.translation,
-        )?;
-        finite_vec3(
-            [
-                "rotation_degrees.x",
-                "rotation_degrees.y",
-                "rotation_degrees.z",
-            ],
-            self.rotation_degrees,
-        )?;
+        finite_placement(self.translation, self.rotation_degrees)?;
         finite_vec3(["velocity.x", "velocity.y", "velocity.z"], self.velocity)
     }
 
@@ -194,6 +183,22 @@ impl Plugin for ScenePlugin {
             move_at_constant_velocity.after(ClothSystems::Step),
         );
     }
+}
+
+/// Checks that a translation and Euler angles (degrees) are finite; the error names the component.
+fn finite_placement(translation: Vec3, rotation_degrees: Vec3) -> Result<(), ClothError> {
+    finite_vec3(
+        ["translation.x", "translation.y", "translation.z"],
+        translation,
+    )?;
+    finite_vec3(
+        [
+            "rotation_degrees.x",
+            "rotation_degrees.y",
+            "rotation_degrees.z",
+        ],
+        rotation_degrees,
+    )
 }
 
 fn placement(translation: Vec3, rotation_degrees: Vec3) -> Transform {
@@ -464,18 +469,7 @@ impl ClothScene {
         if let Some(&index) = self.pins.iter().find(|&&p| p as usize >= count) {
             return Err(ClothError::PinOutOfRange { index, count });
         }
-        finite_vec3(
-            ["translation.x", "translation.y", "translation.z"],
-            self.translation,
-        )?;
-        finite_vec3(
-            [
-                "rotation_degrees.x",
-                "rotation_degrees.y",
-                "rotation_degrees.z",
-            ],
-            self.rotation_degrees,
-        )?;
+        finite_placement(self.translation, self.rotation_degrees)?;
         for (i, c) in self.colliders.iter().enumerate() {
             c.validate().map_err(|e| ClothError::InScene {
                 location: format!("colliders[{i}]"),

@@ -412,33 +412,30 @@ pub fn run_case(case: &StressCase, limits: &StressLimits) -> StressResult {
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
-            StressResult {
-                case: case.clone(),
-                outcome: StressOutcome::Failure(format!("panicked: {message}")),
-                substeps: 0,
-                h_omega: 0.0,
-                max_penetration: 0.0,
-                max_pin_error: 0.0,
-                max_speed: 0.0,
-                max_energy_gain: 0.0,
-                steps_run: 0,
-            }
+            StressResult::new(case, StressOutcome::Failure(format!("panicked: {message}")))
+        }
+    }
+}
+
+impl StressResult {
+    /// A result with nothing measured yet.
+    fn new(case: &StressCase, outcome: StressOutcome) -> Self {
+        Self {
+            case: case.clone(),
+            outcome,
+            substeps: 0,
+            h_omega: 0.0,
+            max_penetration: 0.0,
+            max_pin_error: 0.0,
+            max_speed: 0.0,
+            max_energy_gain: 0.0,
+            steps_run: 0,
         }
     }
 }
 
 fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
-    let mut result = StressResult {
-        case: case.clone(),
-        outcome: StressOutcome::Stable,
-        substeps: 0,
-        h_omega: 0.0,
-        max_penetration: 0.0,
-        max_pin_error: 0.0,
-        max_speed: 0.0,
-        max_energy_gain: 0.0,
-        steps_run: 0,
-    };
+    let mut result = StressResult::new(case, StressOutcome::Stable);
     let (mut sim, case) = match case.build(limits) {
         Ok(built) => built,
         Err(e) => {
