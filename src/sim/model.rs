@@ -176,6 +176,12 @@ pub struct SpringRun {
     pub len: u32,
 }
 
+/// In a [`RunLayout::Interleaved`] run with index offset `d`, the position of spring `m`'s first
+/// particle relative to the run's first (lane `m mod 8` of window `m / 8`; windows are 16 apart).
+pub(crate) const fn interleaved_offset(d: usize, m: usize) -> usize {
+    2 * d * (m / d) + m % d
+}
+
 /// Shortest run worth a vector kernel; shorter stretches are gathered.
 const MIN_RUN: usize = 8;
 
@@ -204,8 +210,8 @@ fn find_runs(a: &[u32], b: &[u32], start: usize, end: usize, runs: &mut Vec<Spri
             let interleaved = if d == 1 || d == 2 {
                 (i..end)
                     .take_while(|&k| {
-                        let m = (k - i) as u32;
-                        a[k] == a[i] + 2 * d * (m / d) + m % d && b[k] == a[k] + d
+                        let m = interleaved_offset(d as usize, k - i) as u32;
+                        a[k] == a[i] + m && b[k] == a[k] + d
                     })
                     .count()
                     / MIN_RUN
@@ -277,12 +283,11 @@ impl Springs {
                         (a, b) == (self.a[start] + m as u32, self.b[start] + m as u32)
                     }
                     RunLayout::Interleaved(d) => {
-                        let (d, l) = (d as u32, (m % 8) as u32);
                         let window = self.a[start + m / 8 * 8];
                         len % 8 == 0
                             && (d == 1 || d == 2)
-                            && a == window + 2 * d * (l / d) + l % d
-                            && b == a + d
+                            && a == window + interleaved_offset(d as usize, m % 8) as u32
+                            && b == a + d as u32
                     }
                     RunLayout::Scattered => true,
                 }

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use super::collision::{Collider, Contacts, bounds};
 use super::forces::{SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
-use super::model::{ClothModel, RunLayout, SpringKind, Springs};
+use super::model::{ClothModel, RunLayout, SpringKind, Springs, interleaved_offset};
 use super::wind::{WindField, WindScratch};
 use super::{explicit, implicit};
 use crate::error::{ClothError, count_in, non_negative, positive};
@@ -1153,7 +1153,7 @@ fn solve_contiguous<const ACCUMULATE: bool>(
 
 /// Window position of lane `l`'s first particle in an interleaved run with offset `D`.
 const fn lane_a<const D: usize>(l: usize) -> usize {
-    2 * D * (l / D) + l % D
+    interleaved_offset(D, l)
 }
 
 /// Eight springs over the 16 particles `window..window + 16` (see `RunLayout::Interleaved`).

@@ -176,6 +176,14 @@ impl Rng {
     }
 }
 
+/// The first `count` (at most 4) corners of a `side`×`side` grid, as pinned particles.
+fn corner_pins(side: u32, count: usize) -> Vec<u32> {
+    [0, side - 1, side * (side - 1), side * side - 1]
+        .into_iter()
+        .take(count)
+        .collect()
+}
+
 /// Draws case `index` of the suite `seed`, with an integrator from `integrators`.
 pub fn draw_case(
     seed: u64,
@@ -225,11 +233,7 @@ pub fn draw_case(
     } else {
         1.0
     };
-    let corners = [0, side - 1, side * (side - 1), side * side - 1];
-    let pins: Vec<u32> = corners
-        .into_iter()
-        .take((rng.next() % 5) as usize)
-        .collect();
+    let pins = corner_pins(side, (rng.next() % 5) as usize);
     let pin_speed = if !pins.is_empty() && rng.chance(0.5) {
         rng.log_range(0.1, 20.0)
     } else {
@@ -371,11 +375,7 @@ impl StressCase {
             }
             let shrink = (limits.max_work / work).sqrt();
             case.side = ((case.side as f64 * shrink).floor() as u32).clamp(2, case.side - 1);
-            let side = case.side;
-            case.pins = [0, side - 1, side * (side - 1), side * side - 1]
-                .into_iter()
-                .take(self.pins.len())
-                .collect();
+            case.pins = corner_pins(case.side, self.pins.len());
         }
     }
 
