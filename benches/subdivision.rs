@@ -1,13 +1,19 @@
-//! Catmull-Clark timings (the source paper's Tables 2–3, and the subdivision issue's goals):
-//! refinement from scratch (topology + stencil table) and per-frame stencil application, for each
-//! vertex rule at levels 1–3, on a 16×16-vertex quad grid and on meshes with extraordinary vertices
-//! (the cube and the valence-5/6 discs of the shared test data); plus the per-frame goal case, a
-//! 64×64 cloth at level 2.
+//! Catmull-Clark timings (the source paper's Tables 2–3, and the subdivision issue's goals), for
+//! each vertex rule at levels 1–3, on a 16×16-vertex quad grid and on meshes with extraordinary
+//! vertices (the cube and the valence-5/6 discs of the shared test data):
+//! - `subdivision_scratch`: refinement from scratch, control mesh in, refined mesh out
+//!   (`refine_positions`: topology, positions and UVs, level by level) — the paper's experiment;
+//! - `subdivision_refine`: building a `Subdivider` (topology, factorized stencil tables, render
+//!   layout), done once per cloth;
+//! - `subdivision_apply`: one per-frame evaluation (`Subdivider::apply`), plus the per-frame goal
+//!   case, a 64×64 cloth at level 2.
 
 use std::hint::black_box;
 
 use bevy_cloth::sim::{ClothModel, GridSpec};
-use bevy_cloth::subdivision::{BoundaryMode, PolyMesh, Subdivider, VertexRule, parse_obj};
+use bevy_cloth::subdivision::{
+    BoundaryMode, PolyMesh, Subdivider, VertexRule, parse_obj, refine_positions,
+};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::Vec3;
 
@@ -42,6 +48,24 @@ const RULES: [VertexRule; 3] = [
     VertexRule::Tuned,
 ];
 
+fn scratch(c: &mut Criterion) {
+    let mut group = c.benchmark_group("subdivision_scratch");
+    for (name, mesh) in meshes() {
+        for rule in RULES {
+            for level in 1..=3 {
+                let id = BenchmarkId::new(format!("{name}/{rule:?}"), level);
+                group.bench_with_input(id, &level, |b, &level| {
+                    b.iter(|| {
+                        refine_positions(black_box(&mesh), level, rule, BoundaryMode::EdgeOnly)
+                            .unwrap()
+                    })
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
 fn refine(c: &mut Criterion) {
     let mut group = c.benchmark_group("subdivision_refine");
     for (name, mesh) in meshes() {
@@ -69,7 +93,7 @@ fn apply(c: &mut Criterion) {
         for rule in RULES {
             let levels = if name == "grid64" { 2..=2 } else { 1..=3 };
             for level in levels {
-                let sub = Subdivider::new(&mesh, level, rule, BoundaryMode::EdgeOnly).unwrap();
+                let mut sub = Subdivider::new(&mesh, level, rule, BoundaryMode::EdgeOnly).unwrap();
                 let mut out = vec![Vec3::ZERO; sub.refined_vertex_count()];
                 let id = BenchmarkId::new(format!("{name}/{rule:?}"), level);
                 group.bench_with_input(id, &level, |b, _| {
@@ -81,5 +105,5 @@ fn apply(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, refine, apply);
+criterion_group!(benches, scratch, refine, apply);
 criterion_main!(benches);

@@ -55,7 +55,7 @@ fn load(name: &str) -> Result<PolyMesh, String> {
 
 /// A flat-shaded-free render mesh of the refined surface (smooth normals).
 fn refined_mesh(control: &PolyMesh, level: u32, rule: VertexRule) -> Result<Mesh, String> {
-    let sub =
+    let mut sub =
         Subdivider::new(control, level, rule, BoundaryMode::EdgeOnly).map_err(|e| e.to_string())?;
     let mut positions = vec![Vec3::ZERO; sub.refined_vertex_count()];
     let mut normals = vec![Vec3::Y; sub.refined_vertex_count()];

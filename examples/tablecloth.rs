@@ -107,6 +107,7 @@ fn setup(
                 level: 2,
                 rule: VertexRule::Tuned,
                 boundary: BoundaryMode::EdgeOnly,
+                ..default()
             },
             drop_transform(),
             MeshMaterial3d(common::fabric(&asset_server, &mut materials)),

@@ -151,7 +151,12 @@ impl Cloth {
     ///     // A round tablecloth whose centre has valence 5, subdivided as quads.
     ///     commands.spawn((
     ///         Cloth::from_model(ClothModel::disc(&DiscSpec::new(5, 12, 0.8))?),
-    ///         ClothSubdivision { level: 2, rule: VertexRule::Tuned, boundary: BoundaryMode::EdgeOnly },
+    ///         ClothSubdivision {
+    ///             level: 2,
+    ///             rule: VertexRule::Tuned,
+    ///             boundary: BoundaryMode::EdgeOnly,
+    ///             ..default()
+    ///         },
     ///         Transform::from_xyz(2.0, 1.0, 0.0),
     ///     ));
     ///     Ok(())
@@ -489,6 +494,27 @@ pub struct ClothSubdivision {
     pub rule: VertexRule,
     /// Boundary interpolation.
     pub boundary: BoundaryMode,
+    /// Whether the rendered surface or the simulated cloth itself is refined.
+    pub target: SubdivisionTarget,
+}
+
+/// What a [`ClothSubdivision`] refines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect)]
+#[reflect(Default, Debug)]
+pub enum SubdivisionTarget {
+    /// The cloth simulates its own mesh; each frame its particles are the control points of a
+    /// subdivision surface that is rendered. Cheap: the stencils cost about one solver substep.
+    /// Changing the level only rebuilds the render mesh.
+    #[default]
+    Render,
+    /// The rest mesh is refined once, before the simulation is built, and the cloth simulates
+    /// (and renders) the refined mesh: about 4× the particles per level, finer folds and
+    /// contacts, and a rest shape that is the smooth surface (see
+    /// [`ClothModel::subdivided`](crate::sim::ClothModel::subdivided)). The total mass is kept;
+    /// [`ClothPins`] still name particles of the unrefined cloth and pin the particles they
+    /// became; [`ClothState::positions`] lists the refined particles. Any change to the
+    /// subdivision restarts the cloth from its rest shape.
+    Simulation,
 }
 
 /// Highest level accepted by [`ClothSubdivision`].
@@ -500,6 +526,7 @@ impl Default for ClothSubdivision {
             level: 2,
             rule: VertexRule::Original,
             boundary: BoundaryMode::EdgeAndCorner,
+            target: SubdivisionTarget::Render,
         }
     }
 }
@@ -521,6 +548,13 @@ pub struct ClothState {
     pub(crate) mesh: Handle<Mesh>,
     /// Present when the render mesh is a subdivision surface.
     pub(crate) subdivision: Option<RenderSubdivision>,
+    /// Present when the simulation runs on a refined model
+    /// ([`SubdivisionTarget::Simulation`]): for each particle of the unrefined model, its
+    /// particle in the simulation.
+    pub(crate) particle_map: Option<Vec<u32>>,
+    /// Factor applied to [`SolverSettings::particle_mass`](crate::sim::SolverSettings) (below 1
+    /// for a refined model, to keep the total mass).
+    pub(crate) mass_scale: f32,
     /// Render positions (world space) after the previous and the latest step.
     pub(crate) render_prev: Vec<Vec3>,
     pub(crate) render_curr: Vec<Vec3>,
@@ -538,7 +572,22 @@ pub struct ClothState {
     pub(crate) at_rest: bool,
 }
 
+/// Particle `index` of a cloth's unrefined model mapped through `map` (none: identity over
+/// `count` particles); `None` when out of range.
+pub(crate) fn mapped_particle(map: Option<&[u32]>, count: usize, index: u32) -> Option<usize> {
+    match map {
+        Some(map) => map.get(index as usize).map(|&p| p as usize),
+        None => ((index as usize) < count).then_some(index as usize),
+    }
+}
+
 impl ClothState {
+    /// The simulation particle of particle `index` of the cloth's own (unrefined) model, the
+    /// index [`ClothPins`] use; `None` when out of range.
+    pub fn particle(&self, index: u32) -> Option<usize> {
+        mapped_particle(self.particle_map.as_deref(), self.sim.positions().len(), index)
+    }
+
     /// The simulation (positions, velocities, settings, statistics).
     pub fn sim(&self) -> &ClothSim {
         &self.sim

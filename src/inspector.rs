@@ -240,6 +240,13 @@ fn subdivision_ui(ui: &mut egui::Ui, s: &mut ClothSubdivision) {
                 ui.selectable_value(&mut s.boundary, b, format!("{b:?}"));
             }
         });
+    egui::ComboBox::from_label("refines")
+        .selected_text(format!("{:?}", s.target))
+        .show_ui(ui, |ui| {
+            for t in [SubdivisionTarget::Render, SubdivisionTarget::Simulation] {
+                ui.selectable_value(&mut s.target, t, format!("{t:?}"));
+            }
+        });
 }
 
 fn wind_ui(ui: &mut egui::Ui, w: &mut Wind) {

@@ -47,7 +47,7 @@ pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
 pub mod prelude {
     pub use crate::components::{
         Cloth, ClothCollider, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource,
-        ClothState, ClothSubdivision, PinAnchor, Wind, WindZone,
+        ClothState, ClothSubdivision, PinAnchor, SubdivisionTarget, Wind, WindZone,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};

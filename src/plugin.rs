@@ -15,13 +15,14 @@ use bevy::transform::TransformSystems;
 use bevy::transform::components::GlobalTransform;
 use bevy::transform::helper::TransformHelper;
 
-use crate::components::RenderSubdivision;
 use crate::components::*;
+use crate::components::{RenderSubdivision, mapped_particle};
 use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::collision::Pose;
 use crate::sim::{
-    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, WindField, compute_normals,
+    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, WindField,
+    compute_normals,
 };
 use crate::subdivision::Subdivider;
 
@@ -346,14 +347,12 @@ fn resolve_pin_targets(
 ) {
     for (pins, transform, mut state) in &mut cloths {
         let state = &mut *state;
+        let rest = &state.sim.model().rest_positions;
+        let map = state.particle_map.as_deref();
         for (pin, target) in pins.pins.iter().zip(state.pin_targets.iter_mut()) {
             let resolved = match pin.anchor {
-                PinAnchor::Rest => state
-                    .sim
-                    .model()
-                    .rest_positions
-                    .get(pin.particle as usize)
-                    .map(|p| transform.transform_point(*p)),
+                PinAnchor::Rest => mapped_particle(map, rest.len(), pin.particle)
+                    .map(|i| transform.transform_point(rest[i])),
                 PinAnchor::World(p) => Some(p),
                 PinAnchor::Entity { entity, offset } => {
                     current_global(entity, &helper, &anchors).map(|g| g.transform_point(offset))
@@ -451,7 +450,8 @@ fn rebuild_render(
     meshes: &mut Assets<Mesh>,
 ) -> Result<Handle<Mesh>, ClothError> {
     let model = state.sim.model();
-    state.subdivision = match subdivision.filter(|s| s.level > 0) {
+    let render_level = |s: &&ClothSubdivision| s.level > 0 && s.target == SubdivisionTarget::Render;
+    state.subdivision = match subdivision.filter(render_level) {
         None => None,
         Some(sub) => {
             count_in(
@@ -512,7 +512,8 @@ fn apply_edits(
         }
         let mut result = Ok(());
         if config.is_changed() {
-            result = state.sim.set_settings(config.solver);
+            let settings = run_settings(&config, state.mass_scale);
+            result = state.sim.set_settings(settings);
         }
         if result.is_ok() && pins.is_changed() {
             result = apply_pins(&mut state, &pins, transform);
@@ -542,7 +543,7 @@ fn build_cloths(
     for (entity, cloth, config, pins, transform, subdivision, mut state, invalid) in &mut cloths {
         let subdivision_changed = match (&subdivision, &state) {
             (Some(s), _) => s.is_changed(),
-            (None, Some(state)) => state.subdivision.is_some(),
+            (None, Some(state)) => state.subdivision.is_some() || state.particle_map.is_some(),
             (None, None) => false,
         };
         let edited =
@@ -551,9 +552,16 @@ fn build_cloths(
             .as_mut()
             .filter(|s| s.failure.is_some())
             .and_then(|s| s.failure.take());
-        // New, replaced, waiting for its mesh asset, or edited after being invalid.
+        // New, replaced, waiting for its mesh asset, or edited after being invalid; or its
+        // subdivision changed while (or to) refining the simulation itself.
+        let refines_sim = |s: &ClothSubdivision| s.target == SubdivisionTarget::Simulation;
         let rebuild = match &state {
-            Some(_) => cloth.is_changed(),
+            Some(state) => {
+                cloth.is_changed()
+                    || subdivision_changed
+                        && (state.particle_map.is_some()
+                            || subdivision.as_deref().is_some_and(refines_sim))
+            }
             None => !invalid || edited,
         };
         let subdivision = subdivision.as_deref();
@@ -613,11 +621,36 @@ fn build_state(
             (shared.model().clone(), None)
         }
     };
-    let sim = ClothSim::new(model, config.solver, |p| transform.transform_point(p))?;
+    let (model, user_mesh, particle_map, mass_scale) = match subdivision
+        .filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation)
+    {
+        None => (model, user_mesh, None, 1.0),
+        Some(sub) => {
+            count_in(
+                "subdivision.level",
+                sub.level,
+                0,
+                MAX_CLOTH_SUBDIVISION_LEVEL,
+            )?;
+            let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
+            // The user's mesh no longer matches the particles: render the refined model.
+            (
+                refined.model,
+                None,
+                Some(refined.particle_map),
+                refined.mass_scale,
+            )
+        }
+    };
+    let sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
+        transform.transform_point(p)
+    })?;
     let mut state = ClothState {
         sim,
         mesh: Handle::default(),
         subdivision: None,
+        particle_map,
+        mass_scale,
         render_prev: Vec::new(),
         render_curr: Vec::new(),
         normals_prev: Vec::new(),
@@ -632,36 +665,41 @@ fn build_state(
     Ok(Some((state, mesh)))
 }
 
+/// The solver settings of `config` as a cloth runs them: the particle mass scaled by
+/// `mass_scale` (below 1 for a cloth simulated at a subdivided resolution, to keep its mass).
+fn run_settings(config: &ClothConfig, mass_scale: f32) -> SolverSettings {
+    let mut settings = config.solver;
+    settings.particle_mass *= mass_scale;
+    settings
+}
+
 /// Replaces the pin set of a running cloth, each pin starting at its anchor's current position.
 fn apply_pins(
     state: &mut ClothState,
     pins: &ClothPins,
     transform: &GlobalTransform,
 ) -> Result<(), ClothError> {
-    let model = state.sim.model();
-    let current = state.sim.positions();
     state.pin_targets.clear();
+    let mut targets = Vec::with_capacity(pins.pins.len());
     for pin in &pins.pins {
-        let index = pin.particle as usize;
-        let Some(rest) = model.rest_positions.get(index) else {
+        let Some(index) = state.particle(pin.particle) else {
             return Err(ClothError::PinOutOfRange {
                 index: pin.particle,
-                count: model.particle_count(),
+                count: state
+                    .particle_map
+                    .as_ref()
+                    .map_or(state.sim.positions().len(), Vec::len),
             });
         };
-        state.pin_targets.push(match pin.anchor {
-            PinAnchor::Rest => transform.transform_point(*rest),
+        let target = match pin.anchor {
+            PinAnchor::Rest => transform.transform_point(state.sim.model().rest_positions[index]),
             PinAnchor::World(p) => p,
             // Resolved in `Prepare`; until then the particle stays where it is.
-            PinAnchor::Entity { .. } => current[index],
-        });
+            PinAnchor::Entity { .. } => state.sim.positions()[index],
+        };
+        state.pin_targets.push(target);
+        targets.push((index as u32, target));
     }
-    let targets: Vec<(u32, Vec3)> = pins
-        .pins
-        .iter()
-        .map(|p| p.particle)
-        .zip(state.pin_targets.iter().copied())
-        .collect();
     state.sim.set_pins(targets)
 }
 

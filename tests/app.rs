@@ -489,6 +489,100 @@ fn subdivided_cloth_renders_the_refined_surface_and_changes_level_live() {
 }
 
 #[test]
+fn a_cloth_simulated_at_a_subdivided_resolution_keeps_its_pins_mass_and_shape() {
+    let mut app = app();
+    let n = 8u32;
+    let at = Vec3::new(0.0, 2.0, 0.0);
+    let plain = spawn(&mut app, hanging_at(n, at));
+    let refined = spawn(
+        &mut app,
+        (
+            hanging_at(n, at),
+            ClothSubdivision {
+                level: 1,
+                target: SubdivisionTarget::Simulation,
+                ..default()
+            },
+        ),
+    );
+    // One level: (2(n-1)+1)² particles, simulated and rendered as they are.
+    let count = (2 * (n as usize - 1) + 1).pow(2);
+    assert_eq!(state(&app, refined).positions().len(), count);
+    assert_eq!(vertex_count(&app, refined), count);
+    let total = |e: Entity| -> f32 { state(&app, e).sim().masses().iter().sum() };
+    assert!(
+        (total(refined) / total(plain) - 1.0).abs() < 1e-5,
+        "total mass {} vs {}",
+        total(refined),
+        total(plain)
+    );
+    // Pins name the unrefined particles and hold the particles they became (the corners stay
+    // put with the default edge-and-corner boundary).
+    let pinned = |app: &App, e: Entity, p: u32| {
+        let s = state(app, e);
+        s.positions()[s.particle(p).expect("pinned particle exists")]
+    };
+    for p in [0, n - 1] {
+        assert_eq!(pinned(&app, refined, p), pinned(&app, plain, p));
+    }
+    run(&mut app, 60);
+    for p in [0, n - 1] {
+        assert_eq!(pinned(&app, refined, p), pinned(&app, plain, p), "pin {p}");
+    }
+    // Both hang; the finer cloth's lowest point is close to the coarse one's (same material).
+    let lowest = |e: Entity| {
+        state(&app, e)
+            .positions()
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::INFINITY, f32::min)
+    };
+    assert!(lowest(plain) < at.y - 0.2, "{}", lowest(plain));
+    assert!(
+        (lowest(refined) - lowest(plain)).abs() < 0.1,
+        "refined {} vs plain {}",
+        lowest(refined),
+        lowest(plain)
+    );
+
+    // A new level restarts the cloth at the new resolution; back to Render, the simulation
+    // is coarse again and only the surface is refined.
+    let mut sub = app.world_mut().get_mut::<ClothSubdivision>(refined).unwrap();
+    sub.level = 2;
+    run(&mut app, 1);
+    assert_eq!(
+        state(&app, refined).positions().len(),
+        (4 * (n as usize - 1) + 1).pow(2)
+    );
+    assert!(state(&app, refined).steps() <= 1, "restarted");
+    app.world_mut()
+        .get_mut::<ClothSubdivision>(refined)
+        .unwrap()
+        .target = SubdivisionTarget::Render;
+    run(&mut app, 1);
+    assert_eq!(state(&app, refined).positions().len(), (n * n) as usize);
+    assert_eq!(
+        vertex_count(&app, refined),
+        (4 * (n as usize - 1) + 1).pow(2)
+    );
+    // Out-of-range pins are reported against the unrefined cloth's particle count.
+    app.world_mut()
+        .get_mut::<ClothSubdivision>(refined)
+        .unwrap()
+        .target = SubdivisionTarget::Simulation;
+    app.world_mut()
+        .get_mut::<ClothPins>(refined)
+        .unwrap()
+        .pin(n * n, PinAnchor::Rest);
+    run(&mut app, 1);
+    let err = &app.world().get::<ClothInvalid>(refined).expect("bad pin").0;
+    assert!(
+        err.to_string().contains(&format!("has {} particles", n * n)),
+        "{err}"
+    );
+}
+
+#[test]
 fn a_mesh_whose_buffers_were_replaced_stops_the_cloth_once() {
     let mut app = app();
     let e = spawn(&mut app, hanging(6));
@@ -523,6 +617,7 @@ fn a_prebuilt_quad_model_keeps_its_quads_shares_and_steps() {
                 level: 1,
                 rule: VertexRule::Tuned,
                 boundary: BoundaryMode::EdgeOnly,
+                ..default()
             },
             Transform::from_xyz(0.0, 2.0, 0.0),
         ),

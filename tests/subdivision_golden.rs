@@ -206,7 +206,7 @@ fn stencils_sum_to_one_for_every_shape_level_rule() {
             for mode in [BoundaryMode::EdgeOnly, BoundaryMode::EdgeAndCorner] {
                 for level in 0..=3 {
                     let sub = Subdivider::new(&control, level, rule, mode).expect("subdivide");
-                    let st = sub.stencils();
+                    let st = sub.composed_stencils().expect("compose");
                     for r in 0..st.len() {
                         let (_, w) = st.stencil(r).expect("row");
                         let sum: f64 = w.iter().sum();

@@ -24,7 +24,7 @@ pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use implicit::CG_TOLERANCE;
 pub use model::{
     ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, RunLayout,
-    SpringKind, SpringRun, Springs, compute_normals,
+    SpringKind, SpringRun, Springs, SubdividedModel, compute_normals,
 };
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{

@@ -5,12 +5,12 @@
 //! arbitrary triangle or quad mesh. Nothing here runs per step.
 
 use bevy::reflect::Reflect;
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 use crate::error::{ClothError, positive};
-use crate::subdivision::{PolyMesh, SubdivisionError};
+use crate::subdivision::{BoundaryMode, PolyMesh, Subdivider, SubdivisionError, VertexRule};
 
 /// The three spring families of a Provot mass-spring cloth.
 #[derive(
@@ -979,7 +979,74 @@ fn check_face(positions: &[Vec3], face: usize, corners: &[u32]) -> Result<(), Cl
     Ok(())
 }
 
+/// A cloth model refined by Catmull-Clark subdivision before simulating
+/// ([`ClothModel::subdivided`]).
+#[derive(Debug, Clone)]
+pub struct SubdividedModel {
+    /// The refined model: all-quad faces, one particle per refined vertex.
+    pub model: ClothModel,
+    /// For each particle of the original model, the particle it became (its vertex point).
+    pub particle_map: Vec<u32>,
+    /// Original particle count over refined particle count: scale a uniform particle mass by it
+    /// to keep the cloth's total mass (per-particle masses are already scaled).
+    pub mass_scale: f32,
+}
+
 impl ClothModel {
+    /// Refines the rest mesh `level` times with Catmull-Clark subdivision and builds a cloth model
+    /// from the refined quads, so that the cloth simulates at the finer resolution (about 4× the
+    /// particles per level) on the smooth limit shape rather than only rendering it.
+    ///
+    /// Springs follow [`from_mesh`](Self::from_mesh) on the refined quads with unchanged
+    /// per-spring stiffness (the membrane stiffness of a spring grid does not depend on its
+    /// spacing). Per-particle masses, if any, are interpolated with the subdivision stencils and
+    /// scaled to keep their total; a uniform mass is left to the caller, who scales it by
+    /// [`SubdividedModel::mass_scale`]. UVs follow the refined surface. Errors: the subdivision
+    /// errors of [`control_mesh`](Self::control_mesh) and
+    /// [`Subdivider::new`](crate::subdivision::Subdivider::new) (a mesh that is not
+    /// manifold and consistently oriented), and those of `from_mesh`.
+    pub fn subdivided(
+        &self,
+        level: u32,
+        rule: VertexRule,
+        boundary: BoundaryMode,
+    ) -> Result<SubdividedModel, ClothError> {
+        let control = self.control_mesh()?;
+        let sub = Subdivider::new(&control, level, rule, boundary)?;
+        let n = sub.refined_vertex_count();
+        let mut refined = vec![DVec3::ZERO; n];
+        sub.apply_f64(control.positions(), &mut refined)?;
+        let positions: Vec<Vec3> = refined.iter().map(|p| p.as_vec3()).collect();
+        let topology = sub.topology();
+        // Render vertices start with the refined vertices, each with the UV of its first corner.
+        let uvs = topology.render_mesh().uvs().map(|uvs| &uvs[..n]);
+        let faces = topology.face_indices();
+        let face_size = if topology.quad_indices().is_some() {
+            4
+        } else {
+            // Level 0 keeps the control faces.
+            self.face_size
+        };
+        let mut model = ClothModel::from_mesh(&positions, uvs, faces, face_size)?;
+        if let Some(masses) = &self.particle_masses {
+            let control_masses: Vec<DVec3> =
+                masses.iter().map(|&m| DVec3::new(f64::from(m), 0.0, 0.0)).collect();
+            let mut spread = vec![DVec3::ZERO; n];
+            sub.apply_f64(&control_masses, &mut spread)?;
+            let total: f64 = masses.iter().map(|&m| f64::from(m)).sum();
+            let spread_total: f64 = spread.iter().map(|m| m.x).sum();
+            let scale = total / spread_total;
+            model = model.with_particle_masses(
+                spread.iter().map(|m| (m.x * scale) as f32).collect(),
+            )?;
+        }
+        Ok(SubdividedModel {
+            model,
+            particle_map: topology.control_vertex_map().to_vec(),
+            mass_scale: (self.particle_count() as f64 / n as f64) as f32,
+        })
+    }
+
     /// The control polygon mesh (rest positions, faces and UVs) that subdivision refines.
     pub fn control_mesh(&self) -> Result<PolyMesh, SubdivisionError> {
         let positions = self.rest_positions.iter().map(|p| p.as_dvec3());
@@ -1024,6 +1091,40 @@ mod tests {
         let p = |i: u32, j: u32| m.rest_positions[(j * nx + i) as usize];
         assert!((p(1, 0) - p(0, 0) - Vec3::new(0.1, 0.0, 0.0)).length() < 1e-6);
         assert!((p(0, 1) - p(0, 0) - Vec3::new(0.0, 0.0, 0.1)).length() < 1e-6);
+    }
+
+    #[test]
+    fn a_subdivided_grid_is_the_refined_quad_grid_with_its_mass() {
+        let (nx, ny) = (5u32, 4u32);
+        let n = (nx * ny) as usize;
+        let masses: Vec<f32> = (1..=n).map(|i| i as f32 * 0.01).collect();
+        let m = ClothModel::grid(&GridSpec::new(nx, ny, 0.1))
+            .unwrap()
+            .with_particle_masses(masses.clone())
+            .unwrap();
+        let r = m
+            .subdivided(1, VertexRule::Original, BoundaryMode::EdgeAndCorner)
+            .unwrap();
+        let (rx, ry) = (2 * nx - 1, 2 * ny - 1);
+        assert_eq!(r.model.particle_count(), (rx * ry) as usize);
+        assert_eq!(r.model.face_size, 4);
+        assert_eq!(r.model.faces.len(), 4 * 4 * (nx - 1) as usize * (ny - 1) as usize);
+        let [structural, shear, _] = r.model.springs.count_by_kind();
+        assert_eq!(structural as u32, (rx - 1) * ry + rx * (ry - 1));
+        assert_eq!(shear as u32, 2 * (rx - 1) * (ry - 1));
+        assert!((r.mass_scale - n as f32 / (rx * ry) as f32).abs() < 1e-7);
+        // A flat uniform grid with fixed corners reproduces itself: every particle keeps its
+        // rest position, now as the vertex point named by the map.
+        assert_eq!(r.particle_map.len(), n);
+        for (i, &j) in r.particle_map.iter().enumerate() {
+            let d = m.rest_positions[i].distance(r.model.rest_positions[j as usize]);
+            assert!(d < 1e-6, "particle {i} moved by {d}");
+        }
+        let refined = r.model.particle_masses.as_ref().expect("masses carried over");
+        let (before, after) = (masses.iter().sum::<f32>(), refined.iter().sum::<f32>());
+        assert!((after / before - 1.0).abs() < 1e-5, "{before} vs {after}");
+        assert!(refined.iter().all(|&m| m > 0.0));
+        r.model.validate().unwrap();
     }
 
     #[test]

@@ -45,6 +45,21 @@ pub struct PolyMesh {
 }
 
 impl PolyMesh {
+    /// A mesh produced by refinement, which is valid by construction (no checks).
+    pub(crate) fn from_refined(
+        positions: Vec<DVec3>,
+        face_offsets: Vec<u32>,
+        face_indices: Vec<u32>,
+        uvs: Option<Vec<Vec2>>,
+    ) -> Self {
+        PolyMesh {
+            positions,
+            face_offsets,
+            face_indices,
+            uvs,
+        }
+    }
+
     /// Builds a mesh from positions, CSR face offsets (length `faces + 1`,
     /// starting at 0 and ending at `face_indices.len()`), the flat corner list,
     /// and optional per-corner UVs (length `face_indices.len()`).

@@ -10,10 +10,10 @@
 //! per parent face, in face order), then edge points (one per parent edge),
 //! then vertex points (one per parent vertex, in vertex order).
 
-use glam::Vec2;
+use glam::{DVec3, Vec2};
 
 use super::rules::{BoundaryMode, VertexRule};
-use super::topology::LevelTopology;
+use super::topology::{LevelTopology, NO_FACE};
 use super::{MAX_LEVEL, MAX_REFINED_FACES, MAX_STENCIL_ENTRIES, SubdivisionError};
 
 /// Sparse rows in CSR form: row `r` is `(index, weight)` pairs
@@ -26,7 +26,7 @@ pub(crate) struct SparseRows {
 }
 
 impl SparseRows {
-    fn identity(n: usize) -> Self {
+    pub(crate) fn identity(n: usize) -> Self {
         SparseRows {
             offsets: (0..=n as u32).collect(),
             indices: (0..n as u32).collect(),
@@ -82,8 +82,9 @@ fn check_entries(len: usize) -> Result<u32, SubdivisionError> {
 /// Output of refining a mesh to a given level.
 #[derive(Debug, Clone)]
 pub(crate) struct Refinement {
-    /// Stencils of the final level over the control vertices.
-    pub stencils: SparseRows,
+    /// The local masks of each level (rows: that level's vertices; columns: the previous level's),
+    /// i.e. the factorized stencils. Empty at level 0.
+    pub levels: Vec<SparseRows>,
     /// Topology of the final level.
     pub topology: LevelTopology,
     /// Face-varying UVs of the final level (parallel to its face indices).
@@ -92,14 +93,9 @@ pub(crate) struct Refinement {
     pub control_vertex_map: Vec<u32>,
 }
 
-/// Refines `base` uniformly `level` times.
-pub(crate) fn refine(
-    base: LevelTopology,
-    uvs: Option<Vec<Vec2>>,
-    level: u32,
-    rule: VertexRule,
-    boundary: BoundaryMode,
-) -> Result<Refinement, SubdivisionError> {
+/// Checks `level` against [`MAX_LEVEL`] and the refined face count against
+/// [`MAX_REFINED_FACES`] before any work is done.
+fn check_level(base: &LevelTopology, level: u32) -> Result<(), SubdivisionError> {
     if level > MAX_LEVEL {
         return Err(SubdivisionError::LevelTooHigh {
             level,
@@ -117,44 +113,154 @@ pub(crate) fn refine(
             });
         }
     }
-    let control = base.num_vertices;
-    let mut stencils = SparseRows::identity(control);
-    let mut map: Vec<u32> = (0..control as u32).collect();
+    Ok(())
+}
+
+/// Refines `base` uniformly `level` times, keeping each level's masks.
+pub(crate) fn refine(
+    base: LevelTopology,
+    uvs: Option<Vec<Vec2>>,
+    level: u32,
+    rule: VertexRule,
+    boundary: BoundaryMode,
+) -> Result<Refinement, SubdivisionError> {
+    check_level(&base, level)?;
+    let mut map: Vec<u32> = (0..base.num_vertices as u32).collect();
+    let mut levels = Vec::with_capacity(level as usize);
     let mut topo = base;
     let mut uvs = uvs;
     for _ in 0..level {
-        let step = refine_level(&topo, rule, boundary, uvs.as_deref())?;
+        levels.push(level_masks(&topo, rule, boundary)?);
         let offset = (topo.face_count() + topo.edges.len()) as u32;
         for m in &mut map {
             *m += offset;
         }
-        stencils = compose(&stencils, &step.masks, control)?;
-        uvs = step.uvs;
-        topo = LevelTopology::build(step.num_vertices, step.face_offsets, step.face_indices)?;
+        uvs = uvs.map(|u| child_uvs(&topo, &u));
+        topo = topo.refine_child();
     }
     Ok(Refinement {
-        stencils,
+        levels,
         topology: topo,
         uvs,
         control_vertex_map: map,
     })
 }
 
-/// One level of refinement: child faces plus local masks.
-struct LevelStep {
-    num_vertices: usize,
-    face_offsets: Vec<u32>,
-    face_indices: Vec<u32>,
+/// Refines `base` with positions `positions` uniformly `level` times, evaluating each level
+/// directly from the previous one (face points are computed once and reused by the edge and vertex
+/// points) instead of building masks. Returns the final topology, positions and UVs.
+pub(crate) fn refine_direct(
+    base: LevelTopology,
+    positions: &[DVec3],
     uvs: Option<Vec<Vec2>>,
-    masks: SparseRows,
+    level: u32,
+    rule: VertexRule,
+    boundary: BoundaryMode,
+) -> Result<(LevelTopology, Vec<DVec3>, Option<Vec<Vec2>>), SubdivisionError> {
+    check_level(&base, level)?;
+    let mut topo = base;
+    let mut points = positions.to_vec();
+    let mut uvs = uvs;
+    for _ in 0..level {
+        points = interpolate_level(&topo, rule, boundary, &points);
+        uvs = uvs.map(|u| child_uvs(&topo, &u));
+        topo = topo.refine_child();
+    }
+    Ok((topo, points, uvs))
 }
 
-fn refine_level(
+/// Which rule forms the vertex point of a vertex.
+enum VertexKind {
+    /// No face: the vertex is copied.
+    Isolated,
+    /// A corner kept in place ([`BoundaryMode::EdgeAndCorner`]).
+    Corner,
+    /// A boundary vertex on the B-spline boundary curve through its two boundary neighbours.
+    Boundary([u32; 2]),
+    /// An interior vertex: the [`VertexRule`].
+    Interior,
+}
+
+fn vertex_kind(topo: &LevelTopology, v: usize, boundary: BoundaryMode) -> VertexKind {
+    let faces = topo.faces_of(v);
+    if faces.is_empty() {
+        return VertexKind::Isolated;
+    }
+    let mut nbrs = [0u32; 2];
+    let mut nb = 0;
+    for &e in topo.edges_of(v) {
+        if topo.is_boundary_edge(e as usize) {
+            if nb < 2 {
+                nbrs[nb] = topo.other_end(e as usize, v as u32);
+            }
+            nb += 1;
+        }
+    }
+    match nb {
+        0 => VertexKind::Interior,
+        _ if boundary == BoundaryMode::EdgeAndCorner && faces.len() == 1 => VertexKind::Corner,
+        _ => VertexKind::Boundary(nbrs),
+    }
+}
+
+/// One level of direct evaluation: the child points of `topo` (face points, edge points, vertex
+/// points, in that order) from its vertex positions `parent`.
+fn interpolate_level(
     topo: &LevelTopology,
     rule: VertexRule,
     boundary: BoundaryMode,
-    uvs: Option<&[Vec2]>,
-) -> Result<LevelStep, SubdivisionError> {
+    parent: &[DVec3],
+) -> Vec<DVec3> {
+    let nf = topo.face_count();
+    let ne = topo.edges.len();
+    let mut child = vec![DVec3::ZERO; nf + ne + topo.num_vertices];
+    let (face_points, rest) = child.split_at_mut(nf);
+    let (edge_points, vertex_points) = rest.split_at_mut(ne);
+    for (f, out) in face_points.iter_mut().enumerate() {
+        let face = topo.face(f);
+        let sum: DVec3 = face.iter().map(|&v| parent[v as usize]).sum();
+        *out = sum / face.len() as f64;
+    }
+    for ((&[a, b], &faces), out) in topo.edges.iter().zip(&topo.edge_faces).zip(edge_points) {
+        let ends = parent[a as usize] + parent[b as usize];
+        *out = match faces {
+            [_, NO_FACE] => ends * 0.5,
+            [f0, f1] => (ends + face_points[f0 as usize] + face_points[f1 as usize]) * 0.25,
+        };
+    }
+    for (v, out) in vertex_points.iter_mut().enumerate() {
+        let s = parent[v];
+        *out = match vertex_kind(topo, v, boundary) {
+            VertexKind::Isolated | VertexKind::Corner => s,
+            VertexKind::Boundary([a, b]) => {
+                s * 0.75 + (parent[a as usize] + parent[b as usize]) * 0.125
+            }
+            VertexKind::Interior => {
+                let faces = topo.faces_of(v);
+                let edges = topo.edges_of(v);
+                let w = rule.weights(faces.len() as u32);
+                let f_sum: DVec3 = faces.iter().map(|&f| face_points[f as usize]).sum();
+                let r_sum: DVec3 = edges
+                    .iter()
+                    .map(|&e| parent[topo.other_end(e as usize, v as u32) as usize])
+                    .sum();
+                // R̄ = S/2 + (mean of the neighbours)/2.
+                s * (w.vertex + 0.5 * w.midpoint)
+                    + r_sum * (0.5 * w.midpoint / edges.len() as f64)
+                    + f_sum * (w.face / faces.len() as f64)
+            }
+        };
+    }
+    child
+}
+
+/// The local refinement masks of one level: a row per child vertex (face points, edge points,
+/// vertex points) over the vertices of `topo`.
+fn level_masks(
+    topo: &LevelTopology,
+    rule: VertexRule,
+    boundary: BoundaryMode,
+) -> Result<SparseRows, SubdivisionError> {
     let nf = topo.face_count();
     let ne = topo.edges.len();
     let nv = topo.num_vertices;
@@ -198,87 +304,56 @@ fn refine_level(
     // Vertex points.
     for v in 0..nv {
         let vu = v as u32;
-        let faces = topo.faces_of(v);
-        let edges = topo.edges_of(v);
         scratch.clear();
-        let mut boundary_nbrs = [0u32; 2];
-        let mut nb = 0;
-        for &e in edges {
-            if topo.is_boundary_edge(e as usize) {
-                if nb < 2 {
-                    boundary_nbrs[nb] = topo.other_end(e as usize, vu);
-                }
-                nb += 1;
-            }
-        }
-        if faces.is_empty() {
-            scratch.push((vu, 1.0));
-        } else if nb == 2 {
-            if boundary == BoundaryMode::EdgeAndCorner && faces.len() == 1 {
-                scratch.push((vu, 1.0));
-            } else {
+        match vertex_kind(topo, v, boundary) {
+            VertexKind::Isolated | VertexKind::Corner => scratch.push((vu, 1.0)),
+            VertexKind::Boundary([a, b]) => {
                 scratch.push((vu, 0.75));
-                scratch.push((boundary_nbrs[0], 0.125));
-                scratch.push((boundary_nbrs[1], 0.125));
+                scratch.push((a, 0.125));
+                scratch.push((b, 0.125));
             }
-        } else {
-            // Interior: v' = w_F F̄ + w_R R̄ + w_S S (R̄: mean edge midpoint).
-            let w = rule.weights(faces.len() as u32);
-            scratch.push((vu, w.vertex + 0.5 * w.midpoint));
-            let we = 0.5 * w.midpoint / edges.len() as f64;
-            scratch.extend(edges.iter().map(|&e| (topo.other_end(e as usize, vu), we)));
-            let nfaces = faces.len() as f64;
-            for &f in faces {
-                let face = topo.face(f as usize);
-                let wf = w.face / (nfaces * face.len() as f64);
-                scratch.extend(face.iter().map(|&c| (c, wf)));
+            VertexKind::Interior => {
+                // v' = w_F F̄ + w_R R̄ + w_S S (R̄: mean edge midpoint).
+                let faces = topo.faces_of(v);
+                let edges = topo.edges_of(v);
+                let w = rule.weights(faces.len() as u32);
+                scratch.push((vu, w.vertex + 0.5 * w.midpoint));
+                let we = 0.5 * w.midpoint / edges.len() as f64;
+                scratch.extend(edges.iter().map(|&e| (topo.other_end(e as usize, vu), we)));
+                let nfaces = faces.len() as f64;
+                for &f in faces {
+                    let face = topo.face(f as usize);
+                    let wf = w.face / (nfaces * face.len() as f64);
+                    scratch.extend(face.iter().map(|&c| (c, wf)));
+                }
             }
         }
         masks.push_merged(&mut scratch)?;
     }
+    Ok(masks)
+}
 
-    // Child faces: one quad per parent corner.
-    let corners = topo.face_indices.len();
-    let mut face_offsets = Vec::with_capacity(corners + 1);
-    let mut face_indices = Vec::with_capacity(4 * corners);
-    let mut child_uvs = uvs.map(|_| Vec::with_capacity(4 * corners));
-    let edge_base = nf as u32;
-    let vert_base = (nf + ne) as u32;
-    face_offsets.push(0u32);
-    for f in 0..nf {
+/// Face-varying UVs of the child faces of `topo` (linear): a child corner on a parent corner keeps
+/// its UV, one on a parent edge gets the edge's mean UV, and the face point the face's mean UV.
+fn child_uvs(topo: &LevelTopology, uvs: &[Vec2]) -> Vec<Vec2> {
+    let mut out = Vec::with_capacity(4 * topo.face_indices.len());
+    for f in 0..topo.face_count() {
         let range = topo.face_range(f);
-        let k = range.len();
-        let s = range.start;
-        let centre_uv = uvs.map(|u| u[range.clone()].iter().copied().sum::<Vec2>() / k as f32);
+        let (s, k) = (range.start, range.len());
+        let centre = uvs[range].iter().copied().sum::<Vec2>() / k as f32;
         for j in 0..k {
             let prev = s + (j + k - 1) % k;
             let next = s + (j + 1) % k;
             let c = s + j;
-            face_indices.extend_from_slice(&[
-                vert_base + topo.face_indices[c],
-                edge_base + topo.corner_edges[c],
-                f as u32,
-                edge_base + topo.corner_edges[prev],
+            out.extend_from_slice(&[
+                uvs[c],
+                (uvs[c] + uvs[next]) * 0.5,
+                centre,
+                (uvs[prev] + uvs[c]) * 0.5,
             ]);
-            face_offsets.push(face_indices.len() as u32);
-            if let (Some(out), Some(u), Some(centre)) = (child_uvs.as_mut(), uvs, centre_uv) {
-                out.extend_from_slice(&[
-                    u[c],
-                    (u[c] + u[next]) * 0.5,
-                    centre,
-                    (u[prev] + u[c]) * 0.5,
-                ]);
-            }
         }
     }
-
-    Ok(LevelStep {
-        num_vertices: nf + ne + nv,
-        face_offsets,
-        face_indices,
-        uvs: child_uvs,
-        masks,
-    })
+    out
 }
 
 /// Upper bound on the number of mask entries of one level (before merging
@@ -296,24 +371,28 @@ fn mask_entry_bound(topo: &LevelTopology) -> usize {
     let edges: usize = topo
         .edge_faces
         .iter()
-        .map(|&[a, b]| {
-            2usize
+        .map(|&[a, b]| match b {
+            super::topology::NO_FACE => 2,
+            _ => 2usize
                 .saturating_add(face_len(a))
-                .saturating_add(face_len(b))
+                .saturating_add(face_len(b)),
         })
         .fold(0, usize::saturating_add);
     let vertices: usize = (0..topo.num_vertices)
         .map(|v| {
+            let edges = topo.edges_of(v);
+            if edges.iter().any(|&e| topo.is_boundary_edge(e as usize)) {
+                return 3;
+            }
             let ring: usize = topo.faces_of(v).iter().map(|&f| face_len(f)).sum();
-            3 + topo.edges_of(v).len() + ring
+            1 + edges.len() + ring
         })
         .fold(0, usize::saturating_add);
     faces.saturating_add(edges).saturating_add(vertices)
 }
-
 /// Composes level masks with the previous stencils: row `r` of the result is
 /// `Σ_j masks[r][j].w · prev[masks[r][j].idx]`, over `control` columns.
-fn compose(
+pub(crate) fn compose(
     prev: &SparseRows,
     masks: &SparseRows,
     control: usize,

@@ -1,5 +1,5 @@
-//! [`StencilTable`]: refined vertices as fixed linear combinations of the
-//! original control vertices, in CSR form, and its per-frame application.
+//! [`StencilTable`]: refined vertices as fixed linear combinations of coarser
+//! vertices, in CSR form, and its per-frame application.
 //!
 //! This module holds the table and the hot evaluation loops. It must not
 //! hold topology traversal or subdivision rules, and its `apply` functions
@@ -10,12 +10,16 @@ use glam::{DVec3, Vec3};
 use super::SubdivisionError;
 use super::refine::SparseRows;
 
-/// Stencils of every refined vertex over the original control vertices.
+/// Stencils of refined vertices over coarser ("control") vertices: either one
+/// level over the previous one ([`Subdivider::level_stencils`](super::Subdivider::level_stencils),
+/// what [`Subdivider::apply`](super::Subdivider::apply) evaluates) or the finest
+/// level over the original control mesh
+/// ([`Subdivider::composed_stencils`](super::Subdivider::composed_stencils)).
 ///
 /// Row `r` (refined vertex `r`) is the list of `(control index, weight)`
 /// pairs `indices[offsets[r]..offsets[r + 1]]` / `weights[..]`, sorted by
-/// control index. Weights are kept in `f64` (exact composition of the
-/// subdivision masks; each row sums to 1 up to rounding) and in `f32` for fast
+/// control index. Weights are kept in `f64` (the subdivision masks, or their
+/// exact composition; each row sums to 1 up to rounding) and in `f32` for fast
 /// per-frame evaluation. Stencils are linear, so
 /// `refined = stencils · control` holds for any control positions (or any
 /// other per-vertex quantity such as velocity).
@@ -37,6 +41,15 @@ impl StencilTable {
             indices: rows.indices,
             weights: rows.weights,
             weights_f32,
+        }
+    }
+
+    /// The table as sparse rows (f64 weights), for composition.
+    pub(crate) fn sparse_rows(&self) -> SparseRows {
+        SparseRows {
+            offsets: self.offsets.clone(),
+            indices: self.indices.clone(),
+            weights: self.weights.clone(),
         }
     }
 

@@ -11,7 +11,7 @@ use std::collections::HashMap;
 
 use glam::{DVec3, Vec2, Vec3};
 
-use super::refine::refine;
+use super::refine::{SparseRows, compose, refine, refine_direct};
 use super::{BoundaryMode, PolyMesh, StencilTable, SubdivisionError, VertexRule};
 
 /// Connectivity of the finest refinement level, built once.
@@ -203,7 +203,7 @@ impl RenderMesh {
 ///     (0..9).map(|i| DVec3::new((i % 3) as f64, 0.0, (i / 3) as f64)),
 ///     &[0, 3, 4, 1, 1, 4, 5, 2, 3, 6, 7, 4, 4, 7, 8, 5],
 /// )?;
-/// let sub = Subdivider::new(&grid, 2, VertexRule::Original, BoundaryMode::EdgeAndCorner)?;
+/// let mut sub = Subdivider::new(&grid, 2, VertexRule::Original, BoundaryMode::EdgeAndCorner)?;
 /// let control: Vec<Vec3> = grid.positions_f32();
 /// let mut refined = vec![Vec3::ZERO; sub.refined_vertex_count()];
 /// let mut normals = vec![Vec3::ZERO; sub.refined_vertex_count()];
@@ -217,7 +217,11 @@ pub struct Subdivider {
     level: u32,
     rule: VertexRule,
     boundary: BoundaryMode,
-    stencils: StencilTable,
+    control_count: usize,
+    /// Factorized stencils: level `i + 1` over level `i`.
+    levels: Vec<StencilTable>,
+    /// Positions of the intermediate levels `1 .. level` during [`apply`](Self::apply).
+    scratch: Vec<Vec<Vec3>>,
     topology: RefinedTopology,
 }
 
@@ -266,11 +270,28 @@ impl Subdivider {
             control_vertex_map: r.control_vertex_map,
             render,
         };
+        let mut columns = mesh.vertex_count();
+        let levels: Vec<StencilTable> = r
+            .levels
+            .into_iter()
+            .map(|rows| {
+                let table = StencilTable::from_rows(rows, columns);
+                columns = table.len();
+                table
+            })
+            .collect();
+        let scratch = levels
+            .iter()
+            .take(levels.len().saturating_sub(1))
+            .map(|t| vec![Vec3::ZERO; t.len()])
+            .collect();
         Ok(Subdivider {
             level,
             rule,
             boundary,
-            stencils: StencilTable::from_rows(r.stencils, mesh.vertex_count()),
+            control_count: mesh.vertex_count(),
+            levels,
+            scratch,
             topology,
         })
     }
@@ -290,9 +311,24 @@ impl Subdivider {
         self.boundary
     }
 
-    /// The stencil table (refined vertices over control vertices).
-    pub fn stencils(&self) -> &StencilTable {
-        &self.stencils
+    /// The factorized stencil tables, one per level: table `i` gives the vertices of level
+    /// `i + 1` as weighted sums of the vertices of level `i` (level 0 being the control mesh).
+    /// [`apply`](Self::apply) evaluates them in order. Empty at level 0.
+    pub fn level_stencils(&self) -> &[StencilTable] {
+        &self.levels
+    }
+
+    /// The stencils of the refined vertices over the control vertices: the level tables
+    /// multiplied together (computed on each call; wider rows than the level tables, so
+    /// slower to apply, but what a GPU evaluator or a caller wanting the weights needs).
+    /// Errors with [`SubdivisionError::TooLarge`] past
+    /// [`MAX_STENCIL_ENTRIES`](super::MAX_STENCIL_ENTRIES) entries.
+    pub fn composed_stencils(&self) -> Result<StencilTable, SubdivisionError> {
+        let mut rows = SparseRows::identity(self.control_count);
+        for table in &self.levels {
+            rows = compose(&rows, &table.sparse_rows(), self.control_count)?;
+        }
+        Ok(StencilTable::from_rows(rows, self.control_count))
     }
 
     /// Connectivity of the refined mesh.
@@ -302,7 +338,7 @@ impl Subdivider {
 
     /// Number of control vertices expected by [`apply`](Self::apply).
     pub fn control_vertex_count(&self) -> usize {
-        self.stencils.control_count()
+        self.control_count
     }
 
     /// Number of refined vertices produced by [`apply`](Self::apply).
@@ -310,15 +346,44 @@ impl Subdivider {
         self.topology.vertex_count
     }
 
-    /// Evaluates refined positions in single precision (see
-    /// [`StencilTable::apply`]). Does not allocate.
-    pub fn apply(&self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
-        self.stencils.apply(control, out)
+    /// Evaluates refined positions in single precision, level by level through the
+    /// [`level_stencils`](Self::level_stencils) (intermediate levels go to buffers owned by the
+    /// subdivider, hence `&mut self`). `control` must have
+    /// [`control_vertex_count`](Self::control_vertex_count) elements and `out`
+    /// [`refined_vertex_count`](Self::refined_vertex_count); otherwise a
+    /// [`SubdivisionError::LengthMismatch`] is returned. Does not allocate.
+    pub fn apply(&mut self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
+        check_len("control", self.control_count, control.len())?;
+        check_len("out", self.refined_vertex_count(), out.len())?;
+        let Some((last, inner)) = self.levels.split_last() else {
+            out.copy_from_slice(control);
+            return Ok(());
+        };
+        let mut src = control;
+        for (table, buf) in inner.iter().zip(self.scratch.iter_mut()) {
+            table.apply(src, buf)?;
+            src = buf;
+        }
+        last.apply(src, out)
     }
 
-    /// Evaluates refined positions in double precision.
+    /// Evaluates refined positions in double precision (same contract as
+    /// [`apply`](Self::apply)); allocates the intermediate levels, so it is meant for one-shot
+    /// use, not every frame.
     pub fn apply_f64(&self, control: &[DVec3], out: &mut [DVec3]) -> Result<(), SubdivisionError> {
-        self.stencils.apply_f64(control, out)
+        check_len("control", self.control_count, control.len())?;
+        check_len("out", self.refined_vertex_count(), out.len())?;
+        let Some((last, inner)) = self.levels.split_last() else {
+            out.copy_from_slice(control);
+            return Ok(());
+        };
+        let mut src = control.to_vec();
+        for table in inner {
+            let mut next = vec![DVec3::ZERO; table.len()];
+            table.apply_f64(&src, &mut next)?;
+            src = next;
+        }
+        last.apply_f64(&src, out)
     }
 
     /// Smooth normals of refined positions (see
@@ -336,26 +401,41 @@ impl Subdivider {
     pub fn refined_mesh(&self, control: &[DVec3]) -> Result<PolyMesh, SubdivisionError> {
         let mut pos = vec![DVec3::ZERO; self.refined_vertex_count()];
         self.apply_f64(control, &mut pos)?;
-        PolyMesh::new(
+        Ok(PolyMesh::from_refined(
             pos,
             self.topology.face_offsets.clone(),
             self.topology.face_indices.clone(),
             self.topology.corner_uvs.clone(),
-        )
+        ))
     }
 }
 
 /// Refines `mesh` to `level` once and returns the refined mesh (double
 /// precision positions, face-varying UVs carried linearly).
 ///
-/// Equivalent to `Subdivider::new(mesh, level, rule, boundary)?.refined_mesh(mesh.positions())`.
+/// The same surface as `Subdivider::new(mesh, level, rule, boundary)?.refined_mesh(mesh.positions())`
+/// (same vertex order), but evaluated level by level without building stencils, which is several
+/// times faster for a one-off refinement.
 pub fn refine_positions(
     mesh: &PolyMesh,
     level: u32,
     rule: VertexRule,
     boundary: BoundaryMode,
 ) -> Result<PolyMesh, SubdivisionError> {
-    Subdivider::new(mesh, level, rule, boundary)?.refined_mesh(mesh.positions())
+    let (topo, positions, uvs) = refine_direct(
+        mesh.topology()?,
+        mesh.positions(),
+        mesh.uvs().map(<[Vec2]>::to_vec),
+        level,
+        rule,
+        boundary,
+    )?;
+    Ok(PolyMesh::from_refined(
+        positions,
+        topo.face_offsets,
+        topo.face_indices,
+        uvs,
+    ))
 }
 
 fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<(), SubdivisionError> {

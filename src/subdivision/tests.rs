@@ -156,8 +156,8 @@ fn stencils_sum_to_one_and_f32_matches_f64() {
         for rule in VertexRule::ALL {
             for boundary in [BoundaryMode::EdgeOnly, BoundaryMode::EdgeAndCorner] {
                 for level in 0..=3 {
-                    let sub = Subdivider::new(mesh, level, rule, boundary).expect("subdivide");
-                    let st = sub.stencils();
+                    let mut sub = Subdivider::new(mesh, level, rule, boundary).expect("subdivide");
+                    let st = sub.composed_stencils().expect("compose");
                     assert_eq!(st.len(), sub.refined_vertex_count());
                     for r in 0..st.len() {
                         let (idx, w) = st.stencil(r).expect("row");
@@ -171,8 +171,21 @@ fn stencils_sum_to_one_and_f32_matches_f64() {
                     sub.apply_f64(control, &mut out64).expect("apply f64");
                     sub.apply(&mesh.positions_f32(), &mut out32)
                         .expect("apply f32");
-                    for (a, b) in out64.iter().zip(&out32) {
+                    let mut composed = vec![DVec3::ZERO; st.len()];
+                    st.apply_f64(control, &mut composed).expect("composed");
+                    let direct = refine_positions(mesh, level, rule, boundary).expect("direct");
+                    assert_eq!(direct.face_indices(), sub.topology().face_indices());
+                    for ((a, b), (c, d)) in out64.iter().zip(&out32).zip(composed.iter().zip(direct.positions())) {
                         assert!(a.as_vec3().distance(*b) < 1e-5);
+                        assert!(a.distance(*c) < 1e-12, "levels vs composed: {a} {c}");
+                        assert!(a.distance(*d) < 1e-12, "levels vs direct: {a} {d}");
+                    }
+                    for table in sub.level_stencils() {
+                        for r in 0..table.len() {
+                            let (_, w) = table.stencil(r).expect("row");
+                            let sum: f64 = w.iter().sum();
+                            assert!((sum - 1.0).abs() < 1e-12, "level row {r} sums to {sum}");
+                        }
                     }
                 }
             }
@@ -185,9 +198,11 @@ fn level_zero_is_identity() {
     let mesh = cube();
     let sub = Subdivider::new(&mesh, 0, VertexRule::Tuned, BoundaryMode::EdgeOnly).expect("L0");
     assert_eq!(sub.refined_vertex_count(), 8);
+    assert!(sub.level_stencils().is_empty());
+    let st = sub.composed_stencils().expect("compose");
     for r in 0..8 {
         assert_eq!(
-            sub.stencils().stencil(r),
+            st.stencil(r),
             Some((&[r as u32][..], &[1.0][..]))
         );
     }
@@ -214,7 +229,7 @@ fn level_and_size_limits_are_errors() {
             ..
         })
     ));
-    // A huge polygon makes stencils explode; that must be an error, not OOM.
+    // A huge polygon makes composed stencils explode; that must be an error, not OOM.
     let k = 20_000u32;
     let ring: Vec<DVec3> = (0..k)
         .map(|i| {
@@ -224,8 +239,14 @@ fn level_and_size_limits_are_errors() {
         .collect();
     let face: Vec<u32> = (0..k).collect();
     let poly = PolyMesh::from_polygons(ring, &[face]).expect("big polygon");
+    // Level by level the stencils stay small (one row of 20,000 for the face point)...
+    let sub = Subdivider::new(&poly, 2, VertexRule::Original, BoundaryMode::EdgeOnly)
+        .expect("factorized stencils");
+    let entries: usize = sub.level_stencils().iter().map(|t| t.entry_count()).sum();
+    assert!(entries < 1_000_000, "{entries}");
+    // ...but composed over the control vertices every level-2 row near the centre is that wide.
     assert!(matches!(
-        Subdivider::new(&poly, 2, VertexRule::Original, BoundaryMode::EdgeOnly),
+        sub.composed_stencils(),
         Err(SubdivisionError::TooLarge {
             what: "stencil entry",
             ..
@@ -236,7 +257,7 @@ fn level_and_size_limits_are_errors() {
 #[test]
 fn apply_checks_lengths() {
     let mesh = cube();
-    let sub = Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
+    let mut sub = Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
     let mut out = vec![Vec3::ZERO; sub.refined_vertex_count()];
     assert_eq!(
         sub.apply(&[Vec3::ZERO; 7], &mut out),
@@ -342,9 +363,10 @@ fn uvs_are_carried_linearly_and_seams_split() {
             assert!(distinct.contains(&(v, ruv[r as usize].to_array().map(f32::to_bits))));
         }
     }
-    let mut refined = vec![Vec3::ZERO; sub.refined_vertex_count()];
-    sub.apply(&cube.positions_f32(), &mut refined)
+    let mut refined = vec![DVec3::ZERO; sub.refined_vertex_count()];
+    sub.apply_f64(cube.positions(), &mut refined)
         .expect("apply");
+    let refined: Vec<Vec3> = refined.iter().map(|p| p.as_vec3()).collect();
     let mut expanded = vec![Vec3::ZERO; render.vertex_count()];
     render.expand(&refined, &mut expanded).expect("expand");
     for (k, &v) in render.seam_vertices().iter().enumerate() {
@@ -360,7 +382,7 @@ fn uvs_are_carried_linearly_and_seams_split() {
 #[test]
 fn normals_flat_and_closed() {
     let flat = grid(4, 4, |_, _| 2.0);
-    let sub = Subdivider::new(&flat, 2, VertexRule::Tuned, BoundaryMode::EdgeOnly).expect("L2");
+    let mut sub = Subdivider::new(&flat, 2, VertexRule::Tuned, BoundaryMode::EdgeOnly).expect("L2");
     let mut pos = vec![Vec3::ZERO; sub.refined_vertex_count()];
     let mut nrm = vec![Vec3::ZERO; sub.refined_vertex_count()];
     sub.apply(&flat.positions_f32(), &mut pos).expect("apply");
@@ -370,7 +392,7 @@ fn normals_flat_and_closed() {
     }
     let cube = cube();
     for rule in VertexRule::ALL {
-        let sub = Subdivider::new(&cube, 3, rule, BoundaryMode::EdgeOnly).expect("L3");
+        let mut sub = Subdivider::new(&cube, 3, rule, BoundaryMode::EdgeOnly).expect("L3");
         let mut pos = vec![Vec3::ZERO; sub.refined_vertex_count()];
         let mut nrm = vec![Vec3::ZERO; sub.refined_vertex_count()];
         sub.apply(&cube.positions_f32(), &mut pos).expect("apply");
@@ -382,7 +404,7 @@ fn normals_flat_and_closed() {
     }
     // Degenerate: all control points equal -> zero areas -> fallback Y.
     let collapsed = vec![Vec3::splat(1.0); 8];
-    let sub = Subdivider::new(&cube, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
+    let mut sub = Subdivider::new(&cube, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
     let mut pos = vec![Vec3::ZERO; sub.refined_vertex_count()];
     let mut nrm = vec![Vec3::ZERO; sub.refined_vertex_count()];
     sub.apply(&collapsed, &mut pos).expect("apply");
@@ -399,8 +421,9 @@ fn local_matrix_from_stencils(n: u32, rule: VertexRule) -> Vec<Vec<f64>> {
     let m = 2 * n as usize + 1;
     let topo = sub.topology();
     let centre = topo.control_vertex_map()[0];
+    let st = sub.composed_stencils().expect("compose");
     let row_of = |v: u32| -> Vec<f64> {
-        let (idx, w) = sub.stencils().stencil(v as usize).expect("row");
+        let (idx, w) = st.stencil(v as usize).expect("row");
         let mut row = vec![0.0; m];
         for (&i, &wt) in idx.iter().zip(w) {
             assert!((i as usize) < m, "stencil leaves the one-ring");
@@ -540,26 +563,28 @@ fn curvature_proxy_pinned_by_the_issue() {
 #[test]
 fn apply_rows_checks_ranges() {
     let mesh = cube();
-    let sub = Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
+    let mut sub =
+        Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
     let control = mesh.positions_f32();
     let mut full = vec![Vec3::ZERO; 26];
     sub.apply(&control, &mut full).expect("apply");
+    let st = &sub.level_stencils()[0];
     let mut part = vec![Vec3::ZERO; 6];
-    sub.stencils()
+    st
         .apply_rows(&control, 20, &mut part)
         .expect("rows");
     assert_eq!(&full[20..], &part[..]);
     assert!(matches!(
-        sub.stencils().apply_rows(&control, 21, &mut part),
+        st.apply_rows(&control, 21, &mut part),
         Err(SubdivisionError::LengthMismatch {
             expected: 5,
             actual: 6,
             ..
         })
     ));
-    assert!(sub.stencils().apply_rows(&control, 99, &mut part).is_err());
-    assert!(sub.stencils().apply_rows(&control, 99, &mut []).is_err());
-    assert!(sub.stencils().apply_rows(&control, 26, &mut []).is_ok());
+    assert!(st.apply_rows(&control, 99, &mut part).is_err());
+    assert!(st.apply_rows(&control, 99, &mut []).is_err());
+    assert!(st.apply_rows(&control, 26, &mut []).is_ok());
 }
 
 #[test]

@@ -192,20 +192,53 @@ impl LevelTopology {
             i = j;
         }
 
-        // Vertex -> faces.
+        let topo = Self::assemble(
+            num_vertices,
+            face_offsets,
+            face_indices,
+            edges,
+            edge_faces,
+            corner_edges,
+        );
+        for v in 0..num_vertices {
+            let boundary = topo
+                .edges_of(v)
+                .iter()
+                .filter(|&&e| topo.is_boundary_edge(e as usize))
+                .count();
+            if boundary != 0 && boundary != 2 {
+                return Err(SubdivisionError::NonManifoldVertex {
+                    vertex: v as u32,
+                    boundary_edges: boundary,
+                });
+            }
+        }
+        Ok(topo)
+    }
+
+    /// Completes a topology from its faces and edges by deriving the vertex-face and vertex-edge
+    /// incidence. The inputs must already be consistent.
+    fn assemble(
+        num_vertices: usize,
+        face_offsets: Vec<u32>,
+        face_indices: Vec<u32>,
+        edges: Vec<[u32; 2]>,
+        edge_faces: Vec<[u32; 2]>,
+        corner_edges: Vec<u32>,
+    ) -> Self {
+        // Vertex -> faces (one entry per corner).
         let mut vertex_face_offsets = vec![0u32; num_vertices + 1];
         for &v in &face_indices {
             vertex_face_offsets[v as usize + 1] += 1;
         }
         prefix_sum(&mut vertex_face_offsets);
         let mut fill = vertex_face_offsets.clone();
-        let mut vertex_faces = vec![0u32; corners];
-        for f in 0..faces {
-            let corners = &face_indices[face_offsets[f] as usize..face_offsets[f + 1] as usize];
-            for &v in corners {
-                let v = v as usize;
-                vertex_faces[fill[v] as usize] = f as u32;
-                fill[v] += 1;
+        let mut vertex_faces = vec![0u32; face_indices.len()];
+        for (f, w) in face_offsets.windows(2).enumerate() {
+            for &v in &face_indices[w[0] as usize..w[1] as usize] {
+                let slot = &mut fill[v as usize];
+                vertex_faces[*slot as usize] = f as u32;
+                *slot += 1;
             }
         }
 
@@ -225,7 +258,7 @@ impl LevelTopology {
             }
         }
 
-        let topo = LevelTopology {
+        LevelTopology {
             num_vertices,
             face_offsets,
             face_indices,
@@ -236,21 +269,78 @@ impl LevelTopology {
             vertex_faces,
             vertex_edge_offsets,
             vertex_edges,
-        };
-        for v in 0..num_vertices {
-            let boundary = topo
-                .edges_of(v)
-                .iter()
-                .filter(|&&e| topo.is_boundary_edge(e as usize))
-                .count();
-            if boundary != 0 && boundary != 2 {
-                return Err(SubdivisionError::NonManifoldVertex {
-                    vertex: v as u32,
-                    boundary_edges: boundary,
-                });
+        }
+    }
+
+    /// The topology of the next uniform Catmull-Clark level, derived in linear time without
+    /// sorting or re-validating (a refined valid mesh is valid).
+    ///
+    /// Child vertices are the face points `0..F`, then the edge points `F..F+E`, then the vertex
+    /// points. Child face `c` is the quad of parent corner `c` (vertex `v`, face `f`):
+    /// `[vertex point of v, edge point of the edge leaving v, face point of f, edge point of the
+    /// edge entering v]`. Child edges are the `C` face-interior edges (corner `c`: face point to
+    /// the edge point of the edge leaving it), then two halves per parent edge `[a, b]`: `C + 2e`
+    /// ends at `a`, `C + 2e + 1` at `b`.
+    pub fn refine_child(&self) -> Self {
+        let nf = self.face_count() as u32;
+        let ne = self.edges.len() as u32;
+        let corners = self.face_indices.len();
+        let (edge_base, vertex_base) = (nf, nf + ne);
+        let half_base = corners as u32;
+        // The half of parent edge `e` that touches its end `v`.
+        let half = |e: u32, v: u32| half_base + 2 * e + u32::from(self.edges[e as usize][0] != v);
+
+        let mut face_indices = Vec::with_capacity(4 * corners);
+        let mut corner_edges = Vec::with_capacity(4 * corners);
+        for (f, w) in self.face_offsets.windows(2).enumerate() {
+            let (s, e) = (w[0] as usize, w[1] as usize);
+            for c in s..e {
+                let prev = if c == s { e - 1 } else { c - 1 };
+                let v = self.face_indices[c];
+                let (out, inn) = (self.corner_edges[c], self.corner_edges[prev]);
+                face_indices.extend_from_slice(&[
+                    vertex_base + v,
+                    edge_base + out,
+                    f as u32,
+                    edge_base + inn,
+                ]);
+                corner_edges.extend_from_slice(&[
+                    half(out, v),
+                    c as u32,
+                    prev as u32,
+                    half(inn, v),
+                ]);
             }
         }
-        Ok(topo)
+
+        let mut edges = Vec::with_capacity(corners + 2 * ne as usize);
+        for (f, w) in self.face_offsets.windows(2).enumerate() {
+            for c in w[0] as usize..w[1] as usize {
+                edges.push([f as u32, edge_base + self.corner_edges[c]]);
+            }
+        }
+        for (e, &[a, b]) in self.edges.iter().enumerate() {
+            edges.push([edge_base + e as u32, vertex_base + a]);
+            edges.push([edge_base + e as u32, vertex_base + b]);
+        }
+
+        let mut edge_faces = vec![[NO_FACE; 2]; edges.len()];
+        for (face, quad) in corner_edges.chunks_exact(4).enumerate() {
+            for &e in quad {
+                let slot = &mut edge_faces[e as usize];
+                slot[usize::from(slot[0] != NO_FACE)] = face as u32;
+            }
+        }
+
+        let face_offsets = (0..=corners as u32).map(|c| 4 * c).collect();
+        Self::assemble(
+            (nf + ne) as usize + self.num_vertices,
+            face_offsets,
+            face_indices,
+            edges,
+            edge_faces,
+            corner_edges,
+        )
     }
 }
 
