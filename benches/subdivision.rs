@@ -99,6 +99,15 @@ fn apply(c: &mut Criterion) {
                 group.bench_with_input(id, &level, |b, _| {
                     b.iter(|| sub.apply(black_box(&control), &mut out).unwrap())
                 });
+                if name == "grid64" {
+                    // The same surface through the composed table (one wide row per refined
+                    // vertex over the control vertices), for a ratio measured in the same run.
+                    let composed = sub.composed_stencils().unwrap();
+                    let id = BenchmarkId::new(format!("{name}/{rule:?}/composed"), level);
+                    group.bench_with_input(id, &level, |b, _| {
+                        b.iter(|| composed.apply(black_box(&control), &mut out).unwrap())
+                    });
+                }
             }
         }
     }

@@ -585,7 +585,11 @@ impl ClothState {
     /// The simulation particle of particle `index` of the cloth's own (unrefined) model, the
     /// index [`ClothPins`] use; `None` when out of range.
     pub fn particle(&self, index: u32) -> Option<usize> {
-        mapped_particle(self.particle_map.as_deref(), self.sim.positions().len(), index)
+        mapped_particle(
+            self.particle_map.as_deref(),
+            self.sim.positions().len(),
+            index,
+        )
     }
 
     /// The simulation (positions, velocities, settings, statistics).

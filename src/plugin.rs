@@ -621,27 +621,26 @@ fn build_state(
             (shared.model().clone(), None)
         }
     };
-    let (model, user_mesh, particle_map, mass_scale) = match subdivision
-        .filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation)
-    {
-        None => (model, user_mesh, None, 1.0),
-        Some(sub) => {
-            count_in(
-                "subdivision.level",
-                sub.level,
-                0,
-                MAX_CLOTH_SUBDIVISION_LEVEL,
-            )?;
-            let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
-            // The user's mesh no longer matches the particles: render the refined model.
-            (
-                refined.model,
-                None,
-                Some(refined.particle_map),
-                refined.mass_scale,
-            )
-        }
-    };
+    let (model, user_mesh, particle_map, mass_scale) =
+        match subdivision.filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation) {
+            None => (model, user_mesh, None, 1.0),
+            Some(sub) => {
+                count_in(
+                    "subdivision.level",
+                    sub.level,
+                    0,
+                    MAX_CLOTH_SUBDIVISION_LEVEL,
+                )?;
+                let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
+                // The user's mesh no longer matches the particles: render the refined model.
+                (
+                    refined.model,
+                    None,
+                    Some(refined.particle_map),
+                    refined.mass_scale,
+                )
+            }
+        };
     let sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
         transform.transform_point(p)
     })?;

@@ -547,7 +547,10 @@ fn a_cloth_simulated_at_a_subdivided_resolution_keeps_its_pins_mass_and_shape() 
 
     // A new level restarts the cloth at the new resolution; back to Render, the simulation
     // is coarse again and only the surface is refined.
-    let mut sub = app.world_mut().get_mut::<ClothSubdivision>(refined).unwrap();
+    let mut sub = app
+        .world_mut()
+        .get_mut::<ClothSubdivision>(refined)
+        .unwrap();
     sub.level = 2;
     run(&mut app, 1);
     assert_eq!(
@@ -577,7 +580,8 @@ fn a_cloth_simulated_at_a_subdivided_resolution_keeps_its_pins_mass_and_shape() 
     run(&mut app, 1);
     let err = &app.world().get::<ClothInvalid>(refined).expect("bad pin").0;
     assert!(
-        err.to_string().contains(&format!("has {} particles", n * n)),
+        err.to_string()
+            .contains(&format!("has {} particles", n * n)),
         "{err}"
     );
 }

@@ -1029,16 +1029,17 @@ impl ClothModel {
         };
         let mut model = ClothModel::from_mesh(&positions, uvs, faces, face_size)?;
         if let Some(masses) = &self.particle_masses {
-            let control_masses: Vec<DVec3> =
-                masses.iter().map(|&m| DVec3::new(f64::from(m), 0.0, 0.0)).collect();
+            let control_masses: Vec<DVec3> = masses
+                .iter()
+                .map(|&m| DVec3::new(f64::from(m), 0.0, 0.0))
+                .collect();
             let mut spread = vec![DVec3::ZERO; n];
             sub.apply_f64(&control_masses, &mut spread)?;
             let total: f64 = masses.iter().map(|&m| f64::from(m)).sum();
             let spread_total: f64 = spread.iter().map(|m| m.x).sum();
             let scale = total / spread_total;
-            model = model.with_particle_masses(
-                spread.iter().map(|m| (m.x * scale) as f32).collect(),
-            )?;
+            model = model
+                .with_particle_masses(spread.iter().map(|m| (m.x * scale) as f32).collect())?;
         }
         Ok(SubdividedModel {
             model,
@@ -1108,7 +1109,10 @@ mod tests {
         let (rx, ry) = (2 * nx - 1, 2 * ny - 1);
         assert_eq!(r.model.particle_count(), (rx * ry) as usize);
         assert_eq!(r.model.face_size, 4);
-        assert_eq!(r.model.faces.len(), 4 * 4 * (nx - 1) as usize * (ny - 1) as usize);
+        assert_eq!(
+            r.model.faces.len(),
+            4 * 4 * (nx - 1) as usize * (ny - 1) as usize
+        );
         let [structural, shear, _] = r.model.springs.count_by_kind();
         assert_eq!(structural as u32, (rx - 1) * ry + rx * (ry - 1));
         assert_eq!(shear as u32, 2 * (rx - 1) * (ry - 1));
@@ -1120,7 +1124,11 @@ mod tests {
             let d = m.rest_positions[i].distance(r.model.rest_positions[j as usize]);
             assert!(d < 1e-6, "particle {i} moved by {d}");
         }
-        let refined = r.model.particle_masses.as_ref().expect("masses carried over");
+        let refined = r
+            .model
+            .particle_masses
+            .as_ref()
+            .expect("masses carried over");
         let (before, after) = (masses.iter().sum::<f32>(), refined.iter().sum::<f32>());
         assert!((after / before - 1.0).abs() < 1e-5, "{before} vs {after}");
         assert!(refined.iter().all(|&m| m > 0.0));

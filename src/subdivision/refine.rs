@@ -148,7 +148,7 @@ pub(crate) fn refine(
 
 /// Refines `base` with positions `positions` uniformly `level` times, evaluating each level
 /// directly from the previous one (face points are computed once and reused by the edge and vertex
-/// points) instead of building masks. Returns the final topology, positions and UVs.
+/// points) instead of building masks.
 pub(crate) fn refine_direct(
     base: LevelTopology,
     positions: &[DVec3],
@@ -156,17 +156,46 @@ pub(crate) fn refine_direct(
     level: u32,
     rule: VertexRule,
     boundary: BoundaryMode,
-) -> Result<(LevelTopology, Vec<DVec3>, Option<Vec<Vec2>>), SubdivisionError> {
+) -> Result<RefinedFaces, SubdivisionError> {
     check_level(&base, level)?;
     let mut topo = base;
-    let mut points = positions.to_vec();
+    let mut points = None;
     let mut uvs = uvs;
-    for _ in 0..level {
-        points = interpolate_level(&topo, rule, boundary, &points);
+    for l in 0..level {
+        let next = interpolate_level(
+            &topo,
+            rule,
+            boundary,
+            points.as_deref().unwrap_or(positions),
+        );
+        points = Some(next);
         uvs = uvs.map(|u| child_uvs(&topo, &u));
+        if l + 1 == level {
+            // The last level needs its faces only.
+            let face_indices = topo.child_faces();
+            return Ok(RefinedFaces {
+                face_offsets: (0..=face_indices.len() as u32).step_by(4).collect(),
+                face_indices,
+                positions: points.unwrap_or_default(),
+                uvs,
+            });
+        }
         topo = topo.refine_child();
     }
-    Ok((topo, points, uvs))
+    Ok(RefinedFaces {
+        face_offsets: topo.face_offsets,
+        face_indices: topo.face_indices,
+        positions: positions.to_vec(),
+        uvs,
+    })
+}
+
+/// A refined mesh as plain arrays (see [`refine_direct`]).
+pub(crate) struct RefinedFaces {
+    pub face_offsets: Vec<u32>,
+    pub face_indices: Vec<u32>,
+    pub positions: Vec<DVec3>,
+    pub uvs: Option<Vec<Vec2>>,
 }
 
 /// Which rule forms the vertex point of a vertex.
@@ -228,6 +257,7 @@ fn interpolate_level(
             [f0, f1] => (ends + face_points[f0 as usize] + face_points[f1 as usize]) * 0.25,
         };
     }
+    let mut weights = ValenceWeights::new(rule);
     for (v, out) in vertex_points.iter_mut().enumerate() {
         let s = parent[v];
         *out = match vertex_kind(topo, v, boundary) {
@@ -238,20 +268,49 @@ fn interpolate_level(
             VertexKind::Interior => {
                 let faces = topo.faces_of(v);
                 let edges = topo.edges_of(v);
-                let w = rule.weights(faces.len() as u32);
+                let [ws, wr, wf] = weights.get(faces.len(), edges.len());
                 let f_sum: DVec3 = faces.iter().map(|&f| face_points[f as usize]).sum();
                 let r_sum: DVec3 = edges
                     .iter()
                     .map(|&e| parent[topo.other_end(e as usize, v as u32) as usize])
                     .sum();
-                // R̄ = S/2 + (mean of the neighbours)/2.
-                s * (w.vertex + 0.5 * w.midpoint)
-                    + r_sum * (0.5 * w.midpoint / edges.len() as f64)
-                    + f_sum * (w.face / faces.len() as f64)
+                s * ws + r_sum * wr + f_sum * wf
             }
         };
     }
     child
+}
+
+/// The interior vertex point `v' = w_S S + w_R Σ neighbours + w_F Σ face points` weights of a
+/// rule, cached for the common valences (R̄ = S/2 + mean neighbour/2 folded into `w_S`, `w_R`).
+struct ValenceWeights {
+    rule: VertexRule,
+    cache: [Option<[f64; 3]>; 16],
+}
+
+impl ValenceWeights {
+    fn new(rule: VertexRule) -> Self {
+        Self {
+            rule,
+            cache: [None; 16],
+        }
+    }
+
+    fn get(&mut self, faces: usize, edges: usize) -> [f64; 3] {
+        let compute = |rule: VertexRule| {
+            let w = rule.weights(faces as u32);
+            [
+                w.vertex + 0.5 * w.midpoint,
+                0.5 * w.midpoint / edges as f64,
+                w.face / faces as f64,
+            ]
+        };
+        match self.cache.get_mut(faces) {
+            // Interior vertices have as many edges as faces.
+            Some(slot) if faces == edges => *slot.get_or_insert_with(|| compute(self.rule)),
+            _ => compute(self.rule),
+        }
+    }
 }
 
 /// The local refinement masks of one level: a row per child vertex (face points, edge points,
@@ -337,20 +396,15 @@ fn level_masks(
 /// its UV, one on a parent edge gets the edge's mean UV, and the face point the face's mean UV.
 fn child_uvs(topo: &LevelTopology, uvs: &[Vec2]) -> Vec<Vec2> {
     let mut out = Vec::with_capacity(4 * topo.face_indices.len());
-    for f in 0..topo.face_count() {
-        let range = topo.face_range(f);
-        let (s, k) = (range.start, range.len());
-        let centre = uvs[range].iter().copied().sum::<Vec2>() / k as f32;
-        for j in 0..k {
-            let prev = s + (j + k - 1) % k;
-            let next = s + (j + 1) % k;
-            let c = s + j;
-            out.extend_from_slice(&[
-                uvs[c],
-                (uvs[c] + uvs[next]) * 0.5,
-                centre,
-                (uvs[prev] + uvs[c]) * 0.5,
-            ]);
+    for w in topo.face_offsets.windows(2) {
+        let (s, e) = (w[0] as usize, w[1] as usize);
+        let face = &uvs[s..e];
+        let centre = face.iter().copied().sum::<Vec2>() / face.len() as f32;
+        let mut prev = face[face.len() - 1];
+        for (j, &uv) in face.iter().enumerate() {
+            let next = face[if j + 1 == face.len() { 0 } else { j + 1 }];
+            out.extend_from_slice(&[uv, (uv + next) * 0.5, centre, (prev + uv) * 0.5]);
+            prev = uv;
         }
     }
     out

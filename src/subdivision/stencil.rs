@@ -5,7 +5,7 @@
 //! hold topology traversal or subdivision rules, and its `apply` functions
 //! must not allocate: they run every simulation tick.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 
 use super::SubdivisionError;
 use super::refine::SparseRows;
@@ -161,16 +161,36 @@ impl StencilTable {
         Ok(())
     }
 
-    /// The hot loop; lengths are checked by the callers.
-    fn apply_rows_unchecked_len(&self, control: &[Vec3], first_row: usize, out: &mut [Vec3]) {
+    /// [`apply`](Self::apply) for other vector layouts: the subdivider keeps its intermediate
+    /// levels in 16-byte-aligned [`Vec3A`]s, read with one load per entry. Results are
+    /// bit-identical to `apply`.
+    pub(crate) fn apply_any<I: Copy + Into<Vec3A>, O: From<Vec3A>>(
+        &self,
+        control: &[I],
+        out: &mut [O],
+    ) -> Result<(), SubdivisionError> {
+        self.check(control.len(), out.len())?;
+        self.apply_rows_unchecked_len(control, 0, out);
+        Ok(())
+    }
+
+    /// The hot loop; lengths are checked by the callers. Accumulates in a [`Vec3A`] (the same
+    /// per-lane multiplies and adds as [`Vec3`], so the same results) whatever the layouts of
+    /// `control` and `out`.
+    fn apply_rows_unchecked_len<I: Copy + Into<Vec3A>, O: From<Vec3A>>(
+        &self,
+        control: &[I],
+        first_row: usize,
+        out: &mut [O],
+    ) {
         let offsets = &self.offsets[first_row..first_row + out.len() + 1];
         for (o, w) in out.iter_mut().zip(offsets.windows(2)) {
             let (s, e) = (w[0] as usize, w[1] as usize);
-            let mut acc = Vec3::ZERO;
+            let mut acc = Vec3A::ZERO;
             for (&i, &wt) in self.indices[s..e].iter().zip(&self.weights_f32[s..e]) {
-                acc += control[i as usize] * wt;
+                acc += control[i as usize].into() * wt;
             }
-            *o = acc;
+            *o = acc.into();
         }
     }
 

@@ -9,7 +9,7 @@
 
 use std::collections::HashMap;
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3, Vec3A};
 
 use super::refine::{SparseRows, compose, refine, refine_direct};
 use super::{BoundaryMode, PolyMesh, StencilTable, SubdivisionError, VertexRule};
@@ -221,7 +221,7 @@ pub struct Subdivider {
     /// Factorized stencils: level `i + 1` over level `i`.
     levels: Vec<StencilTable>,
     /// Positions of the intermediate levels `1 .. level` during [`apply`](Self::apply).
-    scratch: Vec<Vec<Vec3>>,
+    scratch: Vec<Vec<Vec3A>>,
     topology: RefinedTopology,
 }
 
@@ -283,7 +283,7 @@ impl Subdivider {
         let scratch = levels
             .iter()
             .take(levels.len().saturating_sub(1))
-            .map(|t| vec![Vec3::ZERO; t.len()])
+            .map(|t| vec![Vec3A::ZERO; t.len()])
             .collect();
         Ok(Subdivider {
             level,
@@ -355,16 +355,24 @@ impl Subdivider {
     pub fn apply(&mut self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
         check_len("control", self.control_count, control.len())?;
         check_len("out", self.refined_vertex_count(), out.len())?;
-        let Some((last, inner)) = self.levels.split_last() else {
+        let (Some((last, inner)), Some((first, rest))) =
+            (self.levels.split_last(), self.levels.split_first())
+        else {
             out.copy_from_slice(control);
             return Ok(());
         };
-        let mut src = control;
-        for (table, buf) in inner.iter().zip(self.scratch.iter_mut()) {
-            table.apply(src, buf)?;
+        if inner.is_empty() {
+            return first.apply(control, out);
+        }
+        // Control → level 1 → … → level L − 1 in aligned scratch buffers, then level L → `out`.
+        let (head, tail) = self.scratch.split_at_mut(1);
+        first.apply_any(control, &mut head[0])?;
+        let mut src: &[Vec3A] = &head[0];
+        for (table, buf) in rest[..rest.len() - 1].iter().zip(tail.iter_mut()) {
+            table.apply_any(src, buf)?;
             src = buf;
         }
-        last.apply(src, out)
+        last.apply_any(src, out)
     }
 
     /// Evaluates refined positions in double precision (same contract as
@@ -422,7 +430,7 @@ pub fn refine_positions(
     rule: VertexRule,
     boundary: BoundaryMode,
 ) -> Result<PolyMesh, SubdivisionError> {
-    let (topo, positions, uvs) = refine_direct(
+    let r = refine_direct(
         mesh.topology()?,
         mesh.positions(),
         mesh.uvs().map(<[Vec2]>::to_vec),
@@ -431,10 +439,10 @@ pub fn refine_positions(
         boundary,
     )?;
     Ok(PolyMesh::from_refined(
-        positions,
-        topo.face_offsets,
-        topo.face_indices,
-        uvs,
+        r.positions,
+        r.face_offsets,
+        r.face_indices,
+        r.uvs,
     ))
 }
 

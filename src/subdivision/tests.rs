@@ -175,7 +175,11 @@ fn stencils_sum_to_one_and_f32_matches_f64() {
                     st.apply_f64(control, &mut composed).expect("composed");
                     let direct = refine_positions(mesh, level, rule, boundary).expect("direct");
                     assert_eq!(direct.face_indices(), sub.topology().face_indices());
-                    for ((a, b), (c, d)) in out64.iter().zip(&out32).zip(composed.iter().zip(direct.positions())) {
+                    for ((a, b), (c, d)) in out64
+                        .iter()
+                        .zip(&out32)
+                        .zip(composed.iter().zip(direct.positions()))
+                    {
                         assert!(a.as_vec3().distance(*b) < 1e-5);
                         assert!(a.distance(*c) < 1e-12, "levels vs composed: {a} {c}");
                         assert!(a.distance(*d) < 1e-12, "levels vs direct: {a} {d}");
@@ -201,10 +205,7 @@ fn level_zero_is_identity() {
     assert!(sub.level_stencils().is_empty());
     let st = sub.composed_stencils().expect("compose");
     for r in 0..8 {
-        assert_eq!(
-            st.stencil(r),
-            Some((&[r as u32][..], &[1.0][..]))
-        );
+        assert_eq!(st.stencil(r), Some((&[r as u32][..], &[1.0][..])));
     }
     assert_eq!(sub.topology().face_indices(), mesh.face_indices());
     assert_eq!(sub.topology().triangle_indices().len(), 6 * 2 * 3);
@@ -257,7 +258,8 @@ fn level_and_size_limits_are_errors() {
 #[test]
 fn apply_checks_lengths() {
     let mesh = cube();
-    let mut sub = Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
+    let mut sub =
+        Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
     let mut out = vec![Vec3::ZERO; sub.refined_vertex_count()];
     assert_eq!(
         sub.apply(&[Vec3::ZERO; 7], &mut out),
@@ -404,7 +406,8 @@ fn normals_flat_and_closed() {
     }
     // Degenerate: all control points equal -> zero areas -> fallback Y.
     let collapsed = vec![Vec3::splat(1.0); 8];
-    let mut sub = Subdivider::new(&cube, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
+    let mut sub =
+        Subdivider::new(&cube, 1, VertexRule::Original, BoundaryMode::EdgeOnly).expect("L1");
     let mut pos = vec![Vec3::ZERO; sub.refined_vertex_count()];
     let mut nrm = vec![Vec3::ZERO; sub.refined_vertex_count()];
     sub.apply(&collapsed, &mut pos).expect("apply");
@@ -570,9 +573,7 @@ fn apply_rows_checks_ranges() {
     sub.apply(&control, &mut full).expect("apply");
     let st = &sub.level_stencils()[0];
     let mut part = vec![Vec3::ZERO; 6];
-    st
-        .apply_rows(&control, 20, &mut part)
-        .expect("rows");
+    st.apply_rows(&control, 20, &mut part).expect("rows");
     assert_eq!(&full[20..], &part[..]);
     assert!(matches!(
         st.apply_rows(&control, 21, &mut part),

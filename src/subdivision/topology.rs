@@ -48,11 +48,6 @@ impl LevelTopology {
         &self.face_indices[s..e]
     }
 
-    /// Range of corners of face `f` in `face_indices`.
-    pub fn face_range(&self, f: usize) -> std::ops::Range<usize> {
-        self.face_offsets[f] as usize..self.face_offsets[f + 1] as usize
-    }
-
     /// Faces around vertex `v`.
     pub fn faces_of(&self, v: usize) -> &[u32] {
         let s = self.vertex_face_offsets[v] as usize;
@@ -124,32 +119,67 @@ impl LevelTopology {
                     vertex_count: num_vertices,
                 });
             }
-            scratch.clear();
-            scratch.extend_from_slice(face);
-            scratch.sort_unstable();
-            if let Some(w) = scratch.windows(2).find(|w| w[0] == w[1]) {
-                return Err(SubdivisionError::RepeatedVertex {
-                    face: f,
-                    vertex: w[0],
-                });
+            let repeated = if face.len() <= 8 {
+                // Small faces (nearly all): compare pairs, no sorting.
+                (1..face.len()).find_map(|j| face[..j].contains(&face[j]).then_some(face[j]))
+            } else {
+                scratch.clear();
+                scratch.extend_from_slice(face);
+                scratch.sort_unstable();
+                scratch.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+            };
+            if let Some(vertex) = repeated {
+                return Err(SubdivisionError::RepeatedVertex { face: f, vertex });
             }
         }
 
-        // Collect half-edges keyed by their undirected endpoints.
+        // Collect half-edges keyed by their undirected endpoints, ordered by (smaller end, larger
+        // end, face, corner): a counting sort on the smaller end, then an insertion sort of each
+        // (short) bucket on the larger end, which keeps face order within equal keys.
         let corners = face_indices.len();
-        let mut half: Vec<(u64, u32, u32)> = Vec::with_capacity(corners); // (key, face, corner)
+        let mut bucket_offsets = vec![0u32; num_vertices + 1];
         for f in 0..faces {
             let s = face_offsets[f] as usize;
             let e = face_offsets[f + 1] as usize;
-            let k = e - s;
-            for j in 0..k {
-                let a = face_indices[s + j];
-                let b = face_indices[s + (j + 1) % k];
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                half.push((key, f as u32, (s + j) as u32));
+            for c in s..e {
+                let (a, b) = (
+                    face_indices[c],
+                    face_indices[if c + 1 == e { s } else { c + 1 }],
+                );
+                bucket_offsets[a.min(b) as usize + 1] += 1;
             }
         }
-        half.sort_unstable();
+        prefix_sum(&mut bucket_offsets);
+        let mut fill = bucket_offsets.clone();
+        let mut half: Vec<(u64, u32, u32)> = vec![(0, 0, 0); corners]; // (key, face, corner)
+        for f in 0..faces {
+            let s = face_offsets[f] as usize;
+            let e = face_offsets[f + 1] as usize;
+            for c in s..e {
+                let (a, b) = (
+                    face_indices[c],
+                    face_indices[if c + 1 == e { s } else { c + 1 }],
+                );
+                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+                let slot = &mut fill[a.min(b) as usize];
+                half[*slot as usize] = (key, f as u32, c as u32);
+                *slot += 1;
+            }
+        }
+        for w in bucket_offsets.windows(2) {
+            let bucket = &mut half[w[0] as usize..w[1] as usize];
+            if bucket.len() > 16 {
+                bucket.sort_unstable();
+                continue;
+            }
+            for i in 1..bucket.len() {
+                let mut j = i;
+                while j > 0 && bucket[j - 1].0 > bucket[j].0 {
+                    bucket.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+        }
 
         let mut edges: Vec<[u32; 2]> = Vec::with_capacity(corners / 2 + 4);
         let mut edge_faces: Vec<[u32; 2]> = Vec::with_capacity(corners / 2 + 4);
@@ -272,6 +302,33 @@ impl LevelTopology {
         }
     }
 
+    /// Calls `visit(face, corner, previous corner of the face)` for every face corner in order.
+    fn for_each_corner(&self, mut visit: impl FnMut(usize, usize, usize)) {
+        for (f, w) in self.face_offsets.windows(2).enumerate() {
+            let (s, e) = (w[0] as usize, w[1] as usize);
+            for c in s..e {
+                visit(f, c, if c == s { e - 1 } else { c - 1 });
+            }
+        }
+    }
+
+    /// The corners of the child quads of the next level, 4 per parent corner (see
+    /// [`refine_child`](Self::refine_child)), without the rest of its topology.
+    pub fn child_faces(&self) -> Vec<u32> {
+        let edge_base = self.face_count() as u32;
+        let vertex_base = edge_base + self.edges.len() as u32;
+        let mut face_indices = Vec::with_capacity(4 * self.face_indices.len());
+        self.for_each_corner(|f, c, prev| {
+            face_indices.extend_from_slice(&[
+                vertex_base + self.face_indices[c],
+                edge_base + self.corner_edges[c],
+                f as u32,
+                edge_base + self.corner_edges[prev],
+            ]);
+        });
+        face_indices
+    }
+
     /// The topology of the next uniform Catmull-Clark level, derived in linear time without
     /// sorting or re-validating (a refined valid mesh is valid).
     ///
@@ -290,28 +347,17 @@ impl LevelTopology {
         // The half of parent edge `e` that touches its end `v`.
         let half = |e: u32, v: u32| half_base + 2 * e + u32::from(self.edges[e as usize][0] != v);
 
-        let mut face_indices = Vec::with_capacity(4 * corners);
+        let face_indices = self.child_faces();
         let mut corner_edges = Vec::with_capacity(4 * corners);
-        for (f, w) in self.face_offsets.windows(2).enumerate() {
-            let (s, e) = (w[0] as usize, w[1] as usize);
-            for c in s..e {
-                let prev = if c == s { e - 1 } else { c - 1 };
-                let v = self.face_indices[c];
-                let (out, inn) = (self.corner_edges[c], self.corner_edges[prev]);
-                face_indices.extend_from_slice(&[
-                    vertex_base + v,
-                    edge_base + out,
-                    f as u32,
-                    edge_base + inn,
-                ]);
-                corner_edges.extend_from_slice(&[
-                    half(out, v),
-                    c as u32,
-                    prev as u32,
-                    half(inn, v),
-                ]);
-            }
-        }
+        self.for_each_corner(|_, c, prev| {
+            let v = self.face_indices[c];
+            corner_edges.extend_from_slice(&[
+                half(self.corner_edges[c], v),
+                c as u32,
+                prev as u32,
+                half(self.corner_edges[prev], v),
+            ]);
+        });
 
         let mut edges = Vec::with_capacity(corners + 2 * ne as usize);
         for (f, w) in self.face_offsets.windows(2).enumerate() {
