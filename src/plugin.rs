@@ -454,12 +454,7 @@ fn rebuild_render(
     state.subdivision = match subdivision.filter(render_level) {
         None => None,
         Some(sub) => {
-            count_in(
-                "subdivision.level",
-                sub.level,
-                0,
-                MAX_CLOTH_SUBDIVISION_LEVEL,
-            )?;
+            check_level(sub)?;
             let subdivider =
                 Subdivider::new(&model.control_mesh()?, sub.level, sub.rule, sub.boundary)?;
             let n = subdivider.refined_vertex_count();
@@ -625,12 +620,7 @@ fn build_state(
         match subdivision.filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation) {
             None => (model, user_mesh, None, 1.0),
             Some(sub) => {
-                count_in(
-                    "subdivision.level",
-                    sub.level,
-                    0,
-                    MAX_CLOTH_SUBDIVISION_LEVEL,
-                )?;
+                check_level(sub)?;
                 let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
                 // The user's mesh no longer matches the particles: render the refined model.
                 (
@@ -662,6 +652,16 @@ fn build_state(
     apply_pins(&mut state, pins, transform)?;
     let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
     Ok(Some((state, mesh)))
+}
+
+/// Checks a subdivision level against [`MAX_CLOTH_SUBDIVISION_LEVEL`].
+fn check_level(sub: &ClothSubdivision) -> Result<(), ClothError> {
+    count_in(
+        "subdivision.level",
+        sub.level,
+        0,
+        MAX_CLOTH_SUBDIVISION_LEVEL,
+    )
 }
 
 /// The solver settings of `config` as a cloth runs them: the particle mass scaled by

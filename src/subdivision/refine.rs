@@ -1,10 +1,14 @@
 //! Uniform topology refinement (OpenSubdiv Far style): one level at a time,
-//! producing the child faces, the local refinement masks (new vertex in terms
-//! of the previous level's vertices), face-varying UVs, and the composition of
-//! masks into stencils over the original control vertices.
+//! producing the local refinement masks (new vertex in terms of the previous
+//! level's vertices, i.e. factorized stencils), face-varying UVs, the
+//! composition of masks into stencils over the original control vertices, and
+//! the direct level-by-level evaluation of a one-shot refinement
+//! ([`refine_direct`]).
 //!
-//! This module holds mesh traversal and mask assembly. It must not hold the
-//! rule formulas (see `rules`) nor evaluate positions (see `stencil`).
+//! This module holds mesh traversal, mask assembly and that one-shot
+//! evaluation; the two apply the same rules and a test keeps them equal. It
+//! must not hold the rule formulas (see `rules`) nor the per-frame evaluation
+//! (see `stencil`).
 //!
 //! Refined vertices are ordered as OpenSubdiv orders them: face points (one
 //! per parent face, in face order), then edge points (one per parent edge),
@@ -158,34 +162,28 @@ pub(crate) fn refine_direct(
     boundary: BoundaryMode,
 ) -> Result<RefinedFaces, SubdivisionError> {
     check_level(&base, level)?;
-    let mut topo = base;
-    let mut points = None;
-    let mut uvs = uvs;
-    for l in 0..level {
-        let next = interpolate_level(
-            &topo,
-            rule,
-            boundary,
-            points.as_deref().unwrap_or(positions),
-        );
-        points = Some(next);
-        uvs = uvs.map(|u| child_uvs(&topo, &u));
-        if l + 1 == level {
-            // The last level needs its faces only.
-            let face_indices = topo.child_faces();
-            return Ok(RefinedFaces {
-                face_offsets: (0..=face_indices.len() as u32).step_by(4).collect(),
-                face_indices,
-                positions: points.unwrap_or_default(),
-                uvs,
-            });
-        }
-        topo = topo.refine_child();
+    if level == 0 {
+        return Ok(RefinedFaces {
+            face_offsets: base.face_offsets,
+            face_indices: base.face_indices,
+            positions: positions.to_vec(),
+            uvs,
+        });
     }
+    let mut topo = base;
+    let mut points = interpolate_level(&topo, rule, boundary, positions);
+    let mut uvs = uvs.map(|u| child_uvs(&topo, &u));
+    for _ in 1..level {
+        topo = topo.refine_child();
+        points = interpolate_level(&topo, rule, boundary, &points);
+        uvs = uvs.map(|u| child_uvs(&topo, &u));
+    }
+    // The last level needs its faces only.
+    let face_indices = topo.child_faces();
     Ok(RefinedFaces {
-        face_offsets: topo.face_offsets,
-        face_indices: topo.face_indices,
-        positions: positions.to_vec(),
+        face_offsets: (0..=face_indices.len() as u32).step_by(4).collect(),
+        face_indices,
+        positions: points,
         uvs,
     })
 }

@@ -212,7 +212,7 @@ impl RenderMesh {
 /// assert_eq!(refined.len(), 81);
 /// # Ok::<(), bevy_cloth::subdivision::SubdivisionError>(())
 /// ```
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Subdivider {
     level: u32,
     rule: VertexRule,

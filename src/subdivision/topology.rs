@@ -137,6 +137,7 @@ impl LevelTopology {
         // end, face, corner): a counting sort on the smaller end, then an insertion sort of each
         // (short) bucket on the larger end, which keeps face order within equal keys.
         let corners = face_indices.len();
+        let mut unsorted: Vec<(u64, u32, u32)> = Vec::with_capacity(corners); // (key, face, corner)
         let mut bucket_offsets = vec![0u32; num_vertices + 1];
         for f in 0..faces {
             let s = face_offsets[f] as usize;
@@ -146,25 +147,21 @@ impl LevelTopology {
                     face_indices[c],
                     face_indices[if c + 1 == e { s } else { c + 1 }],
                 );
+                unsorted.push((
+                    ((a.min(b) as u64) << 32) | a.max(b) as u64,
+                    f as u32,
+                    c as u32,
+                ));
                 bucket_offsets[a.min(b) as usize + 1] += 1;
             }
         }
         prefix_sum(&mut bucket_offsets);
         let mut fill = bucket_offsets.clone();
-        let mut half: Vec<(u64, u32, u32)> = vec![(0, 0, 0); corners]; // (key, face, corner)
-        for f in 0..faces {
-            let s = face_offsets[f] as usize;
-            let e = face_offsets[f + 1] as usize;
-            for c in s..e {
-                let (a, b) = (
-                    face_indices[c],
-                    face_indices[if c + 1 == e { s } else { c + 1 }],
-                );
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                let slot = &mut fill[a.min(b) as usize];
-                half[*slot as usize] = (key, f as u32, c as u32);
-                *slot += 1;
-            }
+        let mut half = vec![(0u64, 0u32, 0u32); corners];
+        for &h in &unsorted {
+            let slot = &mut fill[(h.0 >> 32) as usize];
+            half[*slot as usize] = h;
+            *slot += 1;
         }
         for w in bucket_offsets.windows(2) {
             let bucket = &mut half[w[0] as usize..w[1] as usize];
