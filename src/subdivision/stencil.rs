@@ -163,7 +163,7 @@ impl StencilTable {
 
     /// [`apply`](Self::apply) for other vector layouts: the subdivider keeps its intermediate
     /// levels in 16-byte-aligned [`Vec3A`]s, read with one load per entry. Results are
-    /// bit-identical to `apply`.
+    /// bit-identical to `apply` (same loop).
     pub(crate) fn apply_any<I: Copy + Into<Vec3A>, O: From<Vec3A>>(
         &self,
         control: &[I],
@@ -174,9 +174,8 @@ impl StencilTable {
         Ok(())
     }
 
-    /// The hot loop; lengths are checked by the callers. Accumulates in a [`Vec3A`] (the same
-    /// per-lane multiplies and adds as [`Vec3`], so the same results) whatever the layouts of
-    /// `control` and `out`.
+    /// The hot loop; lengths are checked by the callers. Accumulates in [`Vec3A`]s (the same
+    /// per-lane multiplies and adds as [`Vec3`]) whatever the layouts of `control` and `out`.
     fn apply_rows_unchecked_len<I: Copy + Into<Vec3A>, O: From<Vec3A>>(
         &self,
         control: &[I],
@@ -184,13 +183,24 @@ impl StencilTable {
         out: &mut [O],
     ) {
         let offsets = &self.offsets[first_row..first_row + out.len() + 1];
+        let term = |i: u32, w: f32| control[i as usize].into() * w;
         for (o, w) in out.iter_mut().zip(offsets.windows(2)) {
             let (s, e) = (w[0] as usize, w[1] as usize);
-            let mut acc = Vec3A::ZERO;
-            for (&i, &wt) in self.indices[s..e].iter().zip(&self.weights_f32[s..e]) {
-                acc += control[i as usize].into() * wt;
+            let (indices, weights) = (&self.indices[s..e], &self.weights_f32[s..e]);
+            // Two partial sums (even and odd entries) halve the chain of dependent additions.
+            let (mut even, mut odd) = (Vec3A::ZERO, Vec3A::ZERO);
+            let pairs = indices.chunks_exact(2).zip(weights.chunks_exact(2));
+            for (i, w) in pairs {
+                even += term(i[0], w[0]);
+                odd += term(i[1], w[1]);
             }
-            *o = acc.into();
+            if let (Some(&i), Some(&w)) = (
+                indices.chunks_exact(2).remainder().first(),
+                weights.chunks_exact(2).remainder().first(),
+            ) {
+                even += term(i, w);
+            }
+            *o = (even + odd).into();
         }
     }
 
