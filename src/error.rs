@@ -83,7 +83,7 @@ pub enum ClothError {
     /// step after step with nothing to explain it. The cloth is stopped before values overflow.
     #[error(
         "{integrator} is unstable at step {step}: substep {h} s × highest spring frequency \
-         {omega_max} rad/s = {h_omega:.2} is past the limit 2 (energy grew {growth:.0}× in \
+         {omega_max} rad/s = {h_omega:.2} is past the limit 2 (energy grew {growth:.1e}× in \
          {steps} steps); use at least {substeps_needed} substeps (auto_substeps), lower the \
          stiffness, or use XPBD or implicit Euler"
     )]
