@@ -568,9 +568,12 @@ impl ClothModel {
 
     /// Builds a cloth from an indexed mesh whose faces are all triangles (`face_size == 3`) or all
     /// quads (`face_size == 4`), one particle per vertex. Structural springs run along every edge;
-    /// bend springs connect the two vertices opposite each interior edge (for quads, the far
-    /// corners across the edge); quads also get both diagonals as shear springs. Triangles for
-    /// rendering keep the input's order (quads are split along their first diagonal).
+    /// bend springs cross each interior edge: for triangles they join the two vertices opposite
+    /// the edge; for quads they run straight through each end of the edge, joining that end's
+    /// neighbours across it (on a regular quad grid these are exactly the canonical grid's
+    /// `(i,j)-(i+2,j)` and `(i,j)-(i,j+2)` springs, each made once). Quads also get both diagonals
+    /// as shear springs. Triangles for rendering keep the input's order (quads are split along
+    /// their first diagonal).
     ///
     /// # Errors
     ///
@@ -608,22 +611,34 @@ impl ClothModel {
         check_mesh(positions, uvs, indices, face_size)?;
         let count = positions.len();
 
-        // Undirected edge -> (opposite vertex, face) for each face using it. The opposite vertex is
-        // the third corner of a triangle, or the corner after the edge's second end in a quad.
-        let mut edges: HashMap<(u32, u32), Vec<(u32, usize)>> = HashMap::new();
+        // Undirected edge -> its uses, one per face: the face, and for each end of the edge (the
+        // smaller index first) that end's other neighbour in the face (the third corner of a
+        // triangle, for both ends).
+        let mut edges: HashMap<(u32, u32), Vec<(usize, [u32; 2])>> = HashMap::new();
         let mut edge_order: Vec<(u32, u32)> = Vec::new();
         let mut pairs = Vec::new();
         let mut triangles = Vec::with_capacity(indices.len() / face_size * 3 * (face_size - 2));
         for (f, face) in indices.chunks_exact(face_size).enumerate() {
             for k in 0..face_size {
                 let (a, b) = (face[k], face[(k + 1) % face_size]);
-                let opposite = face[(k + 2) % face_size];
+                // The corner before `a` and the corner after `b` (the same vertex in a triangle).
+                let (before_a, after_b) = (
+                    face[(k + face_size - 1) % face_size],
+                    face[(k + 2) % face_size],
+                );
                 let key = (a.min(b), a.max(b));
-                let entry = edges.entry(key).or_insert_with(|| {
-                    edge_order.push(key);
-                    Vec::new()
-                });
-                entry.push((opposite, f));
+                let across = if a < b {
+                    [before_a, after_b]
+                } else {
+                    [after_b, before_a]
+                };
+                edges
+                    .entry(key)
+                    .or_insert_with(|| {
+                        edge_order.push(key);
+                        Vec::new()
+                    })
+                    .push((f, across));
             }
             if face_size == 4 {
                 pairs.push((face[0], face[2], SpringKind::Shear));
@@ -634,20 +649,26 @@ impl ClothModel {
                 triangles.extend_from_slice(face);
             }
         }
+        // A quad's straight bend spring through a vertex is found from both edges that pass
+        // straight through it; make it once.
+        let mut bends = std::collections::HashSet::new();
         for key in &edge_order {
             let uses = &edges[key];
             if uses.len() > 2 {
                 return Err(ClothError::NonManifoldEdge {
                     a: key.0,
                     b: key.1,
-                    faces: uses.iter().map(|&(_, f)| f).collect(),
+                    faces: uses.iter().map(|&(f, _)| f).collect(),
                 });
             }
             pairs.push((key.0, key.1, SpringKind::Structural));
-            if let [(o1, _), (o2, _)] = uses[..]
-                && o1 != o2
-            {
-                pairs.push((o1, o2, SpringKind::Bend));
+            if let [(_, first), (_, second)] = uses[..] {
+                let ends = if face_size == 4 { 2 } else { 1 };
+                for (p, q) in first.into_iter().zip(second).take(ends) {
+                    if p != q && bends.insert((p.min(q), p.max(q))) {
+                        pairs.push((p, q, SpringKind::Bend));
+                    }
+                }
             }
         }
         let springs = Springs::build(positions, &pairs);
@@ -1092,6 +1113,21 @@ mod tests {
         let p = |i: u32, j: u32| m.rest_positions[(j * nx + i) as usize];
         assert!((p(1, 0) - p(0, 0) - Vec3::new(0.1, 0.0, 0.0)).length() < 1e-6);
         assert!((p(0, 1) - p(0, 0) - Vec3::new(0.0, 0.0, 0.1)).length() < 1e-6);
+    }
+
+    #[test]
+    fn a_quad_grid_mesh_gets_exactly_the_canonical_grid_springs() {
+        let g = ClothModel::grid(&GridSpec::new(6, 5, 0.1)).unwrap();
+        assert_eq!(g.face_size, 4);
+        let m = ClothModel::from_mesh(&g.rest_positions, None, &g.faces, 4).unwrap();
+        let set = |s: &Springs| {
+            let mut v: Vec<_> = (0..s.len())
+                .map(|k| (s.a[k].min(s.b[k]), s.a[k].max(s.b[k]), s.kind[k] as u8))
+                .collect();
+            v.sort_unstable();
+            v
+        };
+        assert_eq!(set(&m.springs), set(&g.springs));
     }
 
     #[test]
