@@ -281,14 +281,11 @@ impl SceneWindZone {
         finite_vec("wind.zones.translation", self.translation)?;
         finite_vec("wind.zones.rotation_degrees", self.rotation_degrees)?;
         if let Some(g) = &self.gusts {
-            validate_gusts(
-                g,
-                [
-                    "wind.zones.gusts.strength",
-                    "wind.zones.gusts.frequency",
-                    "wind.zones.gusts.turbulence",
-                ],
-            )?;
+            g.validate_as([
+                "wind.zones.gusts.strength",
+                "wind.zones.gusts.frequency",
+                "wind.zones.gusts.turbulence",
+            ])?;
         }
         if !(0.0..=1.0).contains(&self.falloff) {
             return Err(ClothError::InvalidValue {
@@ -355,14 +352,11 @@ impl SceneWind {
         finite_vec("wind.velocity", self.velocity)?;
         non_negative("wind.air_density", self.air_density)?;
         if let Some(g) = &self.gusts {
-            validate_gusts(
-                g,
-                [
-                    "wind.gusts.strength",
-                    "wind.gusts.frequency",
-                    "wind.gusts.turbulence",
-                ],
-            )?;
+            g.validate_as([
+                "wind.gusts.strength",
+                "wind.gusts.frequency",
+                "wind.gusts.turbulence",
+            ])?;
         }
         for z in &self.zones {
             z.component()?;
@@ -382,15 +376,6 @@ impl SceneWind {
 }
 
 /// Checks that the three gust amplitudes and the rate are finite and not negative.
-fn validate_gusts(
-    g: &Gusts,
-    [strength, frequency, turbulence]: [&'static str; 3],
-) -> Result<(), ClothError> {
-    non_negative(strength, g.strength)?;
-    non_negative(frequency, g.frequency)?;
-    non_negative(turbulence, g.turbulence)
-}
-
 fn finite_vec(field: &'static str, v: Vec3) -> Result<(), ClothError> {
     match v.to_array().into_iter().find(|c| !c.is_finite()) {
         None => Ok(()),

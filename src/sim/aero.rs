@@ -204,10 +204,19 @@ impl Gusts {
     /// Checks that `strength`, `frequency` and `turbulence` are finite and not negative; the error
     /// names the first bad one.
     pub fn validate(&self) -> Result<(), crate::error::ClothError> {
+        self.validate_as(["gusts.strength", "gusts.frequency", "gusts.turbulence"])
+    }
+
+    /// [`validate`](Self::validate), naming the fields `strength`, `frequency` and `turbulence`
+    /// as given (e.g. with the path where they were read from).
+    pub(crate) fn validate_as(
+        &self,
+        [strength, frequency, turbulence]: [&'static str; 3],
+    ) -> Result<(), crate::error::ClothError> {
         use crate::error::non_negative;
-        non_negative("gusts.strength", self.strength)?;
-        non_negative("gusts.frequency", self.frequency)?;
-        non_negative("gusts.turbulence", self.turbulence)
+        non_negative(strength, self.strength)?;
+        non_negative(frequency, self.frequency)?;
+        non_negative(turbulence, self.turbulence)
     }
 
     /// The gusty wind velocity (m/s) at `position` (m) and `time` (s), around the mean wind
