@@ -502,8 +502,9 @@ pub struct ClothSubdivision {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect)]
 #[reflect(Default, Debug)]
 pub enum SubdivisionTarget {
-    /// The cloth simulates its own mesh; each frame its particles are the control points of a
-    /// subdivision surface that is rendered. Cheap: the stencils cost about one solver substep.
+    /// The cloth simulates its own mesh; after each step its particles are the control points of
+    /// a subdivision surface that is rendered. The simulation keeps its size: each step only adds
+    /// the stencil evaluation and normals of the refined surface (BENCHMARKS.md has the costs).
     /// Changing the level only rebuilds the render mesh.
     #[default]
     Render,

@@ -614,7 +614,8 @@ impl ClothModel {
         // Undirected edge -> its uses, one per face: the face, and for each end of the edge (the
         // smaller index first) that end's other neighbour in the face (the third corner of a
         // triangle, for both ends).
-        let mut edges: HashMap<(u32, u32), Vec<(usize, [u32; 2])>> = HashMap::new();
+        type Uses = Vec<(usize, [u32; 2])>;
+        let mut edges: HashMap<(u32, u32), Uses> = HashMap::new();
         let mut edge_order: Vec<(u32, u32)> = Vec::new();
         let mut pairs = Vec::new();
         let mut triangles = Vec::with_capacity(indices.len() / face_size * 3 * (face_size - 2));
