@@ -4,6 +4,8 @@
 //! wind gathering, the XPBD solver (20 substeps) with sphere and floor collisions, Catmull-Clark
 //! stencils (levels 0, 1, 2 and each vertex rule), normals, and the in-place mesh write in
 //! `PostUpdate`, plus Bevy's scheduling. No renderer: nothing is drawn or uploaded to a GPU.
+//! The `simulated` case refines the cloth itself once (`SubdivisionTarget::Simulation`, level 1:
+//! 63×63 particles) instead of its rendered surface.
 //!
 //! `cargo bench --bench pipeline` (about a minute). The timed frames are always the `WINDOW`
 //! frames after the first `SETTLE_FRAMES + 1` of a fresh scene (about 0.5 s to 4.5 s after the
@@ -28,9 +30,9 @@ const SETTLE_FRAMES: u32 = 30;
 /// Frames timed on one app before a fresh one is built.
 const WINDOW: u32 = 240;
 
-/// A headless app with the paper's scene, its cloth rendered at `level` with `rule`, after
-/// [`SETTLE_FRAMES`] frames (and one more that checks the app).
-fn paper_scene(level: u32, rule: VertexRule) -> App {
+/// A headless app with the paper's scene, its cloth subdivided at `level` with `rule` for
+/// `target`, after [`SETTLE_FRAMES`] frames (and one more that checks the app).
+fn paper_scene(level: u32, rule: VertexRule, target: SubdivisionTarget) -> App {
     let scene = ClothScene::from_ron(PAPER_SCENE).expect("the bundled scene is valid");
     let mut app = headless_app(scene.dt);
     let cloth = scene
@@ -39,6 +41,7 @@ fn paper_scene(level: u32, rule: VertexRule) -> App {
     app.world_mut().entity_mut(cloth).insert(ClothSubdivision {
         level,
         rule,
+        target,
         ..default()
     });
     for _ in 0..SETTLE_FRAMES {
@@ -64,14 +67,17 @@ fn pipeline(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3))
         .sample_size(50);
-    let mut cases = vec![(0, VertexRule::Original)];
+    let render = SubdivisionTarget::Render;
+    let mut cases = vec![(0, VertexRule::Original, render)];
     for level in [1, 2] {
-        cases.extend(VertexRule::ALL.map(|rule| (level, rule)));
+        cases.extend(VertexRule::ALL.map(|rule| (level, rule, render)));
     }
-    for (level, rule) in cases {
-        let mut app = paper_scene(level, rule);
-        let name = match level {
-            0 => "level_0".to_string(),
+    cases.push((1, VertexRule::Original, SubdivisionTarget::Simulation));
+    for (level, rule, target) in cases {
+        let mut app = paper_scene(level, rule, target);
+        let name = match (level, target) {
+            (0, _) => "level_0".to_string(),
+            (_, SubdivisionTarget::Simulation) => format!("level_{level}_{rule:?}_simulated"),
             _ => format!("level_{level}_{rule:?}"),
         };
         let mut frames = 0;
@@ -80,7 +86,7 @@ fn pipeline(c: &mut Criterion) {
                 let mut timed = Duration::ZERO;
                 for _ in 0..iters {
                     if frames == WINDOW {
-                        app = paper_scene(level, rule);
+                        app = paper_scene(level, rule, target);
                         frames = 0;
                     }
                     let start = Instant::now();
