@@ -190,9 +190,9 @@ impl RenderMesh {
 
 /// Refines a control mesh once and evaluates it any number of times.
 ///
-/// Construction does all topology work (refinement to `level`, stencil
-/// composition, render layout); [`apply`](Self::apply) then only multiplies
-/// the stencil table with the current control positions.
+/// Construction does all topology work (refinement to `level`, one stencil
+/// table per level, render layout); [`apply`](Self::apply) then only
+/// multiplies the tables, level by level, with the current control positions.
 ///
 /// # Example
 /// ```

@@ -357,11 +357,7 @@ impl LevelTopology {
         });
 
         let mut edges = Vec::with_capacity(corners + 2 * ne as usize);
-        for (f, w) in self.face_offsets.windows(2).enumerate() {
-            for c in w[0] as usize..w[1] as usize {
-                edges.push([f as u32, edge_base + self.corner_edges[c]]);
-            }
-        }
+        self.for_each_corner(|f, c, _| edges.push([f as u32, edge_base + self.corner_edges[c]]));
         for (e, &[a, b]) in self.edges.iter().enumerate() {
             edges.push([edge_base + e as u32, vertex_base + a]);
             edges.push([edge_base + e as u32, vertex_base + b]);
