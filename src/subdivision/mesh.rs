@@ -4,6 +4,8 @@
 //! It must not hold subdivision rules, refinement or file formats; a
 //! `PolyMesh` that exists is always valid (manifold, finite, in range).
 
+use std::sync::OnceLock;
+
 use glam::{DVec3, Vec2, Vec3};
 
 use super::SubdivisionError;
@@ -36,12 +38,25 @@ use super::topology::LevelTopology;
 /// assert_eq!(quad.face_count(), 1);
 /// # Ok::<(), bevy_cloth::subdivision::SubdivisionError>(())
 /// ```
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct PolyMesh {
     positions: Vec<DVec3>,
     face_offsets: Vec<u32>,
     face_indices: Vec<u32>,
     uvs: Option<Vec<Vec2>>,
+    /// The connectivity that validation derived, kept for refinement (built on first use for
+    /// meshes that come out of a refinement).
+    topology: OnceLock<LevelTopology>,
+}
+
+impl PartialEq for PolyMesh {
+    /// Same positions, faces and UVs (the cached connectivity follows from them).
+    fn eq(&self, other: &Self) -> bool {
+        self.positions == other.positions
+            && self.face_offsets == other.face_offsets
+            && self.face_indices == other.face_indices
+            && self.uvs == other.uvs
+    }
 }
 
 impl PolyMesh {
@@ -57,6 +72,7 @@ impl PolyMesh {
             face_offsets,
             face_indices,
             uvs,
+            topology: OnceLock::new(),
         }
     }
 
@@ -77,9 +93,10 @@ impl PolyMesh {
         let topo = LevelTopology::build(positions.len(), face_offsets, face_indices)?;
         Ok(PolyMesh {
             positions,
-            face_offsets: topo.face_offsets,
-            face_indices: topo.face_indices,
+            face_offsets: topo.face_offsets.clone(),
+            face_indices: topo.face_indices.clone(),
             uvs,
+            topology: OnceLock::from(topo),
         })
     }
 
@@ -228,12 +245,16 @@ impl PolyMesh {
     }
 
     /// Derived connectivity; cannot fail because `self` is valid.
-    pub(crate) fn topology(&self) -> Result<LevelTopology, SubdivisionError> {
-        LevelTopology::build(
+    pub(crate) fn topology(&self) -> Result<&LevelTopology, SubdivisionError> {
+        if let Some(topo) = self.topology.get() {
+            return Ok(topo);
+        }
+        let topo = LevelTopology::build(
             self.positions.len(),
             self.face_offsets.clone(),
             self.face_indices.clone(),
-        )
+        )?;
+        Ok(self.topology.get_or_init(|| topo))
     }
 }
 

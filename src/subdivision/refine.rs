@@ -14,6 +14,8 @@
 //! per parent face, in face order), then edge points (one per parent edge),
 //! then vertex points (one per parent vertex, in vertex order).
 
+use std::borrow::Cow;
+
 use glam::{DVec3, Vec2};
 
 use super::rules::{BoundaryMode, VertexRule};
@@ -122,16 +124,16 @@ fn check_level(base: &LevelTopology, level: u32) -> Result<(), SubdivisionError>
 
 /// Refines `base` uniformly `level` times, keeping each level's masks.
 pub(crate) fn refine(
-    base: LevelTopology,
+    base: &LevelTopology,
     uvs: Option<Vec<Vec2>>,
     level: u32,
     rule: VertexRule,
     boundary: BoundaryMode,
 ) -> Result<Refinement, SubdivisionError> {
-    check_level(&base, level)?;
+    check_level(base, level)?;
     let mut map: Vec<u32> = (0..base.num_vertices as u32).collect();
     let mut levels = Vec::with_capacity(level as usize);
-    let mut topo = base;
+    let mut topo = Cow::Borrowed(base);
     let mut uvs = uvs;
     for _ in 0..level {
         levels.push(level_masks(&topo, rule, boundary)?);
@@ -140,11 +142,11 @@ pub(crate) fn refine(
             *m += offset;
         }
         uvs = uvs.map(|u| child_uvs(&topo, &u));
-        topo = topo.refine_child();
+        topo = Cow::Owned(topo.refine_child());
     }
     Ok(Refinement {
         levels,
-        topology: topo,
+        topology: topo.into_owned(),
         uvs,
         control_vertex_map: map,
     })
@@ -154,27 +156,27 @@ pub(crate) fn refine(
 /// directly from the previous one (face points are computed once and reused by the edge and vertex
 /// points) instead of building masks.
 pub(crate) fn refine_direct(
-    base: LevelTopology,
+    base: &LevelTopology,
     positions: &[DVec3],
     uvs: Option<Vec<Vec2>>,
     level: u32,
     rule: VertexRule,
     boundary: BoundaryMode,
 ) -> Result<RefinedFaces, SubdivisionError> {
-    check_level(&base, level)?;
+    check_level(base, level)?;
     if level == 0 {
         return Ok(RefinedFaces {
-            face_offsets: base.face_offsets,
-            face_indices: base.face_indices,
+            face_offsets: base.face_offsets.clone(),
+            face_indices: base.face_indices.clone(),
             positions: positions.to_vec(),
             uvs,
         });
     }
-    let mut topo = base;
+    let mut topo = Cow::Borrowed(base);
     let mut points = interpolate_level(&topo, rule, boundary, positions);
     let mut uvs = uvs.map(|u| child_uvs(&topo, &u));
     for _ in 1..level {
-        topo = topo.refine_child();
+        topo = Cow::Owned(topo.refine_child());
         points = interpolate_level(&topo, rule, boundary, &points);
         uvs = uvs.map(|u| child_uvs(&topo, &u));
     }
