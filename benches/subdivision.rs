@@ -48,17 +48,19 @@ const RULES: [VertexRule; 3] = [
     VertexRule::Tuned,
 ];
 
-fn scratch(c: &mut Criterion) {
-    let mut group = c.benchmark_group("subdivision_scratch");
+/// Times `refine(mesh, level, rule)` for every mesh, rule and level 1–3 in group `group`.
+fn refinement_group<T>(
+    c: &mut Criterion,
+    group: &str,
+    refine: impl Fn(&PolyMesh, u32, VertexRule) -> T,
+) {
+    let mut group = c.benchmark_group(group);
     for (name, mesh) in meshes() {
         for rule in RULES {
             for level in 1..=3 {
                 let id = BenchmarkId::new(format!("{name}/{rule:?}"), level);
                 group.bench_with_input(id, &level, |b, &level| {
-                    b.iter(|| {
-                        refine_positions(black_box(&mesh), level, rule, BoundaryMode::EdgeOnly)
-                            .unwrap()
-                    })
+                    b.iter(|| refine(black_box(&mesh), level, rule))
                 });
             }
         }
@@ -66,22 +68,16 @@ fn scratch(c: &mut Criterion) {
     group.finish();
 }
 
+fn scratch(c: &mut Criterion) {
+    refinement_group(c, "subdivision_scratch", |mesh, level, rule| {
+        refine_positions(mesh, level, rule, BoundaryMode::EdgeOnly).unwrap()
+    });
+}
+
 fn refine(c: &mut Criterion) {
-    let mut group = c.benchmark_group("subdivision_refine");
-    for (name, mesh) in meshes() {
-        for rule in RULES {
-            for level in 1..=3 {
-                let id = BenchmarkId::new(format!("{name}/{rule:?}"), level);
-                group.bench_with_input(id, &level, |b, &level| {
-                    b.iter(|| {
-                        Subdivider::new(black_box(&mesh), level, rule, BoundaryMode::EdgeOnly)
-                            .unwrap()
-                    })
-                });
-            }
-        }
-    }
-    group.finish();
+    refinement_group(c, "subdivision_refine", |mesh, level, rule| {
+        Subdivider::new(mesh, level, rule, BoundaryMode::EdgeOnly).unwrap()
+    });
 }
 
 fn apply(c: &mut Criterion) {

@@ -281,8 +281,9 @@ fn interpolate_level(
     child
 }
 
-/// The interior vertex point `v' = w_S S + w_R Σ neighbours + w_F Σ face points` weights of a
-/// rule, cached for the common valences (R̄ = S/2 + mean neighbour/2 folded into `w_S`, `w_R`).
+/// The weights of an interior vertex point `v' = w_S S + w_R Σ neighbours + w_F Σ face points`
+/// (the rule's `w_F F̄ + w_R R̄ + w_S S` with the means expanded and R̄ = S/2 + mean neighbour/2),
+/// shared by the masks and the direct evaluation and cached for the common valences.
 struct ValenceWeights {
     rule: VertexRule,
     cache: [Option<[f64; 3]>; 16],
@@ -361,6 +362,7 @@ fn level_masks(
     }
 
     // Vertex points.
+    let mut weights = ValenceWeights::new(rule);
     for v in 0..nv {
         let vu = v as u32;
         scratch.clear();
@@ -372,18 +374,16 @@ fn level_masks(
                 scratch.push((b, 0.125));
             }
             VertexKind::Interior => {
-                // v' = w_F F̄ + w_R R̄ + w_S S (R̄: mean edge midpoint).
+                // The face points expanded into their corners.
                 let faces = topo.faces_of(v);
                 let edges = topo.edges_of(v);
-                let w = rule.weights(faces.len() as u32);
-                scratch.push((vu, w.vertex + 0.5 * w.midpoint));
-                let we = 0.5 * w.midpoint / edges.len() as f64;
-                scratch.extend(edges.iter().map(|&e| (topo.other_end(e as usize, vu), we)));
-                let nfaces = faces.len() as f64;
+                let [ws, wr, wf] = weights.get(faces.len(), edges.len());
+                scratch.push((vu, ws));
+                scratch.extend(edges.iter().map(|&e| (topo.other_end(e as usize, vu), wr)));
                 for &f in faces {
                     let face = topo.face(f as usize);
-                    let wf = w.face / (nfaces * face.len() as f64);
-                    scratch.extend(face.iter().map(|&c| (c, wf)));
+                    let corner = wf / face.len() as f64;
+                    scratch.extend(face.iter().map(|&c| (c, corner)));
                 }
             }
         }
@@ -415,7 +415,7 @@ fn child_uvs(topo: &LevelTopology, uvs: &[Vec2]) -> Vec<Vec2> {
 /// polygons) are rejected before any allocation.
 fn mask_entry_bound(topo: &LevelTopology) -> usize {
     let face_len = |f: u32| -> usize {
-        if f == super::topology::NO_FACE {
+        if f == NO_FACE {
             0
         } else {
             topo.face(f as usize).len()
@@ -426,7 +426,7 @@ fn mask_entry_bound(topo: &LevelTopology) -> usize {
         .edge_faces
         .iter()
         .map(|&[a, b]| match b {
-            super::topology::NO_FACE => 2,
+            NO_FACE => 2,
             _ => 2usize
                 .saturating_add(face_len(a))
                 .saturating_add(face_len(b)),
@@ -444,6 +444,7 @@ fn mask_entry_bound(topo: &LevelTopology) -> usize {
         .fold(0, usize::saturating_add);
     faces.saturating_add(edges).saturating_add(vertices)
 }
+
 /// Composes level masks with the previous stencils: row `r` of the result is
 /// `Σ_j masks[r][j].w · prev[masks[r][j].idx]`, over `control` columns.
 pub(crate) fn compose(

@@ -355,24 +355,23 @@ impl Subdivider {
     pub fn apply(&mut self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
         check_len("control", self.control_count, control.len())?;
         check_len("out", self.refined_vertex_count(), out.len())?;
-        let (Some((last, inner)), Some((first, rest))) =
-            (self.levels.split_last(), self.levels.split_first())
-        else {
+        let Some((last, inner)) = self.levels.split_last() else {
             out.copy_from_slice(control);
             return Ok(());
         };
-        if inner.is_empty() {
-            return first.apply(control, out);
-        }
         // Control → level 1 → … → level L − 1 in aligned scratch buffers, then level L → `out`.
-        let (head, tail) = self.scratch.split_at_mut(1);
-        first.apply_any(control, &mut head[0])?;
-        let mut src: &[Vec3A] = &head[0];
-        for (table, buf) in rest[..rest.len() - 1].iter().zip(tail.iter_mut()) {
-            table.apply_any(src, buf)?;
-            src = buf;
+        let mut src: Option<&[Vec3A]> = None;
+        for (table, buf) in inner.iter().zip(self.scratch.iter_mut()) {
+            match src {
+                None => table.apply_any(control, buf)?,
+                Some(prev) => table.apply_any(prev, buf)?,
+            }
+            src = Some(buf);
         }
-        last.apply_any(src, out)
+        match src {
+            None => last.apply(control, out),
+            Some(prev) => last.apply_any(prev, out),
+        }
     }
 
     /// Evaluates refined positions in double precision (same contract as
