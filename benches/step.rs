@@ -1,6 +1,7 @@
 //! Time per simulated 1/60 s frame of the canonical grid cloth at 20 substeps (XPBD, one
 //! iteration), on one thread: the solver alone, without ECS overhead, with the throughput in
-//! constraint solves (springs × substeps) per second; 128×128 also at 10 substeps. Then the same
+//! constraint solves (springs × substeps) per second; 128×128 also at 10 substeps. The explicit
+//! integrators (Verlet, symplectic Euler) on the same cloths at their stable substeps. Then the same
 //! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
 //! whole App frames with one active cloth against 100 sleeping ones.
 
@@ -22,9 +23,13 @@ fn hanging(n: u32) -> ClothSim {
 }
 
 fn hanging_with(n: u32, substeps: u32) -> ClothSim {
+    hanging_integrated(n, substeps, Integrator::Xpbd)
+}
+
+fn hanging_integrated(n: u32, substeps: u32, integrator: Integrator) -> ClothSim {
     let model = ClothModel::grid(&GridSpec::new(n, n, 1.0 / (n - 1) as f32)).unwrap();
     let settings = SolverSettings {
-        integrator: Integrator::Xpbd,
+        integrator,
         substeps,
         iterations: 1,
         // Never asleep: these benchmarks time steps.
@@ -57,6 +62,25 @@ fn step(c: &mut Criterion) {
         }
         group.finish();
     }
+}
+
+/// The explicit integrators on the same cloths, at the substeps their stability bound asks for
+/// (`auto_substeps`), with the throughput in spring force evaluations per second.
+fn explicit(c: &mut Criterion) {
+    let mut group = c.benchmark_group("explicit_frame_auto_substeps");
+    for integrator in [Integrator::Verlet, Integrator::SymplecticEuler] {
+        for n in [16u32, 64] {
+            let mut sim = hanging_integrated(n, 1, integrator);
+            let substeps = sim.substeps_for(1.0 / 60.0);
+            group.throughput(Throughput::Elements(
+                sim.model().springs.len() as u64 * substeps as u64,
+            ));
+            group.bench_function(format!("{integrator:?}_{n}x{n}_{substeps}_substeps"), |b| {
+                b.iter(|| sim.step(black_box(1.0 / 60.0)).unwrap())
+            });
+        }
+    }
+    group.finish();
 }
 
 fn sphere_at(centre: Vec3) -> Collider {
@@ -203,5 +227,5 @@ fn sleeping(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, step, environment, sleeping);
+criterion_group!(benches, step, explicit, environment, sleeping);
 criterion_main!(benches);

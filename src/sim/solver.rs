@@ -12,7 +12,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::collision::{Collider, Contacts, bounds};
-use super::forces::{SpringSet, max_frequency_bound, spring_energy};
+use super::forces::{ForceRuns, Soa, SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, RunLayout, SpringKind, Springs, interleaved_offset};
 use super::wind::{WindField, WindScratch};
@@ -239,11 +239,16 @@ pub(super) fn drive_pins(
 ) {
     for pin in pins {
         let i = pin.particle as usize;
-        let target = pin.from.lerp(pin.to, t1);
-        // `from` is where the particle was when the step began (pins start where their particle is).
-        v[i] = (target - pin.from.lerp(pin.to, t0)) * inv_h;
-        x[i] = target;
+        (x[i], v[i]) = pin_motion(pin, t0, t1, inv_h);
     }
+}
+
+/// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length
+/// `1/inv_h`, and the velocity of its motion over the substep.
+pub(super) fn pin_motion(pin: &PinState, t0: f32, t1: f32, inv_h: f32) -> (Vec3, Vec3) {
+    let target = pin.from.lerp(pin.to, t1);
+    // `from` is where the particle was when the step began (pins start where their particle is).
+    (target, (target - pin.from.lerp(pin.to, t0)) * inv_h)
 }
 
 /// The energy of a cloth's free particles (pinned ones are driven, not part of the system), in
@@ -274,7 +279,8 @@ pub struct ClothSim {
     pub(super) model: ClothModel,
     /// Particle positions, m.
     pub(super) positions: Vec<Vec3>,
-    /// Positions during XPBD's constraint projection, one array per coordinate (scratch).
+    /// Positions during XPBD's constraint projection and the explicit integrators' steps, one array
+    /// per coordinate (scratch).
     pub(super) soa: Soa,
     /// Particle velocities, m/s.
     pub(super) velocities: Vec<Vec3>,
@@ -288,8 +294,16 @@ pub struct ClothSim {
     pub(super) compliance: Vec<f32>,
     /// Per-spring Lagrange multipliers of the current substep.
     pub(super) lambda: Vec<f32>,
-    /// Force accumulator of the force-based integrators (scratch).
+    /// Force accumulator of implicit Euler (scratch).
     pub(super) forces: Vec<Vec3>,
+    /// All forces of the explicit integrators, one array per coordinate (scratch; empty for the
+    /// other integrators).
+    pub(super) force_sums: Soa,
+    /// Velocities during an explicit integrator's step, one array per coordinate (scratch; empty
+    /// for the other integrators). Its positions are in `soa`.
+    pub(super) velocity_soa: Soa,
+    /// The springs grouped for the explicit integrators' vector force kernel (empty for the others).
+    pub(super) force_runs: ForceRuns,
     /// Linearised springs and conjugate-gradient vectors of implicit Euler; empty for the others.
     pub(super) implicit: ImplicitScratch,
     /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
@@ -398,6 +412,9 @@ impl ClothSim {
             compliance: vec![0.0; springs],
             lambda: vec![0.0; springs],
             forces: vec![Vec3::ZERO; n],
+            force_sums: Soa::default(),
+            velocity_soa: Soa::default(),
+            force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
             contacts: Contacts::new(n, model.max_edge_length()),
@@ -500,6 +517,14 @@ impl ClothSim {
             && !self.implicit.fits(self.positions.len(), s.len())
         {
             self.implicit = ImplicitScratch::new(self.positions.len(), s.len());
+        }
+        if self.settings.integrator.is_explicit() {
+            if !self.force_runs.fits(s.len()) || self.force_sums.len() != self.positions.len() {
+                self.force_runs = ForceRuns::new(&s.a, &s.b);
+                self.force_sums = Soa::new(self.positions.len());
+                self.velocity_soa = Soa::new(self.positions.len());
+            }
+            self.force_runs.set_stiffness(&s.rest, &self.stiffness);
         }
     }
 
@@ -904,34 +929,7 @@ impl ClothSim {
     }
 }
 
-/// Particle positions as one array per coordinate, for the XPBD kernel's vector loads.
-#[derive(Debug, Clone, Default)]
-pub(super) struct Soa {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-}
-
 impl Soa {
-    fn new(n: usize) -> Self {
-        Self {
-            x: vec![0.0; n],
-            y: vec![0.0; n],
-            z: vec![0.0; n],
-        }
-    }
-
-    fn load(&mut self, positions: &[Vec3]) {
-        for (p, ((x, y), z)) in positions.iter().zip(
-            self.x
-                .iter_mut()
-                .zip(self.y.iter_mut())
-                .zip(self.z.iter_mut()),
-        ) {
-            (*x, *y, *z) = (p.x, p.y, p.z);
-        }
-    }
-
     /// Writes the solved positions back into `positions` (which hold the predicted ones) and
     /// adds the correction, divided by the substep `h`, to the velocities.
     fn store(&self, positions: &mut [Vec3], velocities: &mut [Vec3], inv_h: f32) {
@@ -1118,6 +1116,7 @@ fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
         .unwrap_or([0.0; N])
 }
 
+/// Writes `values` to `v[i..i + N]` (nothing past the end).
 #[inline(always)]
 fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
     if let Some(s) = v.get_mut(i..i + N) {
