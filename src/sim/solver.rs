@@ -251,6 +251,30 @@ pub(super) fn pin_motion(pin: &PinState, t0: f32, t1: f32, inv_h: f32) -> (Vec3,
     (target, (target - pin.from.lerp(pin.to, t0)) * inv_h)
 }
 
+/// The energy of the free particles (inverse mass > 0), with `(mass, inverse mass)` per
+/// particle, at positions `x` and velocities `v` (see [`Energy`]).
+pub(super) fn energy_of(
+    springs: SpringSet<'_>,
+    (mass, inv_mass): (&[f32], &[f32]),
+    gravity: Vec3,
+    x: &[Vec3],
+    v: &[Vec3],
+) -> Energy {
+    let g = gravity.as_dvec3();
+    let mut e = Energy {
+        elastic: spring_energy(springs, x),
+        ..Default::default()
+    };
+    for i in 0..x.len() {
+        if inv_mass[i] > 0.0 {
+            let m = mass[i] as f64;
+            e.kinetic += 0.5 * m * v[i].as_dvec3().length_squared();
+            e.gravitational -= m * g.dot(x[i].as_dvec3());
+        }
+    }
+    e
+}
+
 /// The energy of a cloth's free particles (pinned ones are driven, not part of the system), in
 /// joules, accumulated in f64.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -316,6 +340,8 @@ pub struct ClothSim {
     pub(super) settings: SolverSettings,
     steps: u64,
     sleep: Sleep,
+    /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).
+    pub(super) contact_work: Option<f64>,
     /// Positions at the start of the current step, for the sleep test (empty when sleeping is off).
     step_start: Vec<Vec3>,
     runaway: Runaway,
@@ -424,6 +450,7 @@ impl ClothSim {
             settings,
             steps: 0,
             sleep: Sleep::default(),
+            contact_work: None,
             step_start: Vec::with_capacity(n),
             runaway: Runaway::default(),
         };
@@ -573,21 +600,30 @@ impl ClothSim {
         &self.mass
     }
 
+    /// Starts adding up the energy that contact responses put into the cloth: the increase of its
+    /// total energy (kinetic, gravitational and elastic) across each response that raises it. A
+    /// collider sweeping through a cloth stretches its springs and hands it its speed; the stress
+    /// suite allows the cloth that energy. Costs an energy evaluation (one pass over the springs)
+    /// before and after each substep's contact response.
+    pub(crate) fn track_contact_work(&mut self) {
+        self.contact_work.get_or_insert(0.0);
+    }
+
+    /// The energy added up since [`track_contact_work`](Self::track_contact_work), J (`None` when
+    /// not tracking).
+    pub(crate) fn contact_work(&self) -> Option<f64> {
+        self.contact_work
+    }
+
     /// Kinetic, gravitational and elastic energy of the free particles (see [`Energy`]).
     pub fn energy(&self) -> Energy {
-        let g = self.settings.gravity.as_dvec3();
-        let mut e = Energy {
-            elastic: spring_energy(self.spring_set(), &self.positions),
-            ..Default::default()
-        };
-        for i in 0..self.positions.len() {
-            if self.inv_mass[i] > 0.0 {
-                let m = self.mass[i] as f64;
-                e.kinetic += 0.5 * m * self.velocities[i].as_dvec3().length_squared();
-                e.gravitational -= m * g.dot(self.positions[i].as_dvec3());
-            }
-        }
-        e
+        energy_of(
+            self.spring_set(),
+            (&self.mass, &self.inv_mass),
+            self.settings.gravity,
+            &self.positions,
+            &self.velocities,
+        )
     }
 
     /// Indices of the pinned particles.
@@ -844,6 +880,7 @@ impl ClothSim {
     /// positions and velocities for the substep.
     pub(super) fn resolve_contacts(&mut self, sub: u32, n: u32, h: f32) {
         if self.contacts.is_active() {
+            let before = self.contact_work.map(|_| self.energy().total());
             self.contacts.resolve(
                 sub as f32 / n as f32,
                 (sub + 1) as f32 / n as f32,
@@ -853,6 +890,10 @@ impl ClothSim {
                 &mut self.positions,
                 &mut self.velocities,
             );
+            if let Some(before) = before {
+                let gain = (self.energy().total() - before).max(0.0);
+                self.contact_work = self.contact_work.map(|work| work + gain);
+            }
         }
     }
 
