@@ -7,8 +7,8 @@
 //! particles following their interpolated targets, velocities decaying as `exp(-damping t)`.
 //! Nothing here allocates.
 
-use super::forces::{Soa, SpringSet, add_spring_forces};
-use super::solver::{ClothSim, PinState, pin_motion};
+use super::forces::{SpringSet, add_spring_forces};
+use super::solver::ClothSim;
 
 /// Sets `sim.force_sums` to gravity plus wind plus the spring forces at the positions `sim.soa`.
 fn compute_forces(sim: &mut ClothSim) {
@@ -28,48 +28,6 @@ fn compute_forces(sim: &mut ClothSim) {
         k: &sim.stiffness,
     };
     add_spring_forces(&mut sim.force_runs, springs, &sim.soa, &mut sim.force_sums);
-}
-
-/// The state the explicit integrators step: positions in `sim.soa` and velocities in
-/// `sim.velocity_soa` for the whole step (one array per coordinate, so the particle loops are
-/// vector code), copied back to `sim.positions` and `sim.velocities` at the end and around the
-/// contact response (which works on the vectors).
-fn load_state(sim: &mut ClothSim) {
-    sim.soa.load(&sim.positions);
-    sim.velocity_soa.load(&sim.velocities);
-}
-
-fn store_state(sim: &mut ClothSim) {
-    sim.soa.write_to(&mut sim.positions);
-    sim.velocity_soa.write_to(&mut sim.velocities);
-}
-
-/// The contact response of substep `sub` of `n`, on the vectors (nothing without a collider in
-/// reach).
-fn resolve_contacts(sim: &mut ClothSim, sub: u32, n: u32, h: f32) {
-    if sim.contacts.is_active() {
-        store_state(sim);
-        sim.resolve_contacts(sub, n, h);
-        load_state(sim);
-    }
-}
-
-/// Where a substep begins, for the contact response's swept tests.
-fn begin_substep(sim: &mut ClothSim) {
-    if sim.contacts.is_active() {
-        sim.soa.write_to(&mut sim.positions);
-        sim.contacts.begin_substep(&sim.positions);
-    }
-}
-
-/// Moves the pinned particles to their targets at the end of substep `[t0, t1]` (fractions of the
-/// step), with the velocity of that motion.
-fn drive_pins(pins: &[PinState], t0: f32, t1: f32, inv_h: f32, x: &mut Soa, v: &mut Soa) {
-    for pin in pins {
-        let (target, velocity) = pin_motion(pin, t0, t1, inv_h);
-        x.set(pin.particle as usize, target);
-        v.set(pin.particle as usize, velocity);
-    }
 }
 
 /// For every free particle (inverse mass `w > 0`), one coordinate: the kick
@@ -101,23 +59,16 @@ pub(super) fn step_symplectic_euler(sim: &mut ClothSim, dt: f32, n: u32) {
     let h = dt / n as f32;
     let inv_h = 1.0 / h;
     let keep = (-sim.settings.damping * h).exp();
-    load_state(sim);
+    sim.load_soa_state();
     for sub in 0..n {
-        begin_substep(sim);
+        sim.begin_soa_substep();
         compute_forces(sim);
         kick_drift_all(sim, h, keep, h);
         let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-        drive_pins(
-            &sim.pins,
-            t0,
-            t1,
-            inv_h,
-            &mut sim.soa,
-            &mut sim.velocity_soa,
-        );
-        resolve_contacts(sim, sub, n, h);
+        sim.drive_soa_pins(t0, t1, inv_h);
+        sim.resolve_soa_contacts(sub, n, h);
     }
-    store_state(sim);
+    sim.store_soa_state();
 }
 
 /// Position Verlet (drift-kick-drift), `n` substeps of `h = dt/n`: `x ← x + h/2 v`,
@@ -129,7 +80,7 @@ pub(super) fn step_verlet(sim: &mut ClothSim, dt: f32, n: u32) {
     let half = 0.5 * h;
     let inv_h = 1.0 / h;
     let keep = (-sim.settings.damping * h).exp();
-    load_state(sim);
+    sim.load_soa_state();
     let (x, v, w) = (&mut sim.soa, &sim.velocity_soa, &sim.inv_mass);
     for (coord, vel) in [(&mut x.x, &v.x), (&mut x.y, &v.y), (&mut x.z, &v.z)] {
         for ((x, v), w) in coord.iter_mut().zip(vel).zip(w) {
@@ -137,7 +88,7 @@ pub(super) fn step_verlet(sim: &mut ClothSim, dt: f32, n: u32) {
         }
     }
     for sub in 0..n {
-        begin_substep(sim);
+        sim.begin_soa_substep();
         let mid = (sub as f32 + 0.5) / n as f32;
         for pin in &sim.pins {
             sim.soa
@@ -149,16 +100,9 @@ pub(super) fn step_verlet(sim: &mut ClothSim, dt: f32, n: u32) {
         kick_drift_all(sim, h, keep, if last { half } else { h });
         if last {
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-            drive_pins(
-                &sim.pins,
-                t0,
-                t1,
-                inv_h,
-                &mut sim.soa,
-                &mut sim.velocity_soa,
-            );
+            sim.drive_soa_pins(t0, t1, inv_h);
         }
-        resolve_contacts(sim, sub, n, h);
+        sim.resolve_soa_contacts(sub, n, h);
     }
-    store_state(sim);
+    sim.store_soa_state();
 }

@@ -303,8 +303,8 @@ pub struct ClothSim {
     pub(super) model: ClothModel,
     /// Particle positions, m.
     pub(super) positions: Vec<Vec3>,
-    /// Positions during XPBD's constraint projection and the explicit integrators' steps, one array
-    /// per coordinate (scratch).
+    /// Positions during a step, one array per coordinate (scratch; see
+    /// [`Self::load_soa_state`]).
     pub(super) soa: Soa,
     /// Particle velocities, m/s.
     pub(super) velocities: Vec<Vec3>,
@@ -323,9 +323,11 @@ pub struct ClothSim {
     /// All forces of the explicit integrators, one array per coordinate (scratch; empty for the
     /// other integrators).
     pub(super) force_sums: Soa,
-    /// Velocities during an explicit integrator's step, one array per coordinate (scratch; empty
-    /// for the other integrators). Its positions are in `soa`.
+    /// Velocities during a step, one array per coordinate (scratch; see
+    /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
+    /// XPBD's predicted positions of the current substep (scratch).
+    predicted: Soa,
     /// The springs grouped for the explicit integrators' vector force kernel (empty for the others).
     pub(super) force_runs: ForceRuns,
     /// Linearised springs and conjugate-gradient vectors of implicit Euler; empty for the others.
@@ -439,7 +441,8 @@ impl ClothSim {
             lambda: vec![0.0; springs],
             forces: vec![Vec3::ZERO; n],
             force_sums: Soa::default(),
-            velocity_soa: Soa::default(),
+            velocity_soa: Soa::new(n),
+            predicted: Soa::new(n),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
@@ -549,7 +552,6 @@ impl ClothSim {
             if !self.force_runs.fits(s.len()) || self.force_sums.len() != self.positions.len() {
                 self.force_runs = ForceRuns::new(&s.a, &s.b);
                 self.force_sums = Soa::new(self.positions.len());
-                self.velocity_soa = Soa::new(self.positions.len());
             }
             self.force_runs.set_stiffness(&s.rest, &self.stiffness);
         }
@@ -897,43 +899,100 @@ impl ClothSim {
         }
     }
 
+    /// Copies the state into one array per coordinate for a step: positions into `soa`,
+    /// velocities into `velocity_soa`, where the integrators' particle loops are vector code. The
+    /// step works there and copies it back with [`Self::store_soa_state`] at its end and around
+    /// the contact response (which works on the vectors).
+    pub(super) fn load_soa_state(&mut self) {
+        self.soa.load(&self.positions);
+        self.velocity_soa.load(&self.velocities);
+    }
+
+    /// Copies the state back from `soa` and `velocity_soa` (see [`Self::load_soa_state`]).
+    pub(super) fn store_soa_state(&mut self) {
+        self.soa.write_to(&mut self.positions);
+        self.velocity_soa.write_to(&mut self.velocities);
+    }
+
+    /// Where a substep begins, for the contact response's swept tests (state in `soa`).
+    pub(super) fn begin_soa_substep(&mut self) {
+        if self.contacts.is_active() {
+            self.soa.write_to(&mut self.positions);
+            self.contacts.begin_substep(&self.positions);
+        }
+    }
+
+    /// [`Self::resolve_contacts`] with the state in `soa` and `velocity_soa`.
+    pub(super) fn resolve_soa_contacts(&mut self, sub: u32, n: u32, h: f32) {
+        if self.contacts.is_active() {
+            self.store_soa_state();
+            self.resolve_contacts(sub, n, h);
+            self.load_soa_state();
+        }
+    }
+
+    /// Moves the pinned particles to their targets at the end of substep `[t0, t1]` (fractions of
+    /// the step) of length `1/inv_h`, with the velocity of that motion (state in `soa` and
+    /// `velocity_soa`).
+    pub(super) fn drive_soa_pins(&mut self, t0: f32, t1: f32, inv_h: f32) {
+        for pin in &self.pins {
+            let (target, velocity) = pin_motion(pin, t0, t1, inv_h);
+            self.soa.set(pin.particle as usize, target);
+            self.velocity_soa.set(pin.particle as usize, velocity);
+        }
+    }
+
     fn step_xpbd(&mut self, dt: f32, n: u32) {
         let h = dt / n as f32;
         let inv_h = 1.0 / h;
         let inv_h2 = inv_h * inv_h;
         let gravity_dv = self.settings.gravity * h;
         let keep = (-self.settings.damping * h).exp();
+        self.load_soa_state();
         for sub in 0..n {
-            self.contacts.begin_substep(&self.positions);
+            self.begin_soa_substep();
             // Integrate every particle (symplectic Euler) without constraints; pinned ones are then
             // overwritten by their targets. Wind forces are held over the step (see `wind.rs`).
-            if self.wind.active {
-                for ((x, v), (f, w)) in self
-                    .positions
-                    .iter_mut()
-                    .zip(self.velocities.iter_mut())
-                    .zip(self.wind.particle_forces().iter().zip(&self.inv_mass))
-                {
-                    *v = (*v + gravity_dv + *f * (*w * h)) * keep;
-                    *x += *v * h;
-                }
-            } else {
-                for (x, v) in self.positions.iter_mut().zip(self.velocities.iter_mut()) {
-                    *v = (*v + gravity_dv) * keep;
-                    *x += *v * h;
+            let wind = self.wind.active.then(|| self.wind.particle_forces());
+            let (x, v) = (&mut self.soa, &mut self.velocity_soa);
+            for (c, (x, v)) in [
+                (&mut x.x, &mut v.x),
+                (&mut x.y, &mut v.y),
+                (&mut x.z, &mut v.z),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let dv = gravity_dv[c];
+                match wind {
+                    Some(forces) => {
+                        for ((x, v), (f, w)) in x
+                            .iter_mut()
+                            .zip(v.iter_mut())
+                            .zip(forces.iter().zip(&self.inv_mass))
+                        {
+                            *v = (*v + dv + f[c] * (*w * h)) * keep;
+                            *x += *v * h;
+                        }
+                    }
+                    None => {
+                        for (x, v) in x.iter_mut().zip(v.iter_mut()) {
+                            *v = (*v + dv) * keep;
+                            *x += *v * h;
+                        }
+                    }
                 }
             }
             // Pinned particles move to their interpolated target, at the velocity that takes them there.
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-            drive_pins(
-                &self.pins,
-                t0,
-                t1,
-                inv_h,
-                &mut self.positions,
-                &mut self.velocities,
-            );
-            self.soa.load(&self.positions);
+            self.drive_soa_pins(t0, t1, inv_h);
+            for (predicted, x) in [
+                (&mut self.predicted.x, &self.soa.x),
+                (&mut self.predicted.y, &self.soa.y),
+                (&mut self.predicted.z, &self.soa.z),
+            ] {
+                predicted.copy_from_slice(x);
+            }
             let springs = &self.model.springs;
             if self.settings.iterations == 1 {
                 // λ starts at 0 each substep, so one iteration needs no multiplier storage.
@@ -960,29 +1019,20 @@ impl ClothSim {
             }
             // v = (x - x_start) / h, computed as v + (constraint correction) / h: the free-flight
             // part stays exact even far from the origin, where x - x_start would cancel in f32.
-            // `positions` still holds the predicted positions here.
-            self.soa
-                .store(&mut self.positions, &mut self.velocities, inv_h);
+            for (v, (x, predicted)) in [
+                (&mut self.velocity_soa.x, (&self.soa.x, &self.predicted.x)),
+                (&mut self.velocity_soa.y, (&self.soa.y, &self.predicted.y)),
+                (&mut self.velocity_soa.z, (&self.soa.z, &self.predicted.z)),
+            ] {
+                for (v, (x, p)) in v.iter_mut().zip(x.iter().zip(predicted)) {
+                    *v += (*x - *p) * inv_h;
+                }
+            }
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `collision.rs`).
-            self.resolve_contacts(sub, n, h);
+            self.resolve_soa_contacts(sub, n, h);
         }
-    }
-}
-
-impl Soa {
-    /// Writes the solved positions back into `positions` (which hold the predicted ones) and
-    /// adds the correction, divided by the substep `h`, to the velocities.
-    fn store(&self, positions: &mut [Vec3], velocities: &mut [Vec3], inv_h: f32) {
-        for ((p, v), ((x, y), z)) in positions
-            .iter_mut()
-            .zip(velocities.iter_mut())
-            .zip(self.x.iter().zip(&self.y).zip(&self.z))
-        {
-            let solved = Vec3::new(*x, *y, *z);
-            *v += (solved - *p) * inv_h;
-            *p = solved;
-        }
+        self.store_soa_state();
     }
 }
 
