@@ -326,7 +326,7 @@ pub struct ClothSim {
     /// Velocities during a step, one array per coordinate (scratch; see
     /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
-    /// XPBD's predicted positions of the current substep (scratch).
+    /// XPBD's displacements of the current substep (scratch, see `Split`).
     predicted: Soa,
     /// The springs grouped for the explicit integrators' vector force kernel (empty for the others).
     pub(super) force_runs: ForceRuns,
@@ -852,13 +852,19 @@ impl ClothSim {
             self.sleep.quiet_steps = 0;
             return;
         }
-        let limit = (threshold * dt).powi(2);
+        let limit = threshold * dt;
+        // Far from the origin f32 cannot hold a cloth's springs at their rest lengths, and a
+        // cloth at rest there jitters by a few of its positions' representable steps: that much
+        // movement counts as quiet too.
         let quiet = self
             .positions
             .iter()
             .zip(&self.step_start)
             .zip(&self.inv_mass)
-            .all(|((x, x0), w)| *w == 0.0 || x.distance_squared(*x0) < limit);
+            .all(|((x, x0), w)| {
+                let jitter = 4.0 * f32::EPSILON * x0.abs().max_element();
+                *w == 0.0 || x.distance_squared(*x0) < (limit + jitter).powi(2)
+            });
         self.sleep.quiet_steps = if quiet { self.sleep.quiet_steps + 1 } else { 0 };
         if self.sleep.quiet_steps >= self.settings.sleep_steps {
             self.sleep.asleep = true;
@@ -951,14 +957,15 @@ impl ClothSim {
         self.load_soa_state();
         for sub in 0..n {
             self.begin_soa_substep();
-            // Integrate every particle (symplectic Euler) without constraints; pinned ones are then
-            // overwritten by their targets. Wind forces are held over the step (see `wind.rs`).
+            // Integrate every particle (symplectic Euler) without constraints, as a displacement
+            // from where it is; pinned ones are then given the displacement to their targets.
+            // Wind forces are held over the step (see `wind.rs`).
             let wind = self.wind.active.then(|| self.wind.particle_forces());
-            let (x, v) = (&mut self.soa, &mut self.velocity_soa);
-            for (c, (x, v)) in [
-                (&mut x.x, &mut v.x),
-                (&mut x.y, &mut v.y),
-                (&mut x.z, &mut v.z),
+            let (delta, v) = (&mut self.predicted, &mut self.velocity_soa);
+            for (c, (delta, v)) in [
+                (&mut delta.x, &mut v.x),
+                (&mut delta.y, &mut v.y),
+                (&mut delta.z, &mut v.z),
             ]
             .into_iter()
             .enumerate()
@@ -966,33 +973,34 @@ impl ClothSim {
                 let dv = gravity_dv[c];
                 match wind {
                     Some(forces) => {
-                        for ((x, v), (f, w)) in x
+                        for ((d, v), (f, w)) in delta
                             .iter_mut()
                             .zip(v.iter_mut())
                             .zip(forces.iter().zip(&self.inv_mass))
                         {
                             *v = (*v + dv + f[c] * (*w * h)) * keep;
-                            *x += *v * h;
+                            *d = *v * h;
                         }
                     }
                     None => {
-                        for (x, v) in x.iter_mut().zip(v.iter_mut()) {
+                        for (d, v) in delta.iter_mut().zip(v.iter_mut()) {
                             *v = (*v + dv) * keep;
-                            *x += *v * h;
+                            *d = *v * h;
                         }
                     }
                 }
             }
-            // Pinned particles move to their interpolated target, at the velocity that takes them there.
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-            self.drive_soa_pins(t0, t1, inv_h);
-            for (predicted, x) in [
-                (&mut self.predicted.x, &self.soa.x),
-                (&mut self.predicted.y, &self.soa.y),
-                (&mut self.predicted.z, &self.soa.z),
-            ] {
-                predicted.copy_from_slice(x);
+            for pin in &self.pins {
+                let i = pin.particle as usize;
+                let (target, _) = pin_motion(pin, t0, t1, inv_h);
+                let start = Vec3::new(self.soa.x[i], self.soa.y[i], self.soa.z[i]);
+                self.predicted.set(i, target - start);
             }
+            let mut x = Split {
+                start: &self.soa,
+                delta: &mut self.predicted,
+            };
             let springs = &self.model.springs;
             if self.settings.iterations == 1 {
                 // λ starts at 0 each substep, so one iteration needs no multiplier storage.
@@ -1001,7 +1009,7 @@ impl ClothSim {
                     &self.compliance,
                     &mut self.lambda,
                     &self.inv_mass,
-                    &mut self.soa,
+                    &mut x,
                     inv_h2,
                 );
             } else {
@@ -1012,28 +1020,42 @@ impl ClothSim {
                         &self.compliance,
                         &mut self.lambda,
                         &self.inv_mass,
-                        &mut self.soa,
+                        &mut x,
                         inv_h2,
                     );
                 }
             }
-            // v = (x - x_start) / h, computed as v + (constraint correction) / h: the free-flight
-            // part stays exact even far from the origin, where x - x_start would cancel in f32.
-            for (v, (x, predicted)) in [
-                (&mut self.velocity_soa.x, (&self.soa.x, &self.predicted.x)),
-                (&mut self.velocity_soa.y, (&self.soa.y, &self.predicted.y)),
-                (&mut self.velocity_soa.z, (&self.soa.z, &self.predicted.z)),
+            // v = Δx / h from the displacement itself, which holds every correction in full
+            // (added to the position, corrections below its f32 resolution would vanish, and the
+            // lost ones bias the dynamics: a cloth can gain energy). The position is rounded once.
+            let (v, x, d) = (&mut self.velocity_soa, &mut self.soa, &self.predicted);
+            for (v, (x, d)) in [
+                (&mut v.x, (&mut x.x, &d.x)),
+                (&mut v.y, (&mut x.y, &d.y)),
+                (&mut v.z, (&mut x.z, &d.z)),
             ] {
-                for (v, (x, p)) in v.iter_mut().zip(x.iter().zip(predicted)) {
-                    *v += (*x - *p) * inv_h;
+                for (v, (x, d)) in v.iter_mut().zip(x.iter_mut().zip(d)) {
+                    *v = *d * inv_h;
+                    *x += *d;
                 }
             }
+            // Pinned particles end on their targets, at the velocity that takes them there.
+            self.drive_soa_pins(t0, t1, inv_h);
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `collision.rs`).
             self.resolve_soa_contacts(sub, n, h);
         }
         self.store_soa_state();
     }
+}
+
+/// Positions during XPBD's projection: where each particle began the substep, and its
+/// displacement since. The corrections accumulate in the small displacements rather than in the
+/// large positions, so that f32 keeps them (added to a position of about 1 m, a correction below
+/// 1e-7 m would vanish, and the velocity `Δx / h` with it).
+pub(super) struct Split<'a> {
+    start: &'a Soa,
+    delta: &'a mut Soa,
 }
 
 /// Springs solved together in the vector kernel. Within one colour no two springs share a
@@ -1057,7 +1079,7 @@ fn solve_springs<const ACCUMULATE: bool>(
     compliance: &[f32],
     lambda: &mut [f32],
     inv_mass: &[f32],
-    x: &mut Soa,
+    x: &mut Split<'_>,
     inv_h2: f32,
 ) {
     #[cfg(target_arch = "x86_64")]
@@ -1080,7 +1102,7 @@ fn solve_springs_avx2<const ACCUMULATE: bool>(
     compliance: &[f32],
     lambda: &mut [f32],
     inv_mass: &[f32],
-    x: &mut Soa,
+    x: &mut Split<'_>,
     inv_h2: f32,
 ) {
     solve_springs_body::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2);
@@ -1111,7 +1133,7 @@ fn solve_springs_body<const ACCUMULATE: bool>(
     compliance: &[f32],
     lambda: &mut [f32],
     inv_mass: &[f32],
-    x: &mut Soa,
+    x: &mut Split<'_>,
     inv_h2: f32,
 ) {
     let rest = &springs.rest;
@@ -1165,18 +1187,24 @@ fn solve_springs_body<const ACCUMULATE: bool>(
     }
 }
 
-/// The lane-wise XPBD update of `N` independent springs: `p[0..3]` are the first ends' x, y, z,
-/// `p[3..6]` the second ends', moved in place.
+/// The lane-wise XPBD update of `N` independent springs: `s[0..3]` are the first ends' x, y, z
+/// at the start of the substep and `s[3..6]` the second ends', `d` their displacements since,
+/// which the update moves.
 #[inline(always)]
 fn project<const ACCUMULATE: bool, const N: usize>(
-    p: &mut [[f32; N]; 6],
+    s: &[[f32; N]; 6],
+    d: &mut [[f32; N]; 6],
     wa: &[f32; N],
     wb: &[f32; N],
     batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
     for l in 0..N {
-        let (dx, dy, dz) = (p[0][l] - p[3][l], p[1][l] - p[4][l], p[2][l] - p[5][l]);
+        // The start vectors and the displacements are differenced separately, so that the
+        // small displacements keep their precision.
+        let dx = (s[0][l] - s[3][l]) + (d[0][l] - d[3][l]);
+        let dy = (s[1][l] - s[4][l]) + (d[1][l] - d[4][l]);
+        let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
         let len2 = dx * dx + dy * dy + dz * dz;
         let lam = if ACCUMULATE { batch.lambda[l] } else { 0.0 };
         let alpha = batch.compliance[l] * inv_h2;
@@ -1189,12 +1217,12 @@ fn project<const ACCUMULATE: bool, const N: usize>(
             batch.lambda[l] = lam + scale * len;
         }
         let (sa, sb) = (scale * wa[l], scale * wb[l]);
-        p[0][l] += dx * sa;
-        p[1][l] += dy * sa;
-        p[2][l] += dz * sa;
-        p[3][l] -= dx * sb;
-        p[4][l] -= dy * sb;
-        p[5][l] -= dz * sb;
+        d[0][l] += dx * sa;
+        d[1][l] += dy * sa;
+        d[2][l] += dz * sa;
+        d[3][l] -= dx * sb;
+        d[4][l] -= dy * sb;
+        d[5][l] -= dz * sb;
     }
 }
 
@@ -1218,26 +1246,38 @@ fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
 /// Springs joining particles `ia..ia + 8` to `ib..ib + 8`.
 #[inline(always)]
 fn solve_contiguous<const ACCUMULATE: bool>(
-    x: &mut Soa,
+    x: &mut Split<'_>,
     inv_mass: &[f32],
     ia: usize,
     ib: usize,
     batch: Batch<'_, LANES>,
     inv_h2: f32,
 ) {
-    let mut p = [
-        load(&x.x, ia),
-        load(&x.y, ia),
-        load(&x.z, ia),
-        load(&x.x, ib),
-        load(&x.y, ib),
-        load(&x.z, ib),
+    let (start, delta) = (x.start, &mut *x.delta);
+    let s = [
+        load(&start.x, ia),
+        load(&start.y, ia),
+        load(&start.z, ia),
+        load(&start.x, ib),
+        load(&start.y, ib),
+        load(&start.z, ib),
+    ];
+    let mut d = [
+        load(&delta.x, ia),
+        load(&delta.y, ia),
+        load(&delta.z, ia),
+        load(&delta.x, ib),
+        load(&delta.y, ib),
+        load(&delta.z, ib),
     ];
     let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
-    project::<ACCUMULATE, LANES>(&mut p, &wa, &wb, batch, inv_h2);
-    for (c, coord) in [&mut x.x, &mut x.y, &mut x.z].into_iter().enumerate() {
-        store(coord, ia, &p[c]);
-        store(coord, ib, &p[c + 3]);
+    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
+    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
+        .into_iter()
+        .enumerate()
+    {
+        store(coord, ia, &d[c]);
+        store(coord, ib, &d[c + 3]);
     }
 }
 
@@ -1249,34 +1289,41 @@ const fn lane_a<const D: usize>(l: usize) -> usize {
 /// Eight springs over the 16 particles `window..window + 16` (see `RunLayout::Interleaved`).
 #[inline(always)]
 fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
-    x: &mut Soa,
+    x: &mut Split<'_>,
     inv_mass: &[f32],
     window: usize,
     batch: Batch<'_, LANES>,
     inv_h2: f32,
 ) {
-    let win: [[f32; 16]; 4] = [
-        load(&x.x, window),
-        load(&x.y, window),
-        load(&x.z, window),
+    let (start, delta) = (x.start, &mut *x.delta);
+    let win: [[f32; 16]; 7] = [
+        load(&start.x, window),
+        load(&start.y, window),
+        load(&start.z, window),
+        load(&delta.x, window),
+        load(&delta.y, window),
+        load(&delta.z, window),
         load(inv_mass, window),
     ];
-    let mut p = [[0.0f32; LANES]; 6];
+    let (mut s, mut d) = ([[0.0f32; LANES]; 6], [[0.0f32; LANES]; 6]);
     let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
     for l in 0..LANES {
         let (a, b) = (lane_a::<D>(l), lane_a::<D>(l) + D);
         for c in 0..3 {
-            p[c][l] = win[c][a];
-            p[c + 3][l] = win[c][b];
+            (s[c][l], s[c + 3][l]) = (win[c][a], win[c][b]);
+            (d[c][l], d[c + 3][l]) = (win[c + 3][a], win[c + 3][b]);
         }
-        (wa[l], wb[l]) = (win[3][a], win[3][b]);
+        (wa[l], wb[l]) = (win[6][a], win[6][b]);
     }
-    project::<ACCUMULATE, LANES>(&mut p, &wa, &wb, batch, inv_h2);
-    for (c, coord) in [&mut x.x, &mut x.y, &mut x.z].into_iter().enumerate() {
+    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
+    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
+        .into_iter()
+        .enumerate()
+    {
         let mut out = [0.0f32; 16];
         for l in 0..LANES {
-            out[lane_a::<D>(l)] = p[c][l];
-            out[lane_a::<D>(l) + D] = p[c + 3][l];
+            out[lane_a::<D>(l)] = d[c][l];
+            out[lane_a::<D>(l) + D] = d[c + 3][l];
         }
         store(coord, window, &out);
     }
@@ -1285,27 +1332,29 @@ fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
 /// Springs `k..k + N` of one colour at arbitrary particles: gather, project, scatter.
 #[inline(always)]
 fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
-    s: &Springs,
-    x: &mut Soa,
+    springs: &Springs,
+    x: &mut Split<'_>,
     inv_mass: &[f32],
     k: usize,
     batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
-    let (a, b) = (&s.a[k..k + N], &s.b[k..k + N]);
-    let mut p = [[0.0f32; N]; 6];
+    let (start, delta) = (x.start, &mut *x.delta);
+    let (a, b) = (&springs.a[k..k + N], &springs.b[k..k + N]);
+    let (mut s, mut d) = ([[0.0f32; N]; 6], [[0.0f32; N]; 6]);
     let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
     for l in 0..N {
-        let (ia, ib) = (a[l] as usize, b[l] as usize);
-        (p[0][l], p[1][l], p[2][l]) = (x.x[ia], x.y[ia], x.z[ia]);
-        (p[3][l], p[4][l], p[5][l]) = (x.x[ib], x.y[ib], x.z[ib]);
-        (wa[l], wb[l]) = (inv_mass[ia], inv_mass[ib]);
+        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
+            (s[e][l], s[e + 1][l], s[e + 2][l]) = (start.x[i], start.y[i], start.z[i]);
+            (d[e][l], d[e + 1][l], d[e + 2][l]) = (delta.x[i], delta.y[i], delta.z[i]);
+        }
+        (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
     }
-    project::<ACCUMULATE, N>(&mut p, &wa, &wb, batch, inv_h2);
+    project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2);
     for l in 0..N {
-        let (ia, ib) = (a[l] as usize, b[l] as usize);
-        (x.x[ia], x.y[ia], x.z[ia]) = (p[0][l], p[1][l], p[2][l]);
-        (x.x[ib], x.y[ib], x.z[ib]) = (p[3][l], p[4][l], p[5][l]);
+        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
+            (delta.x[i], delta.y[i], delta.z[i]) = (d[e][l], d[e + 1][l], d[e + 2][l]);
+        }
     }
 }
 
