@@ -327,7 +327,7 @@ pub struct ClothSim {
     /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
     /// XPBD's displacements of the current substep (scratch, see `Split`).
-    predicted: Soa,
+    displacement: Soa,
     /// The springs grouped for the explicit integrators' vector force kernel (empty for the others).
     pub(super) force_runs: ForceRuns,
     /// Linearised springs and conjugate-gradient vectors of implicit Euler; empty for the others.
@@ -442,7 +442,7 @@ impl ClothSim {
             forces: vec![Vec3::ZERO; n],
             force_sums: Soa::default(),
             velocity_soa: Soa::new(n),
-            predicted: Soa::new(n),
+            displacement: Soa::new(n),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
@@ -961,7 +961,7 @@ impl ClothSim {
             // from where it is; pinned ones are then given the displacement to their targets.
             // Wind forces are held over the step (see `wind.rs`).
             let wind = self.wind.active.then(|| self.wind.particle_forces());
-            let (delta, v) = (&mut self.predicted, &mut self.velocity_soa);
+            let (delta, v) = (&mut self.displacement, &mut self.velocity_soa);
             for (c, (delta, v)) in [
                 (&mut delta.x, &mut v.x),
                 (&mut delta.y, &mut v.y),
@@ -995,11 +995,11 @@ impl ClothSim {
                 let i = pin.particle as usize;
                 let (target, _) = pin_motion(pin, t0, t1, inv_h);
                 let start = Vec3::new(self.soa.x[i], self.soa.y[i], self.soa.z[i]);
-                self.predicted.set(i, target - start);
+                self.displacement.set(i, target - start);
             }
             let mut x = Split {
                 start: &self.soa,
-                delta: &mut self.predicted,
+                delta: &mut self.displacement,
             };
             let springs = &self.model.springs;
             if self.settings.iterations == 1 {
@@ -1028,7 +1028,7 @@ impl ClothSim {
             // v = Δx / h from the displacement itself, which holds every correction in full
             // (added to the position, corrections below its f32 resolution would vanish, and the
             // lost ones bias the dynamics: a cloth can gain energy). The position is rounded once.
-            let (v, x, d) = (&mut self.velocity_soa, &mut self.soa, &self.predicted);
+            let (v, x, d) = (&mut self.velocity_soa, &mut self.soa, &self.displacement);
             for (v, (x, d)) in [
                 (&mut v.x, (&mut x.x, &d.x)),
                 (&mut v.y, (&mut x.y, &d.y)),
