@@ -994,8 +994,7 @@ impl ClothSim {
             for pin in &self.pins {
                 let i = pin.particle as usize;
                 let (target, _) = pin_motion(pin, t0, t1, inv_h);
-                let start = Vec3::new(self.soa.x[i], self.soa.y[i], self.soa.z[i]);
-                self.displacement.set(i, target - start);
+                self.displacement.set(i, target - self.soa.get(i));
             }
             let mut x = Split {
                 start: &self.soa,
@@ -1253,23 +1252,19 @@ fn solve_contiguous<const ACCUMULATE: bool>(
     batch: Batch<'_, LANES>,
     inv_h2: f32,
 ) {
-    let (start, delta) = (x.start, &mut *x.delta);
-    let s = [
-        load(&start.x, ia),
-        load(&start.y, ia),
-        load(&start.z, ia),
-        load(&start.x, ib),
-        load(&start.y, ib),
-        load(&start.z, ib),
-    ];
-    let mut d = [
-        load(&delta.x, ia),
-        load(&delta.y, ia),
-        load(&delta.z, ia),
-        load(&delta.x, ib),
-        load(&delta.y, ib),
-        load(&delta.z, ib),
-    ];
+    // The x, y, z of particles `ia..ia + 8`, then of `ib..ib + 8`.
+    let ends = |v: &Soa| {
+        [
+            load(&v.x, ia),
+            load(&v.y, ia),
+            load(&v.z, ia),
+            load(&v.x, ib),
+            load(&v.y, ib),
+            load(&v.z, ib),
+        ]
+    };
+    let (s, mut d) = (ends(x.start), ends(x.delta));
+    let delta = &mut *x.delta;
     let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
     project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
     for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]

@@ -11,10 +11,11 @@
 //! A case fails if stepping panics, a value becomes non-finite without a typed error, a free
 //! particle ends a step inside a collider by more than [`CLEARANCE_TOLERANCE`], a pinned particle
 //! is off its target, the energy grows without an outside source, or (with an outside source) the
-//! kinetic energy exceeds the whole cloth moving at eight times every driving speed added up plus
-//! the energy the contact responses measurably added (a runaway check). An explicit integrator that reports [`ClothError::Unstable`] or
-//! [`ClothError::Diverged`] past its stability bound `h ω_max ≥ 2` is not a failure: that is the
-//! detection working, and the case records where the limit lies.
+//! kinetic energy exceeds the whole cloth moving at eight times every driving speed added up
+//! (times a symplectic integrator's kinetic-energy inflation) plus the energy the contact responses
+//! measurably added (a runaway check). An explicit integrator that reports
+//! [`ClothError::Unstable`] or [`ClothError::Diverged`] past its stability bound `h ω_max ≥ 2` is
+//! not a failure: that is the detection working, and the case records where the limit lies.
 
 use std::f32::consts::TAU;
 use std::panic::{AssertUnwindSafe, catch_unwind};
