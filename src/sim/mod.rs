@@ -17,14 +17,15 @@ pub mod scenes;
 mod solver;
 pub mod stress;
 pub mod wind;
+mod xpbd;
 
 pub use aero::{AeroParams, Gusts};
 pub use collision::{Collider, ColliderShape, Friction, Pose};
 pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use implicit::CG_TOLERANCE;
 pub use model::{
-    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, RunLayout,
-    SpringKind, SpringRun, Springs, SubdividedModel, compute_normals,
+    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, SpringKind, Springs,
+    SubdividedModel, compute_normals,
 };
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{

@@ -146,92 +146,6 @@ pub struct Springs {
     pub kind: Vec<SpringKind>,
     /// Springs of colour `c` are `color_offsets[c]..color_offsets[c + 1]`.
     pub color_offsets: Vec<u32>,
-    /// The springs again, colour by colour, as runs that the XPBD kernel can load with whole
-    /// vector loads where the particle indices allow it (see [`SpringRun`]).
-    pub runs: Vec<SpringRun>,
-}
-
-/// How the particles of a [`SpringRun`] are laid out in memory.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RunLayout {
-    /// Spring `start + k` joins particles `a[start] + k` and `b[start] + k`: two contiguous blocks.
-    Contiguous,
-    /// Groups of eight springs over windows of 16 consecutive particles, with `d = 1` or `2`:
-    /// in the window starting at `a[start + 8q]`, lane `l` joins particle `2d⌊l/d⌋ + l mod d` of
-    /// the window to the one `d` places further (rows of a grid: `d = 1` for structural springs,
-    /// `d = 2` for bend springs).
-    Interleaved(u8),
-    /// Any particles, gathered one by one.
-    Scattered,
-}
-
-/// A stretch of springs of one colour, `start..start + len` in the spring arrays.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SpringRun {
-    /// How the run's particles are laid out.
-    pub layout: RunLayout,
-    /// First spring.
-    pub start: u32,
-    /// Number of springs (a multiple of 8 for [`RunLayout::Interleaved`]).
-    pub len: u32,
-}
-
-/// In a [`RunLayout::Interleaved`] run with index offset `d`, the position of spring `m`'s first
-/// particle relative to the run's first (lane `m mod 8` of window `m / 8`; windows are 16 apart).
-pub(crate) const fn interleaved_offset(d: usize, m: usize) -> usize {
-    2 * d * (m / d) + m % d
-}
-
-/// Shortest run worth a vector kernel; shorter stretches are gathered.
-const MIN_RUN: usize = 8;
-
-/// Splits the springs `start..end` of one colour (sorted by index offset, then first particle)
-/// into runs.
-fn find_runs(a: &[u32], b: &[u32], start: usize, end: usize, runs: &mut Vec<SpringRun>) {
-    let mut scattered = start;
-    let mut i = start;
-    let push = |runs: &mut Vec<SpringRun>, layout, from: usize, to: usize| {
-        if to > from {
-            runs.push(SpringRun {
-                layout,
-                start: from as u32,
-                len: (to - from) as u32,
-            });
-        }
-    };
-    while i < end {
-        let contiguous = (i..end)
-            .take_while(|&k| a[k] == a[i] + (k - i) as u32 && b[k] == b[i] + (k - i) as u32)
-            .count();
-        let found = if contiguous >= MIN_RUN {
-            Some((RunLayout::Contiguous, contiguous))
-        } else {
-            let d = b[i] - a[i];
-            let interleaved = if d == 1 || d == 2 {
-                (i..end)
-                    .take_while(|&k| {
-                        let m = interleaved_offset(d as usize, k - i) as u32;
-                        a[k] == a[i] + m && b[k] == a[k] + d
-                    })
-                    .count()
-                    / MIN_RUN
-                    * MIN_RUN
-            } else {
-                0
-            };
-            (interleaved > 0).then_some((RunLayout::Interleaved(d as u8), interleaved))
-        };
-        match found {
-            Some((layout, len)) => {
-                push(runs, RunLayout::Scattered, scattered, i);
-                push(runs, layout, i, i + len);
-                i += len;
-                scattered = i;
-            }
-            None => i += 1,
-        }
-    }
-    push(runs, RunLayout::Scattered, scattered, end);
 }
 
 impl Springs {
@@ -259,56 +173,6 @@ impl Springs {
         n
     }
 
-    /// Checks that [`runs`](Self::runs) tile the springs in order without crossing a colour, and
-    /// that every run's [`RunLayout`] describes its springs' particles exactly (the XPBD kernel
-    /// relies on it). The message names the first bad run.
-    pub fn check_runs(&self) -> Result<(), String> {
-        let mut next = 0;
-        for (r, run) in self.runs.iter().enumerate() {
-            let (start, len) = (run.start as usize, run.len as usize);
-            if run.start != next || start + len > self.len() {
-                return Err(format!(
-                    "spring run {r} ({start}..{}) does not continue the runs before it",
-                    start + len
-                ));
-            }
-            let color = self.color_offsets.partition_point(|&o| o as usize <= start);
-            if color == 0 || start + len > self.color_offsets[color] as usize {
-                return Err(format!("spring run {r} crosses a colour boundary"));
-            }
-            let fits = (0..len).all(|m| {
-                let (a, b) = (self.a[start + m], self.b[start + m]);
-                match run.layout {
-                    RunLayout::Contiguous => {
-                        (a, b) == (self.a[start] + m as u32, self.b[start] + m as u32)
-                    }
-                    RunLayout::Interleaved(d) => {
-                        let window = self.a[start + m / 8 * 8];
-                        len % 8 == 0
-                            && (d == 1 || d == 2)
-                            && a == window + interleaved_offset(d as usize, m % 8) as u32
-                            && b == a + d as u32
-                    }
-                    RunLayout::Scattered => true,
-                }
-            });
-            if !fits {
-                return Err(format!(
-                    "spring run {r} does not have the {:?} layout it claims",
-                    run.layout
-                ));
-            }
-            next += run.len;
-        }
-        if next as usize != self.len() {
-            return Err(format!(
-                "spring runs cover {next} of {} springs",
-                self.len()
-            ));
-        }
-        Ok(())
-    }
-
     /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`,
     /// with a greedy edge colouring. Springs of zero rest length are dropped (they cannot define a
     /// direction).
@@ -319,7 +183,7 @@ impl Springs {
 
     /// [`Self::build`] with a given colour per spring (no two springs of a colour may share a
     /// particle). Within a colour, springs are ordered by index offset `b - a` and then by `a`, so
-    /// that regular topology (grid rows) forms long [`SpringRun`]s.
+    /// that regular topology (grid rows) forms long runs for the XPBD kernel.
     fn build_colored(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> Self {
         debug_assert!(is_proper_edge_coloring(positions.len(), pairs, colors));
         let pairs: Vec<(u32, u32, SpringKind, f32, u32)> = pairs
@@ -349,7 +213,6 @@ impl Springs {
             rest: Vec::with_capacity(pairs.len()),
             kind: Vec::with_capacity(pairs.len()),
             color_offsets: vec![0; color_count + 1],
-            runs: Vec::new(),
         };
         for &s in &order {
             let (a, b, k, r, c) = pairs[s];
@@ -361,16 +224,6 @@ impl Springs {
         }
         for c in 0..color_count {
             springs.color_offsets[c + 1] += springs.color_offsets[c];
-        }
-        for c in 0..color_count {
-            let (start, end) = (springs.color_offsets[c], springs.color_offsets[c + 1]);
-            find_runs(
-                &springs.a,
-                &springs.b,
-                start as usize,
-                end as usize,
-                &mut springs.runs,
-            );
         }
         springs
     }
@@ -799,7 +652,7 @@ impl ClothModel {
                 }
             }
         }
-        s.check_runs().or_else(bad)
+        Ok(())
     }
 
     /// Builds a cloth of explicit springs and no faces, one particle per position: a chain, a
@@ -1187,36 +1040,6 @@ mod tests {
         }
         assert_eq!(*s.color_offsets.last().unwrap() as usize, s.len());
         assert!(s.color_count() <= 23, "{} colours", s.color_count());
-    }
-
-    /// Checks the runs and returns the number of scattered springs.
-    fn check_runs(s: &Springs) -> usize {
-        s.check_runs().unwrap();
-        s.runs
-            .iter()
-            .filter(|r| r.layout == RunLayout::Scattered)
-            .map(|r| r.len as usize)
-            .sum()
-    }
-
-    #[test]
-    fn grid_springs_form_vector_runs() {
-        let s = ClothModel::grid(&GridSpec::new(64, 64, 0.1))
-            .unwrap()
-            .springs;
-        assert_eq!(s.color_count(), 12);
-        let scattered = check_runs(&s);
-        // Only the tails of the diagonal rows (63 springs = 7 × 8 + 7) are gathered.
-        assert!(
-            scattered * 20 < s.len(),
-            "{scattered} of {} scattered",
-            s.len()
-        );
-        // Odd sizes break the row patterns but never the tiling.
-        check_runs(&ClothModel::grid(&GridSpec::new(9, 7, 0.1)).unwrap().springs);
-        let quad = [0, 1, 2, 3];
-        let p = [Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
-        check_runs(&ClothModel::from_mesh(&p, None, &quad, 4).unwrap().springs);
     }
 
     #[test]

@@ -1,8 +1,7 @@
 //! The time stepper: particle state in structure-of-arrays form, pins, the [`Integrator`] choice and
-//! its dispatch, and the XPBD solver with substeps (Macklin et al. 2016, "XPBD"; Macklin et al. 2019,
-//! "Small Steps in Physics Simulation"). The force-based integrators live in `explicit.rs`
-//! (symplectic Euler, Verlet) and `implicit.rs` (Baraff & Witkin implicit Euler), on the shared
-//! spring-force kernel of `forces.rs`.
+//! its dispatch. The integrators live beside it: XPBD in `xpbd.rs`, symplectic Euler and Verlet in
+//! `explicit.rs` and Baraff & Witkin implicit Euler in `implicit.rs`, the force-based ones on the
+//! shared spring-force kernel of `forces.rs`.
 //!
 //! Plain data in, plain data out: no ECS types, no allocation inside [`ClothSim::step`]. Every buffer a
 //! step touches is sized when the cloth is built (or when pins or settings change).
@@ -14,9 +13,10 @@ use serde::{Deserialize, Serialize};
 use super::collision::{Collider, Contacts, bounds};
 use super::forces::{ForceRuns, Soa, SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
-use super::model::{ClothModel, RunLayout, SpringKind, Springs, interleaved_offset};
+use super::model::{ClothModel, SpringKind};
 use super::wind::{WindField, WindScratch};
-use super::{explicit, implicit};
+use super::xpbd::Projections;
+use super::{explicit, implicit, xpbd};
 use crate::error::{ClothError, count_in, non_negative, positive};
 
 /// Largest number of substeps per frame accepted by [`SolverSettings::validate`].
@@ -314,10 +314,6 @@ pub struct ClothSim {
     pub(super) inv_mass: Vec<f32>,
     /// Per-spring stiffness `k` (N/m).
     pub(super) stiffness: Vec<f32>,
-    /// Per-spring compliance `1/k` (m/N).
-    pub(super) compliance: Vec<f32>,
-    /// Per-spring Lagrange multipliers of the current substep.
-    pub(super) lambda: Vec<f32>,
     /// Force accumulator of implicit Euler (scratch).
     pub(super) forces: Vec<Vec3>,
     /// All forces of the explicit integrators, one array per coordinate (scratch; empty for the
@@ -326,8 +322,10 @@ pub struct ClothSim {
     /// Velocities during a step, one array per coordinate (scratch; see
     /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
-    /// XPBD's displacements of the current substep (scratch, see `Split`).
-    displacement: Soa,
+    /// XPBD's displacements of the current substep (scratch, see `xpbd::Split`).
+    pub(super) displacement: Soa,
+    /// The springs laid out for XPBD's vector kernel (empty for the other integrators).
+    pub(super) projections: Projections,
     /// The springs grouped for the explicit integrators' vector force kernel (empty for the others).
     pub(super) force_runs: ForceRuns,
     /// Linearised springs and conjugate-gradient vectors of implicit Euler; empty for the others.
@@ -437,12 +435,11 @@ impl ClothSim {
             mass: vec![0.0; n],
             inv_mass: vec![0.0; n],
             stiffness: vec![0.0; springs],
-            compliance: vec![0.0; springs],
-            lambda: vec![0.0; springs],
             forces: vec![Vec3::ZERO; n],
             force_sums: Soa::default(),
             velocity_soa: Soa::new(n),
             displacement: Soa::new(n),
+            projections: Projections::default(),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
@@ -524,15 +521,8 @@ impl ClothSim {
     /// Runs at construction and on edits, never inside a step.
     fn apply_settings(&mut self) {
         let s = &self.model.springs;
-        for ((c, k), kind) in self
-            .compliance
-            .iter_mut()
-            .zip(self.stiffness.iter_mut())
-            .zip(&s.kind)
-        {
+        for (k, kind) in self.stiffness.iter_mut().zip(&s.kind) {
             *k = self.settings.stiffness.of(*kind);
-            // A zero stiffness becomes a huge (finite) compliance: the spring does nothing.
-            *c = 1.0 / k.max(1e-6);
         }
         for (i, (m, w)) in self.mass.iter_mut().zip(&mut self.inv_mass).enumerate() {
             *m = self.model.mass_of(i, self.settings.particle_mass);
@@ -554,6 +544,12 @@ impl ClothSim {
                 self.force_sums = Soa::new(self.positions.len());
             }
             self.force_runs.set_stiffness(&s.rest, &self.stiffness);
+        }
+        if self.settings.integrator == Integrator::Xpbd {
+            if !self.projections.fits(s.len()) {
+                self.projections = Projections::new(s, self.positions.len());
+            }
+            self.projections.set_compliance(&s.rest, &self.stiffness);
         }
     }
 
@@ -767,7 +763,7 @@ impl ClothSim {
             &self.model.triangles,
         );
         match self.settings.integrator {
-            Integrator::Xpbd => self.step_xpbd(dt, substeps),
+            Integrator::Xpbd => xpbd::step_xpbd(self, dt, substeps),
             Integrator::SymplecticEuler => explicit::step_symplectic_euler(self, dt, substeps),
             Integrator::Verlet => explicit::step_verlet(self, dt, substeps),
             Integrator::ImplicitEuler => implicit::step_implicit_euler(self, dt, substeps),
@@ -945,410 +941,6 @@ impl ClothSim {
             let (target, velocity) = pin_motion(pin, t0, t1, inv_h);
             self.soa.set(pin.particle as usize, target);
             self.velocity_soa.set(pin.particle as usize, velocity);
-        }
-    }
-
-    fn step_xpbd(&mut self, dt: f32, n: u32) {
-        let h = dt / n as f32;
-        let inv_h = 1.0 / h;
-        let inv_h2 = inv_h * inv_h;
-        let gravity_dv = self.settings.gravity * h;
-        let keep = (-self.settings.damping * h).exp();
-        self.load_soa_state();
-        for sub in 0..n {
-            self.begin_soa_substep();
-            // Integrate every particle (symplectic Euler) without constraints, as a displacement
-            // from where it is; pinned ones are then given the displacement to their targets.
-            // Wind forces are held over the step (see `wind.rs`).
-            let wind = self.wind.active.then(|| self.wind.particle_forces());
-            let (delta, v) = (&mut self.displacement, &mut self.velocity_soa);
-            for (c, (delta, v)) in [
-                (&mut delta.x, &mut v.x),
-                (&mut delta.y, &mut v.y),
-                (&mut delta.z, &mut v.z),
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                let dv = gravity_dv[c];
-                match wind {
-                    Some(forces) => {
-                        for ((d, v), (f, w)) in delta
-                            .iter_mut()
-                            .zip(v.iter_mut())
-                            .zip(forces.iter().zip(&self.inv_mass))
-                        {
-                            *v = (*v + dv + f[c] * (*w * h)) * keep;
-                            *d = *v * h;
-                        }
-                    }
-                    None => {
-                        for (d, v) in delta.iter_mut().zip(v.iter_mut()) {
-                            *v = (*v + dv) * keep;
-                            *d = *v * h;
-                        }
-                    }
-                }
-            }
-            let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-            for pin in &self.pins {
-                let i = pin.particle as usize;
-                let (target, _) = pin_motion(pin, t0, t1, inv_h);
-                self.displacement.set(i, target - self.soa.get(i));
-            }
-            let mut x = Split {
-                start: &self.soa,
-                delta: &mut self.displacement,
-            };
-            let springs = &self.model.springs;
-            if self.settings.iterations == 1 {
-                // λ starts at 0 each substep, so one iteration needs no multiplier storage.
-                solve_springs::<false>(
-                    springs,
-                    &self.compliance,
-                    &mut self.lambda,
-                    &self.inv_mass,
-                    &mut x,
-                    inv_h2,
-                );
-            } else {
-                self.lambda.fill(0.0);
-                for _ in 0..self.settings.iterations {
-                    solve_springs::<true>(
-                        springs,
-                        &self.compliance,
-                        &mut self.lambda,
-                        &self.inv_mass,
-                        &mut x,
-                        inv_h2,
-                    );
-                }
-            }
-            // v = Δx / h from the displacement itself, which holds every correction in full
-            // (added to the position, corrections below its f32 resolution would vanish, and the
-            // lost ones bias the dynamics: a cloth can gain energy). The position is rounded once.
-            let (v, x, d) = (&mut self.velocity_soa, &mut self.soa, &self.displacement);
-            for (v, (x, d)) in [
-                (&mut v.x, (&mut x.x, &d.x)),
-                (&mut v.y, (&mut x.y, &d.y)),
-                (&mut v.z, (&mut x.z, &d.z)),
-            ] {
-                for (v, (x, d)) in v.iter_mut().zip(x.iter_mut().zip(d)) {
-                    *v = *d * inv_h;
-                    *x += *d;
-                }
-            }
-            // Pinned particles end on their targets, at the velocity that takes them there.
-            self.drive_soa_pins(t0, t1, inv_h);
-            // Contacts last, so every substep ends outside the colliders; their push-out is not
-            // turned into velocity (see `collision.rs`).
-            self.resolve_soa_contacts(sub, n, h);
-        }
-        self.store_soa_state();
-    }
-}
-
-/// Positions during XPBD's projection: where each particle began the substep, and its
-/// displacement since. The corrections accumulate in the small displacements rather than in the
-/// large positions, so that f32 keeps them (added to a position of about 1 m, a correction below
-/// 1e-7 m would vanish, and the velocity `Δx / h` with it).
-pub(super) struct Split<'a> {
-    start: &'a Soa,
-    delta: &'a mut Soa,
-}
-
-/// Springs solved together in the vector kernel. Within one colour no two springs share a
-/// particle, so a batch gives exactly the sequential Gauss-Seidel result.
-const LANES: usize = 8;
-
-/// One Gauss-Seidel sweep over all springs, colour by colour: the XPBD update
-/// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
-/// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
-///
-/// Springs go in batches of [`LANES`] along the colour's [`SpringRun`]s: contiguous and
-/// interleaved runs are read and written with whole vector loads and stores, scattered ones
-/// gathered particle by particle; the arithmetic (square root and division included) is the same
-/// lane-wise code for all, so the layout never changes a result. With `ACCUMULATE = false` (one
-/// iteration per substep) λ is known to be 0 and is neither read nor stored.
-///
-/// On x86-64 CPUs with AVX2 the kernel runs as 8-wide vectors (chosen at run time); the results
-/// are bit-identical either way (no fused multiply-add: Rust never contracts `a * b + c`).
-fn solve_springs<const ACCUMULATE: bool>(
-    springs: &Springs,
-    compliance: &[f32],
-    lambda: &mut [f32],
-    inv_mass: &[f32],
-    x: &mut Split<'_>,
-    inv_h2: f32,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-        unsafe {
-            solve_springs_avx2::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2)
-        };
-        return;
-    }
-    solve_springs_body::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2);
-}
-
-/// [`solve_springs_body`] compiled for AVX2 (8-lane vectors).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn solve_springs_avx2<const ACCUMULATE: bool>(
-    springs: &Springs,
-    compliance: &[f32],
-    lambda: &mut [f32],
-    inv_mass: &[f32],
-    x: &mut Split<'_>,
-    inv_h2: f32,
-) {
-    solve_springs_body::<ACCUMULATE>(springs, compliance, lambda, inv_mass, x, inv_h2);
-}
-
-/// The per-spring constants of a batch, and where its multipliers live.
-struct Batch<'a, const N: usize> {
-    rest: &'a [f32; N],
-    compliance: &'a [f32; N],
-    lambda: &'a mut [f32; N],
-}
-
-impl<'a> Batch<'a, LANES> {
-    /// Springs `k..k + LANES`, or `None` past the end (which the run builder never produces).
-    #[inline(always)]
-    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: &'a mut [f32], k: usize) -> Option<Self> {
-        Some(Self {
-            rest: rest.get(k..k + LANES)?.try_into().ok()?,
-            compliance: compliance.get(k..k + LANES)?.try_into().ok()?,
-            lambda: lambda.get_mut(k..k + LANES)?.try_into().ok()?,
-        })
-    }
-}
-
-#[inline(always)]
-fn solve_springs_body<const ACCUMULATE: bool>(
-    springs: &Springs,
-    compliance: &[f32],
-    lambda: &mut [f32],
-    inv_mass: &[f32],
-    x: &mut Split<'_>,
-    inv_h2: f32,
-) {
-    let rest = &springs.rest;
-    for run in &springs.runs {
-        let (start, end) = (run.start as usize, (run.start + run.len) as usize);
-        let mut k = start;
-        match run.layout {
-            RunLayout::Contiguous => {
-                let (a0, b0) = (springs.a[start] as usize, springs.b[start] as usize);
-                while k + LANES <= end {
-                    let Some(b) = Batch::at(rest, compliance, lambda, k) else {
-                        break;
-                    };
-                    let (ia, ib) = (a0 + (k - start), b0 + (k - start));
-                    solve_contiguous::<ACCUMULATE>(x, inv_mass, ia, ib, b, inv_h2);
-                    k += LANES;
-                }
-            }
-            RunLayout::Interleaved(d) => {
-                while k + LANES <= end {
-                    let Some(b) = Batch::at(rest, compliance, lambda, k) else {
-                        break;
-                    };
-                    let window = springs.a[k] as usize;
-                    match d {
-                        1 => solve_interleaved::<ACCUMULATE, 1>(x, inv_mass, window, b, inv_h2),
-                        _ => solve_interleaved::<ACCUMULATE, 2>(x, inv_mass, window, b, inv_h2),
-                    }
-                    k += LANES;
-                }
-            }
-            RunLayout::Scattered => {
-                while k + LANES <= end {
-                    let Some(b) = Batch::at(rest, compliance, lambda, k) else {
-                        break;
-                    };
-                    solve_gathered::<ACCUMULATE, LANES>(springs, x, inv_mass, k, b, inv_h2);
-                    k += LANES;
-                }
-            }
-        }
-        // Whatever is left of the run, one spring at a time.
-        for k in k..end {
-            let b = Batch::<1> {
-                rest: std::array::from_ref(&springs.rest[k]),
-                compliance: std::array::from_ref(&compliance[k]),
-                lambda: std::array::from_mut(&mut lambda[k]),
-            };
-            solve_gathered::<ACCUMULATE, 1>(springs, x, inv_mass, k, b, inv_h2);
-        }
-    }
-}
-
-/// The lane-wise XPBD update of `N` independent springs: `s[0..3]` are the first ends' x, y, z
-/// at the start of the substep and `s[3..6]` the second ends', `d` their displacements since,
-/// which the update moves.
-#[inline(always)]
-fn project<const ACCUMULATE: bool, const N: usize>(
-    s: &[[f32; N]; 6],
-    d: &mut [[f32; N]; 6],
-    wa: &[f32; N],
-    wb: &[f32; N],
-    batch: Batch<'_, N>,
-    inv_h2: f32,
-) {
-    for l in 0..N {
-        // The start vectors and the displacements are differenced separately, so that the
-        // small displacements keep their precision.
-        let dx = (s[0][l] - s[3][l]) + (d[0][l] - d[3][l]);
-        let dy = (s[1][l] - s[4][l]) + (d[1][l] - d[4][l]);
-        let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
-        let len2 = dx * dx + dy * dy + dz * dz;
-        let lam = if ACCUMULATE { batch.lambda[l] } else { 0.0 };
-        let alpha = batch.compliance[l] * inv_h2;
-        let len = len2.sqrt();
-        let scale = (batch.rest[l] - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
-        // A spring of (near) zero length has no direction and is skipped. A spring whose ends are
-        // both pinned (w = 0) gets a finite step (α̃ > 0) that its zero inverse masses ignore.
-        let scale = if len2 > 1e-20 { scale } else { 0.0 };
-        if ACCUMULATE {
-            batch.lambda[l] = lam + scale * len;
-        }
-        let (sa, sb) = (scale * wa[l], scale * wb[l]);
-        d[0][l] += dx * sa;
-        d[1][l] += dy * sa;
-        d[2][l] += dz * sa;
-        d[3][l] -= dx * sb;
-        d[4][l] -= dy * sb;
-        d[5][l] -= dz * sb;
-    }
-}
-
-/// Copies `N` values starting at `i` out of `v` (an empty batch past the end, which the run
-/// builder never produces).
-#[inline(always)]
-fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
-    v.get(i..i + N)
-        .and_then(|s| s.try_into().ok())
-        .unwrap_or([0.0; N])
-}
-
-/// Writes `values` to `v[i..i + N]` (nothing past the end).
-#[inline(always)]
-fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
-    if let Some(s) = v.get_mut(i..i + N) {
-        s.copy_from_slice(values);
-    }
-}
-
-/// Springs joining particles `ia..ia + 8` to `ib..ib + 8`.
-#[inline(always)]
-fn solve_contiguous<const ACCUMULATE: bool>(
-    x: &mut Split<'_>,
-    inv_mass: &[f32],
-    ia: usize,
-    ib: usize,
-    batch: Batch<'_, LANES>,
-    inv_h2: f32,
-) {
-    // The x, y, z of particles `ia..ia + 8`, then of `ib..ib + 8`.
-    let ends = |v: &Soa| {
-        [
-            load(&v.x, ia),
-            load(&v.y, ia),
-            load(&v.z, ia),
-            load(&v.x, ib),
-            load(&v.y, ib),
-            load(&v.z, ib),
-        ]
-    };
-    let (s, mut d) = (ends(x.start), ends(x.delta));
-    let delta = &mut *x.delta;
-    let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
-    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
-        .into_iter()
-        .enumerate()
-    {
-        store(coord, ia, &d[c]);
-        store(coord, ib, &d[c + 3]);
-    }
-}
-
-/// Window position of lane `l`'s first particle in an interleaved run with offset `D`.
-const fn lane_a<const D: usize>(l: usize) -> usize {
-    interleaved_offset(D, l)
-}
-
-/// Eight springs over the 16 particles `window..window + 16` (see `RunLayout::Interleaved`).
-#[inline(always)]
-fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
-    x: &mut Split<'_>,
-    inv_mass: &[f32],
-    window: usize,
-    batch: Batch<'_, LANES>,
-    inv_h2: f32,
-) {
-    let (start, delta) = (x.start, &mut *x.delta);
-    let win: [[f32; 16]; 7] = [
-        load(&start.x, window),
-        load(&start.y, window),
-        load(&start.z, window),
-        load(&delta.x, window),
-        load(&delta.y, window),
-        load(&delta.z, window),
-        load(inv_mass, window),
-    ];
-    let (mut s, mut d) = ([[0.0f32; LANES]; 6], [[0.0f32; LANES]; 6]);
-    let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
-    for l in 0..LANES {
-        let (a, b) = (lane_a::<D>(l), lane_a::<D>(l) + D);
-        for c in 0..3 {
-            (s[c][l], s[c + 3][l]) = (win[c][a], win[c][b]);
-            (d[c][l], d[c + 3][l]) = (win[c + 3][a], win[c + 3][b]);
-        }
-        (wa[l], wb[l]) = (win[6][a], win[6][b]);
-    }
-    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
-        .into_iter()
-        .enumerate()
-    {
-        let mut out = [0.0f32; 16];
-        for l in 0..LANES {
-            out[lane_a::<D>(l)] = d[c][l];
-            out[lane_a::<D>(l) + D] = d[c + 3][l];
-        }
-        store(coord, window, &out);
-    }
-}
-
-/// Springs `k..k + N` of one colour at arbitrary particles: gather, project, scatter.
-#[inline(always)]
-fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
-    springs: &Springs,
-    x: &mut Split<'_>,
-    inv_mass: &[f32],
-    k: usize,
-    batch: Batch<'_, N>,
-    inv_h2: f32,
-) {
-    let (start, delta) = (x.start, &mut *x.delta);
-    let (a, b) = (&springs.a[k..k + N], &springs.b[k..k + N]);
-    let (mut s, mut d) = ([[0.0f32; N]; 6], [[0.0f32; N]; 6]);
-    let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
-    for l in 0..N {
-        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
-            (s[e][l], s[e + 1][l], s[e + 2][l]) = (start.x[i], start.y[i], start.z[i]);
-            (d[e][l], d[e + 1][l], d[e + 2][l]) = (delta.x[i], delta.y[i], delta.z[i]);
-        }
-        (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
-    }
-    project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for l in 0..N {
-        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
-            (delta.x[i], delta.y[i], delta.z[i]) = (d[e][l], d[e + 1][l], d[e + 2][l]);
         }
     }
 }

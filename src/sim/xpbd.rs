@@ -1,0 +1,746 @@
+//! XPBD with substeps (Macklin et al. 2016, "XPBD"; Macklin et al. 2019, "Small Steps in Physics
+//! Simulation"): each substep predicts the particles' motion, projects every spring once per
+//! iteration by coloured Gauss-Seidel, and takes the velocity from the displacement.
+//!
+//! The springs are projected by a vector kernel, eight at a time. [`Projections`] lays them out for
+//! it: colour by colour, in runs of slots whose particles can be read with whole vector loads (a
+//! grid is a few such runs per colour); holes in a run are filled with padding slots that change
+//! nothing, so that no spring of a regular cloth falls back to scalar code.
+//!
+//! Nothing here allocates inside a step.
+
+use super::forces::Soa;
+use super::model::Springs;
+use super::solver::{ClothSim, pin_motion};
+
+/// Springs projected together by the vector kernel. Within one colour no two springs share a
+/// particle, so a batch gives exactly the sequential Gauss-Seidel result.
+const LANES: usize = 8;
+
+/// Longest hole (in slots) inside a run that is padded rather than ending the run: the row ends of
+/// a grid's colours leave holes of one or two.
+const MAX_GAP: usize = 2;
+
+/// How the particles of a [`Run`]'s slots are laid out in memory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Layout {
+    /// Slot `start + m` joins particles `a[start] + m` and `b[start] + m`, with `b - a ≥ LANES`:
+    /// two contiguous blocks per batch.
+    Contiguous,
+    /// Batches of eight slots over windows of 16 consecutive particles, with `d = 1` or `2`: in the
+    /// window starting at `a` of the batch's first slot, lane `l` joins particle
+    /// `2d⌊l/d⌋ + l mod d` of the window to the one `d` places further (rows of a grid: `d = 1` for
+    /// structural springs, `d = 2` for bend springs).
+    Interleaved(u8),
+    /// Any particles, gathered one by one.
+    Scattered,
+}
+
+/// Slots `start..start + len` of one colour, all of one [`Layout`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Run {
+    layout: Layout,
+    start: u32,
+    len: u32,
+}
+
+/// In an [`Layout::Interleaved`] run with index offset `d`, the position of slot `m`'s first
+/// particle relative to the run's first (lane `m mod 8` of window `m / 8`; windows are 16 apart).
+const fn interleaved_offset(d: usize, m: usize) -> usize {
+    2 * d * (m / d) + m % d
+}
+
+/// The slot whose first particle is `offset` places after its run's first, if any.
+fn slot_at(layout: Layout, offset: usize) -> Option<usize> {
+    match layout {
+        Layout::Contiguous => Some(offset),
+        Layout::Interleaved(d) => {
+            let d = d as usize;
+            (offset % (2 * d) < d).then(|| offset / (2 * d) * d + offset % (2 * d))
+        }
+        Layout::Scattered => None,
+    }
+}
+
+/// The springs of a cloth as XPBD projects them: per slot its particles, rest length, compliance
+/// and multiplier, colour by colour, in [`Run`]s. A padding slot joins two particles that no
+/// other slot of its batch touches and has rest length 0, which the kernel skips (springs of zero
+/// rest length are never built): it writes back what it read.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Projections {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    /// The spring in each slot; `None` for padding.
+    spring: Vec<Option<u32>>,
+    rest: Vec<f32>,
+    compliance: Vec<f32>,
+    /// Multipliers of the current substep (used with more than one iteration).
+    lambda: Vec<f32>,
+    runs: Vec<Run>,
+    /// Number of springs laid out.
+    springs: usize,
+}
+
+impl Projections {
+    /// Lays out `springs` (ordered by colour, then index offset, then first particle) over
+    /// `particles` particles. Call [`Self::set_compliance`] before solving.
+    pub(super) fn new(springs: &Springs, particles: usize) -> Self {
+        let mut p = Self {
+            springs: springs.len(),
+            ..Self::default()
+        };
+        for c in 0..springs.color_count() {
+            let (start, end) = (
+                springs.color_offsets[c] as usize,
+                springs.color_offsets[c + 1] as usize,
+            );
+            p.add_color(springs, start..end, particles);
+        }
+        p.rest = vec![0.0; p.a.len()];
+        p.compliance = vec![0.0; p.a.len()];
+        p.lambda = vec![0.0; p.a.len()];
+        p
+    }
+
+    /// Whether this layout was built for a set of `springs` springs.
+    pub(super) fn fits(&self, springs: usize) -> bool {
+        self.springs == springs && self.rest.len() == self.a.len()
+    }
+
+    /// Sets each slot's rest length and compliance `1/k` from the springs' (a zero stiffness
+    /// becomes a huge, finite compliance: the spring does nothing).
+    pub(super) fn set_compliance(&mut self, rest: &[f32], stiffness: &[f32]) {
+        for ((s, r), c) in self
+            .spring
+            .iter()
+            .zip(&mut self.rest)
+            .zip(&mut self.compliance)
+        {
+            (*r, *c) = s.map_or((0.0, 0.0), |s| {
+                let s = s as usize;
+                (rest[s], 1.0 / stiffness[s].max(1e-6))
+            });
+        }
+    }
+
+    /// Lays out the springs `range` of one colour: runs where the particle indices allow, the
+    /// others gathered in one scattered run at the end.
+    fn add_color(&mut self, springs: &Springs, range: std::ops::Range<usize>, particles: usize) {
+        let (a, b) = (&springs.a, &springs.b);
+        let mut scattered = Vec::new();
+        let mut i = range.start;
+        while i < range.end {
+            let Some((layout, taken, slots)) = find_run(a, b, i, range.end, particles) else {
+                scattered.push(i);
+                i += 1;
+                continue;
+            };
+            let start = self.a.len();
+            let (a0, d) = (a[i] as usize, (b[i] - a[i]) as usize);
+            let mut next = i;
+            for m in 0..slots {
+                let first = match layout {
+                    Layout::Interleaved(_) => a0 + interleaved_offset(d, m),
+                    _ => a0 + m,
+                };
+                let real = next < i + taken && a[next] as usize == first;
+                self.spring.push(real.then_some(next as u32));
+                next += usize::from(real);
+                self.a.push(first as u32);
+                self.b.push((first + d) as u32);
+            }
+            self.runs.push(Run {
+                layout,
+                start: start as u32,
+                len: slots as u32,
+            });
+            i += taken;
+        }
+        if !scattered.is_empty() {
+            self.runs.push(Run {
+                layout: Layout::Scattered,
+                start: self.a.len() as u32,
+                len: scattered.len() as u32,
+            });
+            for s in scattered {
+                self.a.push(a[s]);
+                self.b.push(b[s]);
+                self.spring.push(Some(s as u32));
+            }
+        }
+    }
+
+    /// Checks that the slots hold every spring once, with its particles, each run in one colour,
+    /// that every run's [`Layout`] describes its slots' particles, and that no particle appears
+    /// twice in a vector batch (which the kernel relies on). The message names the first problem.
+    #[cfg(test)]
+    fn check(&self, springs: &Springs, particles: usize) -> Result<(), String> {
+        let mut seen = vec![false; springs.len()];
+        let color_of = |s: usize| springs.color_offsets.partition_point(|&o| o as usize <= s);
+        let mut next = 0;
+        for (r, run) in self.runs.iter().enumerate() {
+            let (start, len) = (run.start as usize, run.len as usize);
+            if start != next || start + len > self.a.len() {
+                return Err(format!("run {r} does not continue the runs before it"));
+            }
+            next += len;
+            let mut color = None;
+            for k in start..start + len {
+                let (a, b) = (self.a[k] as usize, self.b[k] as usize);
+                if a >= particles || b >= particles || a == b {
+                    return Err(format!("slot {k} joins particles {a} and {b}"));
+                }
+                if let Some(s) = self.spring[k] {
+                    let s = s as usize;
+                    if std::mem::replace(&mut seen[s], true) {
+                        return Err(format!("spring {s} is in two slots"));
+                    }
+                    if (springs.a[s] as usize, springs.b[s] as usize) != (a, b) {
+                        return Err(format!("slot {k} does not join spring {s}'s particles"));
+                    }
+                    if *color.get_or_insert(color_of(s)) != color_of(s) {
+                        return Err(format!("run {r} crosses a colour boundary"));
+                    }
+                }
+                let m = k - start;
+                let fits = match run.layout {
+                    Layout::Contiguous => {
+                        a == self.a[start] as usize + m
+                            && b - a == self.b[start] as usize - self.a[start] as usize
+                            && b - a >= LANES
+                    }
+                    Layout::Interleaved(d) => {
+                        let window = self.a[start + m / LANES * LANES] as usize;
+                        a == window + interleaved_offset(d as usize, m % LANES)
+                            && b == a + d as usize
+                    }
+                    Layout::Scattered => true,
+                };
+                if !fits {
+                    return Err(format!("slot {k} is not where run {r}'s layout puts it"));
+                }
+            }
+            if run.layout != Layout::Scattered {
+                for batch in (start..start + len / LANES * LANES).step_by(LANES) {
+                    let mut ends: Vec<u32> = (batch..batch + LANES)
+                        .flat_map(|k| [self.a[k], self.b[k]])
+                        .collect();
+                    ends.sort_unstable();
+                    if ends.windows(2).any(|w| w[0] == w[1]) {
+                        return Err(format!("the batch at slot {batch} uses a particle twice"));
+                    }
+                }
+            }
+        }
+        match seen.iter().position(|s| !s) {
+            _ if next != self.a.len() => {
+                Err(format!("runs cover {next} of {} slots", self.a.len()))
+            }
+            Some(s) => Err(format!("spring {s} is in no slot")),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The run of slots that starts at spring `i` of a colour ending at `end`, if it is worth a vector
+/// kernel: its layout, the number of springs it takes (`i..i + taken`) and its slot count. Springs
+/// follow each other with holes of at most [`MAX_GAP`] slots; the run is padded to whole batches
+/// where the padding's particles exist.
+fn find_run(
+    a: &[u32],
+    b: &[u32],
+    i: usize,
+    end: usize,
+    particles: usize,
+) -> Option<(Layout, usize, usize)> {
+    // Springs given with `b < a` (a user's model may) are simply gathered.
+    let d = b[i].checked_sub(a[i])? as usize;
+    let layout = match d {
+        1 | 2 => Layout::Interleaved(d as u8),
+        _ if d >= LANES => Layout::Contiguous,
+        _ => return None,
+    };
+    let (mut last, mut k) = (0, i + 1);
+    while k < end && b[k].checked_sub(a[k]) == Some(d as u32) && a[k] > a[i] {
+        match slot_at(layout, (a[k] - a[i]) as usize) {
+            Some(m) if m > last && m - last - 1 <= MAX_GAP => last = m,
+            _ => break,
+        }
+        k += 1;
+    }
+    let (taken, slots) = (k - i, last + 1);
+    let last_particle = |m: usize| -> usize {
+        let offset = match layout {
+            Layout::Interleaved(_) => interleaved_offset(d, m),
+            _ => m,
+        };
+        a[i] as usize + offset + d
+    };
+    let padded = slots.next_multiple_of(LANES);
+    let slots = if last_particle(padded - 1) < particles {
+        padded
+    } else {
+        slots
+    };
+    // Half a batch of springs pays for the padding; fewer are gathered.
+    (slots >= LANES && 2 * taken >= LANES).then_some((layout, taken, slots))
+}
+
+/// Positions during XPBD's projection: where each particle began the substep, and its
+/// displacement since. The corrections accumulate in the small displacements rather than in the
+/// large positions, so that f32 keeps them (added to a position of about 1 m, a correction below
+/// 1e-7 m would vanish, and the velocity `Δx / h` with it).
+struct Split<'a> {
+    start: &'a Soa,
+    delta: &'a mut Soa,
+}
+
+/// One XPBD step of `dt` seconds in `n` substeps.
+pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
+    let h = dt / n as f32;
+    let inv_h = 1.0 / h;
+    let inv_h2 = inv_h * inv_h;
+    let gravity_dv = sim.settings.gravity * h;
+    let keep = (-sim.settings.damping * h).exp();
+    sim.load_soa_state();
+    for sub in 0..n {
+        sim.begin_soa_substep();
+        // Integrate every particle (symplectic Euler) without constraints, as a displacement
+        // from where it is; pinned ones are then given the displacement to their targets.
+        // Wind forces are held over the step (see `wind.rs`).
+        let wind = sim.wind.active.then(|| sim.wind.particle_forces());
+        let (delta, v) = (&mut sim.displacement, &mut sim.velocity_soa);
+        for (c, (delta, v)) in [
+            (&mut delta.x, &mut v.x),
+            (&mut delta.y, &mut v.y),
+            (&mut delta.z, &mut v.z),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let dv = gravity_dv[c];
+            match wind {
+                Some(forces) => {
+                    for ((d, v), (f, w)) in delta
+                        .iter_mut()
+                        .zip(v.iter_mut())
+                        .zip(forces.iter().zip(&sim.inv_mass))
+                    {
+                        *v = (*v + dv + f[c] * (*w * h)) * keep;
+                        *d = *v * h;
+                    }
+                }
+                None => {
+                    for (d, v) in delta.iter_mut().zip(v.iter_mut()) {
+                        *v = (*v + dv) * keep;
+                        *d = *v * h;
+                    }
+                }
+            }
+        }
+        let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+        for pin in &sim.pins {
+            let i = pin.particle as usize;
+            let (target, _) = pin_motion(pin, t0, t1, inv_h);
+            sim.displacement.set(i, target - sim.soa.get(i));
+        }
+        let mut x = Split {
+            start: &sim.soa,
+            delta: &mut sim.displacement,
+        };
+        let p = &mut sim.projections;
+        if sim.settings.iterations == 1 {
+            // λ starts at 0 each substep, so one iteration needs no multiplier storage.
+            solve_springs::<false>(p, &sim.inv_mass, &mut x, inv_h2);
+        } else {
+            p.lambda.fill(0.0);
+            for _ in 0..sim.settings.iterations {
+                solve_springs::<true>(p, &sim.inv_mass, &mut x, inv_h2);
+            }
+        }
+        // v = Δx / h from the displacement itself, which holds every correction in full
+        // (added to the position, corrections below its f32 resolution would vanish, and the
+        // lost ones bias the dynamics: a cloth can gain energy). The position is rounded once.
+        let (v, x, d) = (&mut sim.velocity_soa, &mut sim.soa, &sim.displacement);
+        for (v, (x, d)) in [
+            (&mut v.x, (&mut x.x, &d.x)),
+            (&mut v.y, (&mut x.y, &d.y)),
+            (&mut v.z, (&mut x.z, &d.z)),
+        ] {
+            for (v, (x, d)) in v.iter_mut().zip(x.iter_mut().zip(d)) {
+                *v = *d * inv_h;
+                *x += *d;
+            }
+        }
+        // Pinned particles end on their targets, at the velocity that takes them there.
+        sim.drive_soa_pins(t0, t1, inv_h);
+        // Contacts last, so every substep ends outside the colliders; their push-out is not
+        // turned into velocity (see `collision.rs`).
+        sim.resolve_soa_contacts(sub, n, h);
+    }
+    sim.store_soa_state();
+}
+
+/// One Gauss-Seidel sweep over all springs, colour by colour: the XPBD update
+/// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
+/// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
+///
+/// Slots go in batches of [`LANES`] along the [`Run`]s: contiguous and interleaved runs are read
+/// and written with whole vector loads and stores, scattered ones gathered particle by particle;
+/// the arithmetic (square root and division included) is the same lane-wise code for all, so the
+/// layout never changes a result. With `ACCUMULATE = false` (one iteration per substep) λ is known
+/// to be 0 and is neither read nor stored.
+///
+/// On x86-64 CPUs with AVX2 the kernel runs as 8-wide vectors (chosen at run time); the results
+/// are bit-identical either way (no fused multiply-add: Rust never contracts `a * b + c`).
+fn solve_springs<const ACCUMULATE: bool>(
+    p: &mut Projections,
+    inv_mass: &[f32],
+    x: &mut Split<'_>,
+    inv_h2: f32,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports the feature the function is compiled for (checked above).
+        unsafe { solve_springs_avx2::<ACCUMULATE>(p, inv_mass, x, inv_h2) };
+        return;
+    }
+    solve_springs_body::<ACCUMULATE>(p, inv_mass, x, inv_h2);
+}
+
+/// [`solve_springs_body`] compiled for AVX2 (8-lane vectors).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn solve_springs_avx2<const ACCUMULATE: bool>(
+    p: &mut Projections,
+    inv_mass: &[f32],
+    x: &mut Split<'_>,
+    inv_h2: f32,
+) {
+    solve_springs_body::<ACCUMULATE>(p, inv_mass, x, inv_h2);
+}
+
+/// The per-slot constants of a batch, and where its multipliers live.
+struct Batch<'a, const N: usize> {
+    rest: &'a [f32; N],
+    compliance: &'a [f32; N],
+    lambda: &'a mut [f32; N],
+}
+
+impl<'a, const N: usize> Batch<'a, N> {
+    /// Slots `k..k + N`, or `None` past the end (which the runs never reach).
+    #[inline(always)]
+    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: &'a mut [f32], k: usize) -> Option<Self> {
+        Some(Self {
+            rest: rest.get(k..k + N)?.try_into().ok()?,
+            compliance: compliance.get(k..k + N)?.try_into().ok()?,
+            lambda: lambda.get_mut(k..k + N)?.try_into().ok()?,
+        })
+    }
+}
+
+#[inline(always)]
+fn solve_springs_body<const ACCUMULATE: bool>(
+    p: &mut Projections,
+    inv_mass: &[f32],
+    x: &mut Split<'_>,
+    inv_h2: f32,
+) {
+    let (rest, compliance, lambda) = (&p.rest, &p.compliance, &mut p.lambda);
+    for run in &p.runs {
+        let (start, end) = (run.start as usize, (run.start + run.len) as usize);
+        let mut k = start;
+        while k + LANES <= end {
+            let Some(batch) = Batch::at(rest, compliance, lambda, k) else {
+                break;
+            };
+            let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+            match run.layout {
+                Layout::Contiguous => {
+                    solve_contiguous::<ACCUMULATE>(x, inv_mass, a, b, batch, inv_h2)
+                }
+                Layout::Interleaved(1) => {
+                    solve_interleaved::<ACCUMULATE, 1>(x, inv_mass, a, batch, inv_h2)
+                }
+                Layout::Interleaved(_) => {
+                    solve_interleaved::<ACCUMULATE, 2>(x, inv_mass, a, batch, inv_h2)
+                }
+                Layout::Scattered => {
+                    solve_gathered::<ACCUMULATE, LANES>(&p.a, &p.b, x, inv_mass, k, batch, inv_h2)
+                }
+            }
+            k += LANES;
+        }
+        // Whatever is left of the run, one slot at a time.
+        for k in k..end {
+            let Some(batch) = Batch::<1>::at(rest, compliance, lambda, k) else {
+                break;
+            };
+            solve_gathered::<ACCUMULATE, 1>(&p.a, &p.b, x, inv_mass, k, batch, inv_h2);
+        }
+    }
+}
+
+/// The lane-wise XPBD update of `N` independent slots: `s[0..3]` are the first ends' x, y, z
+/// at the start of the substep and `s[3..6]` the second ends', `d` their displacements since,
+/// which the update moves.
+#[inline(always)]
+fn project<const ACCUMULATE: bool, const N: usize>(
+    s: &[[f32; N]; 6],
+    d: &mut [[f32; N]; 6],
+    wa: &[f32; N],
+    wb: &[f32; N],
+    batch: Batch<'_, N>,
+    inv_h2: f32,
+) {
+    for l in 0..N {
+        // The start vectors and the displacements are differenced separately, so that the
+        // small displacements keep their precision.
+        let dx = (s[0][l] - s[3][l]) + (d[0][l] - d[3][l]);
+        let dy = (s[1][l] - s[4][l]) + (d[1][l] - d[4][l]);
+        let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
+        let len2 = dx * dx + dy * dy + dz * dz;
+        let lam = if ACCUMULATE { batch.lambda[l] } else { 0.0 };
+        let alpha = batch.compliance[l] * inv_h2;
+        let rest = batch.rest[l];
+        let len = len2.sqrt();
+        let scale = (rest - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
+        // A spring of (near) zero length has no direction and is skipped, and so is a padding
+        // slot (rest length 0). A spring whose ends are both pinned (w = 0) gets a finite step
+        // (α̃ > 0) that its zero inverse masses ignore.
+        let scale = if len2 > 1e-20 && rest > 0.0 {
+            scale
+        } else {
+            0.0
+        };
+        if ACCUMULATE {
+            batch.lambda[l] = lam + scale * len;
+        }
+        let (sa, sb) = (scale * wa[l], scale * wb[l]);
+        d[0][l] += dx * sa;
+        d[1][l] += dy * sa;
+        d[2][l] += dz * sa;
+        d[3][l] -= dx * sb;
+        d[4][l] -= dy * sb;
+        d[5][l] -= dz * sb;
+    }
+}
+
+/// Copies `N` values starting at `i` out of `v` (an empty batch past the end, which the runs
+/// never reach).
+#[inline(always)]
+fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
+    v.get(i..i + N)
+        .and_then(|s| s.try_into().ok())
+        .unwrap_or([0.0; N])
+}
+
+/// Writes `values` to `v[i..i + N]` (nothing past the end).
+#[inline(always)]
+fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
+    if let Some(s) = v.get_mut(i..i + N) {
+        s.copy_from_slice(values);
+    }
+}
+
+/// Slots joining particles `ia..ia + 8` to `ib..ib + 8`.
+#[inline(always)]
+fn solve_contiguous<const ACCUMULATE: bool>(
+    x: &mut Split<'_>,
+    inv_mass: &[f32],
+    ia: usize,
+    ib: usize,
+    batch: Batch<'_, LANES>,
+    inv_h2: f32,
+) {
+    // The x, y, z of particles `ia..ia + 8`, then of `ib..ib + 8`.
+    let ends = |v: &Soa| {
+        [
+            load(&v.x, ia),
+            load(&v.y, ia),
+            load(&v.z, ia),
+            load(&v.x, ib),
+            load(&v.y, ib),
+            load(&v.z, ib),
+        ]
+    };
+    let (s, mut d) = (ends(x.start), ends(x.delta));
+    let delta = &mut *x.delta;
+    let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
+    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
+    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
+        .into_iter()
+        .enumerate()
+    {
+        store(coord, ia, &d[c]);
+        store(coord, ib, &d[c + 3]);
+    }
+}
+
+/// Eight slots over the 16 particles `window..window + 16` (see [`Layout::Interleaved`]).
+#[inline(always)]
+fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
+    x: &mut Split<'_>,
+    inv_mass: &[f32],
+    window: usize,
+    batch: Batch<'_, LANES>,
+    inv_h2: f32,
+) {
+    let (start, delta) = (x.start, &mut *x.delta);
+    let win: [[f32; 16]; 7] = [
+        load(&start.x, window),
+        load(&start.y, window),
+        load(&start.z, window),
+        load(&delta.x, window),
+        load(&delta.y, window),
+        load(&delta.z, window),
+        load(inv_mass, window),
+    ];
+    let (mut s, mut d) = ([[0.0f32; LANES]; 6], [[0.0f32; LANES]; 6]);
+    let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for l in 0..LANES {
+        let (a, b) = (interleaved_offset(D, l), interleaved_offset(D, l) + D);
+        for c in 0..3 {
+            (s[c][l], s[c + 3][l]) = (win[c][a], win[c][b]);
+            (d[c][l], d[c + 3][l]) = (win[c + 3][a], win[c + 3][b]);
+        }
+        (wa[l], wb[l]) = (win[6][a], win[6][b]);
+    }
+    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
+    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
+        .into_iter()
+        .enumerate()
+    {
+        let mut out = [0.0f32; 16];
+        for l in 0..LANES {
+            out[interleaved_offset(D, l)] = d[c][l];
+            out[interleaved_offset(D, l) + D] = d[c + 3][l];
+        }
+        store(coord, window, &out);
+    }
+}
+
+/// Slots `k..k + N` at arbitrary particles `a[k..]`, `b[k..]`: gather, project, scatter.
+#[inline(always)]
+fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
+    a: &[u32],
+    b: &[u32],
+    x: &mut Split<'_>,
+    inv_mass: &[f32],
+    k: usize,
+    batch: Batch<'_, N>,
+    inv_h2: f32,
+) {
+    let (start, delta) = (x.start, &mut *x.delta);
+    let (a, b) = (&a[k..k + N], &b[k..k + N]);
+    let (mut s, mut d) = ([[0.0f32; N]; 6], [[0.0f32; N]; 6]);
+    let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
+    for l in 0..N {
+        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
+            (s[e][l], s[e + 1][l], s[e + 2][l]) = (start.x[i], start.y[i], start.z[i]);
+            (d[e][l], d[e + 1][l], d[e + 2][l]) = (delta.x[i], delta.y[i], delta.z[i]);
+        }
+        (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
+    }
+    project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2);
+    for l in 0..N {
+        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
+            (delta.x[i], delta.y[i], delta.z[i]) = (d[e][l], d[e + 1][l], d[e + 2][l]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::{ClothModel, GridSpec};
+    use glam::Vec3;
+
+    /// Checks the layout and returns the number of gathered (scattered or tail) springs.
+    fn gathered(model: &ClothModel) -> usize {
+        let (s, n) = (&model.springs, model.particle_count());
+        let p = Projections::new(s, n);
+        p.check(s, n).unwrap();
+        p.runs
+            .iter()
+            .map(|r| match r.layout {
+                Layout::Scattered => r.len as usize,
+                _ => r.len as usize % LANES,
+            })
+            .sum()
+    }
+
+    #[test]
+    fn grid_springs_are_projected_as_vectors() {
+        let model = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap();
+        let p = Projections::new(&model.springs, model.particle_count());
+        // The row ends are padded, so that only the last run of a colour, whose padding would
+        // run past the last particle, can leave springs to scalar code; the padding costs a few
+        // percent.
+        let tails = gathered(&model);
+        assert!(
+            tails < LANES * model.springs.color_count(),
+            "{tails} gathered"
+        );
+        let padding = p.spring.iter().filter(|s| s.is_none()).count();
+        assert!(
+            padding * 50 < p.spring.len(),
+            "{padding} of {} slots",
+            p.spring.len()
+        );
+        // Odd sizes break the row patterns but never the layout.
+        for (nx, ny) in [(9, 7), (2, 2), (3, 17), (50, 31)] {
+            let model = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
+            gathered(&model);
+        }
+        let quad = [0, 1, 2, 3];
+        let p = [Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
+        gathered(&ClothModel::from_mesh(&p, None, &quad, 4).unwrap());
+    }
+
+    #[test]
+    fn padding_slots_change_nothing() {
+        // A contiguous run of three springs, padded to a batch of eight.
+        let n = 32;
+        let mut start = Soa::new(n);
+        for i in 0..n {
+            start.set(i, Vec3::new(i as f32 * 0.1, (i % 3) as f32, 0.0));
+        }
+        let mut delta = Soa::new(n);
+        for i in 0..n {
+            delta.set(i, Vec3::splat(1e-3 * i as f32));
+        }
+        let before = delta.clone();
+        let p = &mut Projections {
+            a: (0..8).collect(),
+            b: (16..24).collect(),
+            spring: (0..8).map(|m| (m < 3).then_some(m)).collect(),
+            runs: vec![Run {
+                layout: Layout::Contiguous,
+                start: 0,
+                len: 8,
+            }],
+            springs: 3,
+            ..Projections::default()
+        };
+        p.rest = vec![0.0; 8];
+        p.compliance = vec![0.0; 8];
+        p.lambda = vec![0.0; 8];
+        p.set_compliance(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3]);
+        let w = vec![1.0; n];
+        solve_springs::<false>(
+            p,
+            &w,
+            &mut Split {
+                start: &start,
+                delta: &mut delta,
+            },
+            3600.0,
+        );
+        for i in 0..n {
+            let moved = delta.get(i) != before.get(i);
+            assert_eq!(moved, matches!(i, 0..3 | 16..19), "particle {i}");
+        }
+    }
+}
