@@ -108,10 +108,32 @@ impl Soa {
         }
     }
 
+    /// [`Self::load`] in storage order `order` (`order[s]` is the vector stored at `s`; empty:
+    /// the vectors' own order).
+    pub fn load_ordered(&mut self, vectors: &[Vec3], order: &[u32]) {
+        if order.is_empty() {
+            return self.load(vectors);
+        }
+        for (&i, (x, y, z)) in order.iter().zip(self.iter_mut()) {
+            let p = vectors[i as usize];
+            (*x, *y, *z) = (p.x, p.y, p.z);
+        }
+    }
+
     /// Copies the vectors out into `vectors` (as many as both hold).
     pub fn write_to(&self, vectors: &mut [Vec3]) {
         for (p, v) in vectors.iter_mut().zip(self.iter()) {
             *p = v;
+        }
+    }
+
+    /// [`Self::write_to`] from storage order `order` (see [`Self::load_ordered`]).
+    pub fn write_ordered(&self, vectors: &mut [Vec3], order: &[u32]) {
+        if order.is_empty() {
+            return self.write_to(vectors);
+        }
+        for (&i, v) in order.iter().zip(self.iter()) {
+            vectors[i as usize] = v;
         }
     }
 

@@ -322,6 +322,11 @@ pub struct ClothSim {
     /// Velocities during a step, one array per coordinate (scratch; see
     /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
+    /// Storage order of `soa` and `velocity_soa`: `soa_order[s]` is the particle stored at `s`
+    /// (empty: the particles' own order, as for all but XPBD on a grid; see `xpbd::grid_order`).
+    pub(super) soa_order: Vec<u32>,
+    /// The inverse of `soa_order`: where each particle is stored (empty with it).
+    pub(super) soa_slot: Vec<u32>,
     /// XPBD's displacements of the current substep (scratch, see `xpbd::Split`).
     pub(super) displacement: Soa,
     /// The springs laid out for XPBD's vector kernel (empty for the other integrators).
@@ -440,6 +445,8 @@ impl ClothSim {
             velocity_soa: Soa::new(n),
             displacement: Soa::new(n),
             projections: Projections::default(),
+            soa_order: Vec::new(),
+            soa_slot: Vec::new(),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
@@ -547,9 +554,15 @@ impl ClothSim {
         }
         if self.settings.integrator == Integrator::Xpbd {
             if !self.projections.fits(s.len()) {
-                self.projections = Projections::new(s, self.positions.len());
+                self.projections = Projections::new(&self.model);
             }
-            self.projections.set_compliance(&s.rest, &self.stiffness);
+            self.projections
+                .set_constants(&s.rest, &self.stiffness, &self.inv_mass);
+            self.soa_order.clone_from(self.projections.order());
+            self.soa_slot.clone_from(self.projections.slots());
+        } else {
+            self.soa_order.clear();
+            self.soa_slot.clear();
         }
     }
 
@@ -906,20 +919,29 @@ impl ClothSim {
     /// step works there and copies it back with [`Self::store_soa_state`] at its end and around
     /// the contact response (which works on the vectors).
     pub(super) fn load_soa_state(&mut self) {
-        self.soa.load(&self.positions);
-        self.velocity_soa.load(&self.velocities);
+        let order = &self.soa_order;
+        self.soa.load_ordered(&self.positions, order);
+        self.velocity_soa.load_ordered(&self.velocities, order);
     }
 
     /// Copies the state back from `soa` and `velocity_soa` (see [`Self::load_soa_state`]).
     pub(super) fn store_soa_state(&mut self) {
-        self.soa.write_to(&mut self.positions);
-        self.velocity_soa.write_to(&mut self.velocities);
+        let order = &self.soa_order;
+        self.soa.write_ordered(&mut self.positions, order);
+        self.velocity_soa.write_ordered(&mut self.velocities, order);
+    }
+
+    /// Where particle `p` is stored in `soa` and `velocity_soa` (see [`Self::soa_order`]).
+    pub(super) fn soa_index(&self, p: u32) -> usize {
+        self.soa_slot
+            .get(p as usize)
+            .map_or(p as usize, |&s| s as usize)
     }
 
     /// Where a substep begins, for the contact response's swept tests (state in `soa`).
     pub(super) fn begin_soa_substep(&mut self) {
         if self.contacts.is_active() {
-            self.soa.write_to(&mut self.positions);
+            self.soa.write_ordered(&mut self.positions, &self.soa_order);
             self.contacts.begin_substep(&self.positions);
         }
     }
@@ -939,8 +961,9 @@ impl ClothSim {
     pub(super) fn drive_soa_pins(&mut self, t0: f32, t1: f32, inv_h: f32) {
         for pin in &self.pins {
             let (target, velocity) = pin_motion(pin, t0, t1, inv_h);
-            self.soa.set(pin.particle as usize, target);
-            self.velocity_soa.set(pin.particle as usize, velocity);
+            let i = self.soa_index(pin.particle);
+            self.soa.set(i, target);
+            self.velocity_soa.set(i, velocity);
         }
     }
 }

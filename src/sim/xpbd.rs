@@ -9,8 +9,9 @@
 //!
 //! Nothing here allocates inside a step.
 
-use super::forces::Soa;
+#[cfg(test)]
 use super::model::Springs;
+use super::model::{ClothModel, GridSpec};
 use super::solver::{ClothSim, pin_motion};
 
 /// Springs projected together by the vector kernel. Within one colour no two springs share a
@@ -68,6 +69,7 @@ fn slot_at(layout: Layout, offset: usize) -> Option<usize> {
 /// rest length are never built): it writes back what it read.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Projections {
+    /// Particles of each slot, as storage positions (see [`Self::order`]).
     a: Vec<u32>,
     b: Vec<u32>,
     /// The spring in each slot; `None` for padding.
@@ -77,29 +79,66 @@ pub(super) struct Projections {
     /// Multipliers of the current substep (used with more than one iteration).
     lambda: Vec<f32>,
     runs: Vec<Run>,
+    /// Storage order of the particles during a step (empty: their own order).
+    order: Vec<u32>,
+    /// Where each particle is stored (empty with `order`).
+    slot: Vec<u32>,
+    /// Inverse masses in storage order.
+    pub(super) inv_mass: Vec<f32>,
     /// Number of springs laid out.
     springs: usize,
 }
 
 impl Projections {
-    /// Lays out `springs` (ordered by colour, then index offset, then first particle) over
-    /// `particles` particles. Call [`Self::set_compliance`] before solving.
-    pub(super) fn new(springs: &Springs, particles: usize) -> Self {
+    /// Lays out the springs of `model`, in the storage order [`grid_order`] gives it. Call
+    /// [`Self::set_constants`] before solving.
+    pub(super) fn new(model: &ClothModel) -> Self {
+        let (springs, particles) = (&model.springs, model.particle_count());
+        let order = model.grid.as_ref().map_or_else(Vec::new, grid_order);
+        let mut slot = vec![0; if order.is_empty() { 0 } else { particles }];
+        for (s, &i) in order.iter().enumerate() {
+            slot[i as usize] = s as u32;
+        }
         let mut p = Self {
             springs: springs.len(),
+            order,
+            slot,
             ..Self::default()
         };
         for c in 0..springs.color_count() {
-            let (start, end) = (
-                springs.color_offsets[c] as usize,
-                springs.color_offsets[c + 1] as usize,
-            );
-            p.add_color(springs, start..end, particles);
+            // The colour's springs between storage positions, ordered by index offset and then
+            // by first particle, so that regular topology forms long runs.
+            let range = springs.color_offsets[c] as usize..springs.color_offsets[c + 1] as usize;
+            let mut color: Vec<(u32, u32, u32)> = range
+                .map(|s| {
+                    let (a, b) = (p.stored(springs.a[s]), p.stored(springs.b[s]));
+                    (a.min(b), a.max(b), s as u32)
+                })
+                .collect();
+            color.sort_unstable_by_key(|&(a, b, _)| (b - a, a));
+            p.add_color(&color, particles);
         }
         p.rest = vec![0.0; p.a.len()];
         p.compliance = vec![0.0; p.a.len()];
         p.lambda = vec![0.0; p.a.len()];
+        p.inv_mass = vec![0.0; particles];
         p
+    }
+
+    /// Where particle `i` is stored.
+    fn stored(&self, i: u32) -> u32 {
+        self.slot.get(i as usize).copied().unwrap_or(i)
+    }
+
+    /// Storage order of the particles during a step: `order()[s]` is the particle stored at `s`
+    /// (empty: their own order).
+    pub(super) fn order(&self) -> &Vec<u32> {
+        &self.order
+    }
+
+    /// The inverse of [`Self::order`]: where each particle is stored (empty with it).
+    pub(super) fn slots(&self) -> &Vec<u32> {
+        &self.slot
     }
 
     /// Whether this layout was built for a set of `springs` springs.
@@ -108,8 +147,8 @@ impl Projections {
     }
 
     /// Sets each slot's rest length and compliance `1/k` from the springs' (a zero stiffness
-    /// becomes a huge, finite compliance: the spring does nothing).
-    pub(super) fn set_compliance(&mut self, rest: &[f32], stiffness: &[f32]) {
+    /// becomes a huge, finite compliance: the spring does nothing), and the inverse masses.
+    pub(super) fn set_constants(&mut self, rest: &[f32], stiffness: &[f32], inv_mass: &[f32]) {
         for ((s, r), c) in self
             .spring
             .iter()
@@ -121,16 +160,22 @@ impl Projections {
                 (rest[s], 1.0 / stiffness[s].max(1e-6))
             });
         }
+        for (i, w) in inv_mass.iter().enumerate() {
+            let s = self.stored(i as u32) as usize;
+            self.inv_mass[s] = *w;
+        }
     }
 
-    /// Lays out the springs `range` of one colour: runs where the particle indices allow, the
-    /// others gathered in one scattered run at the end.
-    fn add_color(&mut self, springs: &Springs, range: std::ops::Range<usize>, particles: usize) {
-        let (a, b) = (&springs.a, &springs.b);
+    /// Lays out the springs of one colour, given as `(a, b, spring)` with storage positions
+    /// `a < b`, sorted by `b - a` and then `a`: runs where the positions allow, the others
+    /// gathered in one scattered run at the end.
+    fn add_color(&mut self, color: &[(u32, u32, u32)], particles: usize) {
+        let a: Vec<u32> = color.iter().map(|c| c.0).collect();
+        let b: Vec<u32> = color.iter().map(|c| c.1).collect();
         let mut scattered = Vec::new();
-        let mut i = range.start;
-        while i < range.end {
-            let Some((layout, taken, slots)) = find_run(a, b, i, range.end, particles) else {
+        let mut i = 0;
+        while i < color.len() {
+            let Some((layout, taken, slots)) = find_run(&a, &b, i, color.len(), particles) else {
                 scattered.push(i);
                 i += 1;
                 continue;
@@ -144,7 +189,7 @@ impl Projections {
                     _ => a0 + m,
                 };
                 let real = next < i + taken && a[next] as usize == first;
-                self.spring.push(real.then_some(next as u32));
+                self.spring.push(real.then(|| color[next].2));
                 next += usize::from(real);
                 self.a.push(first as u32);
                 self.b.push((first + d) as u32);
@@ -162,10 +207,10 @@ impl Projections {
                 start: self.a.len() as u32,
                 len: scattered.len() as u32,
             });
-            for s in scattered {
-                self.a.push(a[s]);
-                self.b.push(b[s]);
-                self.spring.push(Some(s as u32));
+            for k in scattered {
+                self.a.push(a[k]);
+                self.b.push(b[k]);
+                self.spring.push(Some(color[k].2));
             }
         }
     }
@@ -195,7 +240,8 @@ impl Projections {
                     if std::mem::replace(&mut seen[s], true) {
                         return Err(format!("spring {s} is in two slots"));
                     }
-                    if (springs.a[s] as usize, springs.b[s] as usize) != (a, b) {
+                    let ends = [springs.a[s], springs.b[s]].map(|i| self.stored(i) as usize);
+                    if ends != [a, b] && ends != [b, a] {
                         return Err(format!("slot {k} does not join spring {s}'s particles"));
                     }
                     if *color.get_or_insert(color_of(s)) != color_of(s) {
@@ -242,6 +288,25 @@ impl Projections {
     }
 }
 
+/// Storage order for XPBD on a grid of at least 32 columns: each row's columns grouped by their
+/// residue mod 4 (columns 0, 4, 8, …, then 1, 5, 9, …). Every spring of the canonical grid then
+/// joins two particles at least 8 storage places apart, in runs of equal offset, so that all of
+/// them are projected by the contiguous kernel: the rows' springs (offsets 1 and 2 in the
+/// particles' own order) need no shuffling. Narrower grids keep their own order.
+fn grid_order(spec: &GridSpec) -> Vec<u32> {
+    let nx = spec.nx;
+    if nx < 4 * LANES as u32 {
+        return Vec::new();
+    }
+    let mut order = Vec::with_capacity((nx * spec.ny) as usize);
+    for j in 0..spec.ny {
+        for r in 0..4 {
+            order.extend((r..nx).step_by(4).map(|i| spec.index(i, j)));
+        }
+    }
+    order
+}
+
 /// The run of slots that starts at spring `i` of a colour ending at `end`, if it is worth a vector
 /// kernel: its layout, the number of springs it takes (`i..i + taken`) and its slot count. Springs
 /// follow each other with holes of at most [`MAX_GAP`] slots; the run is padded to whole batches
@@ -286,13 +351,13 @@ fn find_run(
     (slots >= LANES && 2 * taken >= LANES).then_some((layout, taken, slots))
 }
 
-/// Positions during XPBD's projection: where each particle began the substep, and its
-/// displacement since. The corrections accumulate in the small displacements rather than in the
-/// large positions, so that f32 keeps them (added to a position of about 1 m, a correction below
-/// 1e-7 m would vanish, and the velocity `Δx / h` with it).
+/// Positions during XPBD's projection, one slice per coordinate: where each particle began the
+/// substep, and its displacement since. The corrections accumulate in the small displacements
+/// rather than in the large positions, so that f32 keeps them (added to a position of about 1 m,
+/// a correction below 1e-7 m would vanish, and the velocity `Δx / h` with it).
 struct Split<'a> {
-    start: &'a Soa,
-    delta: &'a mut Soa,
+    start: [&'a [f32]; 3],
+    delta: [&'a mut [f32]; 3],
 }
 
 /// One XPBD step of `dt` seconds in `n` substeps.
@@ -310,6 +375,7 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
         // Wind forces are held over the step (see `wind.rs`).
         let wind = sim.wind.active.then(|| sim.wind.particle_forces());
         let (delta, v) = (&mut sim.displacement, &mut sim.velocity_soa);
+        let (inv_mass, order) = (&sim.projections.inv_mass, &sim.soa_order);
         for (c, (delta, v)) in [
             (&mut delta.x, &mut v.x),
             (&mut delta.y, &mut v.y),
@@ -321,11 +387,10 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
             let dv = gravity_dv[c];
             match wind {
                 Some(forces) => {
-                    for ((d, v), (f, w)) in delta
-                        .iter_mut()
-                        .zip(v.iter_mut())
-                        .zip(forces.iter().zip(&sim.inv_mass))
+                    for (s, ((d, v), w)) in
+                        delta.iter_mut().zip(v.iter_mut()).zip(inv_mass).enumerate()
                     {
+                        let f = forces[order.get(s).map_or(s, |&p| p as usize)];
                         *v = (*v + dv + f[c] * (*w * h)) * keep;
                         *d = *v * h;
                     }
@@ -340,22 +405,23 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
         }
         let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
         for pin in &sim.pins {
-            let i = pin.particle as usize;
+            let i = sim.soa_index(pin.particle);
             let (target, _) = pin_motion(pin, t0, t1, inv_h);
             sim.displacement.set(i, target - sim.soa.get(i));
         }
+        let (start, delta) = (&sim.soa, &mut sim.displacement);
         let mut x = Split {
-            start: &sim.soa,
-            delta: &mut sim.displacement,
+            start: [&start.x, &start.y, &start.z],
+            delta: [&mut delta.x, &mut delta.y, &mut delta.z],
         };
         let p = &mut sim.projections;
         if sim.settings.iterations == 1 {
             // λ starts at 0 each substep, so one iteration needs no multiplier storage.
-            solve_springs::<false>(p, &sim.inv_mass, &mut x, inv_h2);
+            solve_springs::<false>(p, &mut x, inv_h2);
         } else {
             p.lambda.fill(0.0);
             for _ in 0..sim.settings.iterations {
-                solve_springs::<true>(p, &sim.inv_mass, &mut x, inv_h2);
+                solve_springs::<true>(p, &mut x, inv_h2);
             }
         }
         // v = Δx / h from the displacement itself, which holds every correction in full
@@ -393,32 +459,22 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
 ///
 /// On x86-64 CPUs with AVX2 the kernel runs as 8-wide vectors (chosen at run time); the results
 /// are bit-identical either way (no fused multiply-add: Rust never contracts `a * b + c`).
-fn solve_springs<const ACCUMULATE: bool>(
-    p: &mut Projections,
-    inv_mass: &[f32],
-    x: &mut Split<'_>,
-    inv_h2: f32,
-) {
+fn solve_springs<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-        unsafe { solve_springs_avx2::<ACCUMULATE>(p, inv_mass, x, inv_h2) };
+        unsafe { solve_springs_avx2::<ACCUMULATE>(p, x, inv_h2) };
         return;
     }
-    solve_springs_body::<ACCUMULATE>(p, inv_mass, x, inv_h2);
+    solve_springs_body::<ACCUMULATE>(p, x, inv_h2);
 }
 
 /// [`solve_springs_body`] compiled for AVX2 (8-lane vectors).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-fn solve_springs_avx2<const ACCUMULATE: bool>(
-    p: &mut Projections,
-    inv_mass: &[f32],
-    x: &mut Split<'_>,
-    inv_h2: f32,
-) {
-    solve_springs_body::<ACCUMULATE>(p, inv_mass, x, inv_h2);
+fn solve_springs_avx2<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
+    solve_springs_body::<ACCUMULATE>(p, x, inv_h2);
 }
 
 /// The per-slot constants of a batch, and where its multipliers live.
@@ -441,13 +497,15 @@ impl<'a, const N: usize> Batch<'a, N> {
 }
 
 #[inline(always)]
-fn solve_springs_body<const ACCUMULATE: bool>(
-    p: &mut Projections,
-    inv_mass: &[f32],
-    x: &mut Split<'_>,
-    inv_h2: f32,
-) {
+fn solve_springs_body<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
     let (rest, compliance, lambda) = (&p.rest, &p.compliance, &mut p.lambda);
+    let inv_mass = &p.inv_mass;
+    // The slices as locals, which the compiler keeps in registers.
+    let Split { start, delta } = x;
+    let x = &mut Split {
+        start: *start,
+        delta: delta.each_mut().map(|d| &mut **d),
+    };
     for run in &p.runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
         let mut k = start;
@@ -555,24 +613,20 @@ fn solve_contiguous<const ACCUMULATE: bool>(
     inv_h2: f32,
 ) {
     // The x, y, z of particles `ia..ia + 8`, then of `ib..ib + 8`.
-    let ends = |v: &Soa| {
+    let ends = |v: [&[f32]; 3]| {
         [
-            load(&v.x, ia),
-            load(&v.y, ia),
-            load(&v.z, ia),
-            load(&v.x, ib),
-            load(&v.y, ib),
-            load(&v.z, ib),
+            load(v[0], ia),
+            load(v[1], ia),
+            load(v[2], ia),
+            load(v[0], ib),
+            load(v[1], ib),
+            load(v[2], ib),
         ]
     };
-    let (s, mut d) = (ends(x.start), ends(x.delta));
-    let delta = &mut *x.delta;
+    let (s, mut d) = (ends(x.start), ends(x.delta.each_ref().map(|d| &**d)));
     let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
     project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
-        .into_iter()
-        .enumerate()
-    {
+    for (c, coord) in x.delta.iter_mut().enumerate() {
         store(coord, ia, &d[c]);
         store(coord, ib, &d[c + 3]);
     }
@@ -587,14 +641,14 @@ fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
     batch: Batch<'_, LANES>,
     inv_h2: f32,
 ) {
-    let (start, delta) = (x.start, &mut *x.delta);
+    let (start, delta) = (x.start, &mut x.delta);
     let win: [[f32; 16]; 7] = [
-        load(&start.x, window),
-        load(&start.y, window),
-        load(&start.z, window),
-        load(&delta.x, window),
-        load(&delta.y, window),
-        load(&delta.z, window),
+        load(start[0], window),
+        load(start[1], window),
+        load(start[2], window),
+        load(delta[0], window),
+        load(delta[1], window),
+        load(delta[2], window),
         load(inv_mass, window),
     ];
     let (mut s, mut d) = ([[0.0f32; LANES]; 6], [[0.0f32; LANES]; 6]);
@@ -608,10 +662,7 @@ fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
         (wa[l], wb[l]) = (win[6][a], win[6][b]);
     }
     project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for (c, coord) in [&mut delta.x, &mut delta.y, &mut delta.z]
-        .into_iter()
-        .enumerate()
-    {
+    for (c, coord) in delta.iter_mut().enumerate() {
         let mut out = [0.0f32; 16];
         for l in 0..LANES {
             out[interleaved_offset(D, l)] = d[c][l];
@@ -632,21 +683,24 @@ fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
     batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
-    let (start, delta) = (x.start, &mut *x.delta);
+    let (start, delta) = (x.start, &mut x.delta);
     let (a, b) = (&a[k..k + N], &b[k..k + N]);
     let (mut s, mut d) = ([[0.0f32; N]; 6], [[0.0f32; N]; 6]);
     let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
     for l in 0..N {
         for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
-            (s[e][l], s[e + 1][l], s[e + 2][l]) = (start.x[i], start.y[i], start.z[i]);
-            (d[e][l], d[e + 1][l], d[e + 2][l]) = (delta.x[i], delta.y[i], delta.z[i]);
+            for c in 0..3 {
+                (s[e + c][l], d[e + c][l]) = (start[c][i], delta[c][i]);
+            }
         }
         (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
     }
     project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2);
     for l in 0..N {
         for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
-            (delta.x[i], delta.y[i], delta.z[i]) = (d[e][l], d[e + 1][l], d[e + 2][l]);
+            for c in 0..3 {
+                delta[c][i] = d[e + c][l];
+            }
         }
     }
 }
@@ -654,13 +708,14 @@ fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::forces::Soa;
     use crate::sim::{ClothModel, GridSpec};
     use glam::Vec3;
 
     /// Checks the layout and returns the number of gathered (scattered or tail) springs.
     fn gathered(model: &ClothModel) -> usize {
         let (s, n) = (&model.springs, model.particle_count());
-        let p = Projections::new(s, n);
+        let p = Projections::new(model);
         p.check(s, n).unwrap();
         p.runs
             .iter()
@@ -674,7 +729,7 @@ mod tests {
     #[test]
     fn grid_springs_are_projected_as_vectors() {
         let model = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap();
-        let p = Projections::new(&model.springs, model.particle_count());
+        let p = Projections::new(&model);
         // The row ends are padded, so that only the last run of a colour, whose padding would
         // run past the last particle, can leave springs to scalar code; the padding costs a few
         // percent.
@@ -727,14 +782,13 @@ mod tests {
         p.rest = vec![0.0; 8];
         p.compliance = vec![0.0; 8];
         p.lambda = vec![0.0; 8];
-        p.set_compliance(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3]);
-        let w = vec![1.0; n];
+        p.inv_mass = vec![0.0; n];
+        p.set_constants(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3], &vec![1.0; n]);
         solve_springs::<false>(
             p,
-            &w,
             &mut Split {
-                start: &start,
-                delta: &mut delta,
+                start: [&start.x, &start.y, &start.z],
+                delta: [&mut delta.x, &mut delta.y, &mut delta.z],
             },
             3600.0,
         );
