@@ -461,12 +461,31 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
 /// are bit-identical either way (no fused multiply-add: Rust never contracts `a * b + c`).
 fn solve_springs<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
     #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU supports the feature the function is compiled for (checked above).
+        unsafe { solve_springs_avx512::<ACCUMULATE>(p, x, inv_h2) };
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports the feature the function is compiled for (checked above).
         unsafe { solve_springs_avx2::<ACCUMULATE>(p, x, inv_h2) };
         return;
     }
-    solve_springs_body::<ACCUMULATE>(p, x, inv_h2);
+    solve_springs_body::<ACCUMULATE, false>(p, x, inv_h2);
+}
+
+/// [`solve_springs_body`] compiled for AVX-512, with 16-lane batches where a contiguous run
+/// allows them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline(never)]
+fn solve_springs_avx512<const ACCUMULATE: bool>(
+    p: &mut Projections,
+    x: &mut Split<'_>,
+    inv_h2: f32,
+) {
+    solve_springs_body::<ACCUMULATE, true>(p, x, inv_h2);
 }
 
 /// [`solve_springs_body`] compiled for AVX2 (8-lane vectors).
@@ -474,7 +493,7 @@ fn solve_springs<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>,
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 fn solve_springs_avx2<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
-    solve_springs_body::<ACCUMULATE>(p, x, inv_h2);
+    solve_springs_body::<ACCUMULATE, false>(p, x, inv_h2);
 }
 
 /// The per-slot constants of a batch, and where its multipliers live.
@@ -497,7 +516,11 @@ impl<'a, const N: usize> Batch<'a, N> {
 }
 
 #[inline(always)]
-fn solve_springs_body<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
+fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
+    p: &mut Projections,
+    x: &mut Split<'_>,
+    inv_h2: f32,
+) {
     let (rest, compliance, lambda) = (&p.rest, &p.compliance, &mut p.lambda);
     let inv_mass = &p.inv_mass;
     // The slices as locals, which the compiler keeps in registers.
@@ -509,6 +532,17 @@ fn solve_springs_body<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split
     for run in &p.runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
         let mut k = start;
+        // Two batches at once where their 32 particles are distinct.
+        if WIDE && run.layout == Layout::Contiguous && p.b[k] - p.a[k] >= 2 * LANES as u32 {
+            while k + 2 * LANES <= end {
+                let Some(batch) = Batch::at(rest, compliance, lambda, k) else {
+                    break;
+                };
+                let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+                solve_contiguous::<ACCUMULATE, { 2 * LANES }>(x, inv_mass, a, b, batch, inv_h2);
+                k += 2 * LANES;
+            }
+        }
         while k + LANES <= end {
             let Some(batch) = Batch::at(rest, compliance, lambda, k) else {
                 break;
@@ -516,7 +550,7 @@ fn solve_springs_body<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split
             let (a, b) = (p.a[k] as usize, p.b[k] as usize);
             match run.layout {
                 Layout::Contiguous => {
-                    solve_contiguous::<ACCUMULATE>(x, inv_mass, a, b, batch, inv_h2)
+                    solve_contiguous::<ACCUMULATE, LANES>(x, inv_mass, a, b, batch, inv_h2)
                 }
                 Layout::Interleaved(1) => {
                     solve_interleaved::<ACCUMULATE, 1>(x, inv_mass, a, batch, inv_h2)
@@ -602,17 +636,17 @@ fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
     }
 }
 
-/// Slots joining particles `ia..ia + 8` to `ib..ib + 8`.
+/// Slots joining particles `ia..ia + N` to `ib..ib + N`.
 #[inline(always)]
-fn solve_contiguous<const ACCUMULATE: bool>(
+fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
     x: &mut Split<'_>,
     inv_mass: &[f32],
     ia: usize,
     ib: usize,
-    batch: Batch<'_, LANES>,
+    batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
-    // The x, y, z of particles `ia..ia + 8`, then of `ib..ib + 8`.
+    // The x, y, z of particles `ia..ia + N`, then of `ib..ib + N`.
     let ends = |v: [&[f32]; 3]| {
         [
             load(v[0], ia),
@@ -625,7 +659,7 @@ fn solve_contiguous<const ACCUMULATE: bool>(
     };
     let (s, mut d) = (ends(x.start), ends(x.delta.each_ref().map(|d| &**d)));
     let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
-    project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
+    project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2);
     for (c, coord) in x.delta.iter_mut().enumerate() {
         store(coord, ia, &d[c]);
         store(coord, ib, &d[c + 3]);
