@@ -590,11 +590,19 @@ fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
 ) {
     let (rest, compliance, lambda) = (&p.rest, &p.compliance, &mut p.lambda);
     let inv_mass = &p.inv_mass;
-    // The slices as locals, which the compiler keeps in registers.
+    // The slices as locals, which the compiler keeps in registers, all of the particle count's
+    // length, so that one bounds check per batch covers every array.
+    let n = inv_mass.len();
     let Split { start, delta } = x;
+    let ([Some(s0), Some(s1), Some(s2)], [Some(d0), Some(d1), Some(d2)]) = (
+        start.map(|s| s.get(..n)),
+        delta.each_mut().map(|d| d.get_mut(..n)),
+    ) else {
+        return;
+    };
     let x = &mut Split {
-        start: *start,
-        delta: delta.each_mut().map(|d| &mut **d),
+        start: [s0, s1, s2],
+        delta: [d0, d1, d2],
     };
     for run in &p.runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
@@ -713,6 +721,9 @@ fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
     batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
+    if ia.max(ib) + N > inv_mass.len() {
+        return;
+    }
     // The x, y, z of particles `ia..ia + N`, then of `ib..ib + N`.
     let ends = |v: [&[f32]; 3]| {
         [
@@ -742,6 +753,9 @@ fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
     batch: Batch<'_, LANES>,
     inv_h2: f32,
 ) {
+    if window + 2 * LANES > inv_mass.len() {
+        return;
+    }
     let (start, delta) = (x.start, &mut x.delta);
     let win: [[f32; 16]; 7] = [
         load(start[0], window),
