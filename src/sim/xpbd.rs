@@ -445,7 +445,8 @@ struct Motion {
 /// position, corrections below its f32 resolution would vanish, and the lost ones bias the
 /// dynamics: a cloth can gain energy), and the position `x += Δ`, rounded once. With `BEGIN`, the
 /// start of the next: the unconstrained symplectic Euler move `v ← (v + g h + a) e^{-c h}`,
-/// `Δ = v h`, where `a` is the wind's velocity change (with `wind`).
+/// `Δ = v h`, where `a` is the wind's velocity change (with `wind`); that velocity is not stored
+/// (the end of the substep replaces it).
 ///
 /// On x86-64 CPUs with AVX2 the loops run as 8-wide vectors; the results are the same.
 fn advance<const END: bool, const BEGIN: bool>(sim: &mut ClothSim, m: &Motion, wind: bool) {
@@ -489,14 +490,18 @@ fn advance_body<const END: bool, const BEGIN: bool>(
     ];
     for (c, (x, v, d, wind)) in coords.into_iter().enumerate() {
         let (g, keep, h, inv_h) = (m.gravity[c], m.keep, m.h, m.inv_h);
+        // The velocity a substep starts with is only read by that start, so it is stored only
+        // where a substep ends without the next one starting (the step's last, or before contacts).
         let step = |x: &mut f32, v: &mut f32, d: &mut f32, a: f32| {
+            let mut u = *v;
             if END {
-                *v = *d * inv_h;
+                u = *d * inv_h;
                 *x += *d;
             }
             if BEGIN {
-                *v = (*v + g + a) * keep;
-                *d = *v * h;
+                *d = ((u + g + a) * keep) * h;
+            } else {
+                *v = u;
             }
         };
         match wind {
