@@ -323,7 +323,9 @@ pub struct ClothSim {
     /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
     /// Storage order of `soa` and `velocity_soa`: `soa_order[s]` is the particle stored at `s`
-    /// (empty: the particles' own order, as for all but XPBD on a grid; see `xpbd::grid_order`).
+    /// (empty: the particles' own order). A copy of the XPBD layout's order while XPBD is the
+    /// integrator (see `xpbd::grid_order`), empty otherwise; the layout keeps its own for when
+    /// XPBD is chosen again.
     pub(super) soa_order: Vec<u32>,
     /// The inverse of `soa_order`: where each particle is stored (empty with it).
     pub(super) soa_slot: Vec<u32>,
@@ -931,7 +933,7 @@ impl ClothSim {
         self.velocity_soa.write_ordered(&mut self.velocities, order);
     }
 
-    /// Where particle `p` is stored in `soa` and `velocity_soa` (see [`Self::soa_order`]).
+    /// Where particle `p` is stored in `soa` and `velocity_soa` (see the field `soa_order`).
     pub(super) fn soa_index(&self, p: u32) -> usize {
         self.soa_slot
             .get(p as usize)
