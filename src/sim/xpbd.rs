@@ -531,8 +531,9 @@ fn advance_body<const END: bool, const BEGIN: bool>(
 /// layout never changes a result. With `ACCUMULATE = false` (one iteration per substep) λ is known
 /// to be 0 and is neither read nor stored.
 ///
-/// On x86-64 CPUs with AVX2 the kernel runs as 8-wide vectors (chosen at run time); the results
-/// are bit-identical either way (no fused multiply-add: Rust never contracts `a * b + c`).
+/// On x86-64 CPUs the kernel runs as 8-wide AVX2 vectors, or with AVX-512 as 16-wide ones where a
+/// contiguous run allows (chosen at run time); the results are bit-identical either way (no fused
+/// multiply-add: Rust never contracts `a * b + c`).
 fn solve_springs<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx512f") {
