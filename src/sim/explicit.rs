@@ -91,8 +91,8 @@ pub(super) fn step_verlet(sim: &mut ClothSim, dt: f32, n: u32) {
         sim.begin_soa_substep();
         let mid = (sub as f32 + 0.5) / n as f32;
         for pin in &sim.pins {
-            sim.soa
-                .set(pin.particle as usize, pin.from.lerp(pin.to, mid));
+            let i = sim.soa_index(pin.particle);
+            sim.soa.set(i, pin.from.lerp(pin.to, mid));
         }
         compute_forces(sim);
         let last = sub + 1 == n;

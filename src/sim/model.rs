@@ -182,8 +182,8 @@ impl Springs {
     }
 
     /// [`Self::build`] with a given colour per spring (no two springs of a colour may share a
-    /// particle). Within a colour, springs are ordered by index offset `b - a` and then by `a`, so
-    /// that regular topology (grid rows) forms long runs for the XPBD kernel.
+    /// particle). Within a colour, springs are ordered by index offset `b - a` and then by `a`
+    /// (XPBD's layout re-sorts them by storage position; see `xpbd::Projections`).
     fn build_colored(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> Self {
         debug_assert!(is_proper_edge_coloring(positions.len(), pairs, colors));
         let pairs: Vec<(u32, u32, SpringKind, f32, u32)> = pairs

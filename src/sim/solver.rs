@@ -245,6 +245,17 @@ pub(super) fn drive_pins(
 
 /// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length
 /// `1/inv_h`, and the velocity of its motion over the substep.
+/// The storage order of a step's coordinate arrays (`soa`, `velocity_soa`): `order[s]` is the
+/// particle stored at `s`, empty for the particles' own order. XPBD's layout chooses it; the other
+/// integrators keep the particles' order.
+fn storage_order(integrator: Integrator, projections: &Projections) -> &[u32] {
+    if integrator == Integrator::Xpbd {
+        projections.order()
+    } else {
+        &[]
+    }
+}
+
 pub(super) fn pin_motion(pin: &PinState, t0: f32, t1: f32, inv_h: f32) -> (Vec3, Vec3) {
     let target = pin.from.lerp(pin.to, t1);
     // `from` is where the particle was when the step began (pins start where their particle is).
@@ -322,16 +333,10 @@ pub struct ClothSim {
     /// Velocities during a step, one array per coordinate (scratch; see
     /// [`Self::load_soa_state`]).
     pub(super) velocity_soa: Soa,
-    /// Storage order of `soa` and `velocity_soa`: `soa_order[s]` is the particle stored at `s`
-    /// (empty: the particles' own order). A copy of the XPBD layout's order while XPBD is the
-    /// integrator (see `xpbd::grid_order`), empty otherwise; the layout keeps its own for when
-    /// XPBD is chosen again.
-    pub(super) soa_order: Vec<u32>,
-    /// The inverse of `soa_order`: where each particle is stored (empty with it).
-    pub(super) soa_slot: Vec<u32>,
     /// XPBD's displacements of the current substep (scratch, see `xpbd::Split`).
     pub(super) displacement: Soa,
-    /// The springs laid out for XPBD's vector kernel (empty for the other integrators).
+    /// The springs laid out for XPBD's vector kernel (empty until XPBD is the integrator). While
+    /// it is, `soa` and `velocity_soa` are in the layout's storage order (see [`storage_order`]).
     pub(super) projections: Projections,
     /// The springs grouped for the explicit integrators' vector force kernel (empty for the others).
     pub(super) force_runs: ForceRuns,
@@ -447,8 +452,6 @@ impl ClothSim {
             velocity_soa: Soa::new(n),
             displacement: Soa::new(n),
             projections: Projections::default(),
-            soa_order: Vec::new(),
-            soa_slot: Vec::new(),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
@@ -560,11 +563,6 @@ impl ClothSim {
             }
             self.projections
                 .set_constants(&s.rest, &self.stiffness, &self.inv_mass);
-            self.soa_order.clone_from(self.projections.order());
-            self.soa_slot.clone_from(self.projections.slots());
-        } else {
-            self.soa_order.clear();
-            self.soa_slot.clear();
         }
     }
 
@@ -921,29 +919,32 @@ impl ClothSim {
     /// step works there and copies it back with [`Self::store_soa_state`] at its end and around
     /// the contact response (which works on the vectors).
     pub(super) fn load_soa_state(&mut self) {
-        let order = &self.soa_order;
+        let order = storage_order(self.settings.integrator, &self.projections);
         self.soa.load_ordered(&self.positions, order);
         self.velocity_soa.load_ordered(&self.velocities, order);
     }
 
     /// Copies the state back from `soa` and `velocity_soa` (see [`Self::load_soa_state`]).
     pub(super) fn store_soa_state(&mut self) {
-        let order = &self.soa_order;
+        let order = storage_order(self.settings.integrator, &self.projections);
         self.soa.write_ordered(&mut self.positions, order);
         self.velocity_soa.write_ordered(&mut self.velocities, order);
     }
 
-    /// Where particle `p` is stored in `soa` and `velocity_soa` (see the field `soa_order`).
+    /// Where particle `p` is stored in `soa` and `velocity_soa` (see [`storage_order`]).
     pub(super) fn soa_index(&self, p: u32) -> usize {
-        self.soa_slot
-            .get(p as usize)
-            .map_or(p as usize, |&s| s as usize)
+        if self.settings.integrator == Integrator::Xpbd {
+            self.projections.stored(p) as usize
+        } else {
+            p as usize
+        }
     }
 
     /// Where a substep begins, for the contact response's swept tests (state in `soa`).
     pub(super) fn begin_soa_substep(&mut self) {
         if self.contacts.is_active() {
-            self.soa.write_ordered(&mut self.positions, &self.soa_order);
+            let order = storage_order(self.settings.integrator, &self.projections);
+            self.soa.write_ordered(&mut self.positions, order);
             self.contacts.begin_substep(&self.positions);
         }
     }

@@ -54,6 +54,15 @@ const fn interleaved_offset(d: usize, m: usize) -> usize {
     2 * d * (m / d) + m % d
 }
 
+/// How many places slot `m`'s first particle lies after its run's first, in a run of index
+/// offset `d` (the inverse of [`slot_at`]).
+fn offset_of(layout: Layout, d: usize, m: usize) -> usize {
+    match layout {
+        Layout::Interleaved(_) => interleaved_offset(d, m),
+        _ => m,
+    }
+}
+
 /// The slot whose first particle is `offset` places after its run's first, if any.
 fn slot_at(layout: Layout, offset: usize) -> Option<usize> {
     match layout {
@@ -132,19 +141,14 @@ impl Projections {
     }
 
     /// Where particle `i` is stored.
-    fn stored(&self, i: u32) -> u32 {
+    pub(super) fn stored(&self, i: u32) -> u32 {
         self.slot.get(i as usize).copied().unwrap_or(i)
     }
 
     /// Storage order of the particles during a step: `order()[s]` is the particle stored at `s`
     /// (empty: their own order).
-    pub(super) fn order(&self) -> &Vec<u32> {
+    pub(super) fn order(&self) -> &[u32] {
         &self.order
-    }
-
-    /// The inverse of [`Self::order`]: where each particle is stored (empty with it).
-    pub(super) fn slots(&self) -> &Vec<u32> {
-        &self.slot
     }
 
     /// Whether this layout was built for a set of `springs` springs.
@@ -190,10 +194,7 @@ impl Projections {
             let (a0, d) = (a[i] as usize, (b[i] - a[i]) as usize);
             let mut next = i;
             for m in 0..slots {
-                let first = match layout {
-                    Layout::Interleaved(_) => a0 + interleaved_offset(d, m),
-                    _ => a0 + m,
-                };
+                let first = a0 + offset_of(layout, d, m);
                 let real = next < i + taken && a[next] as usize == first;
                 self.spring.push(real.then(|| color[next].2));
                 next += usize::from(real);
@@ -340,15 +341,8 @@ fn find_run(
         k += 1;
     }
     let (taken, slots) = (k - i, last + 1);
-    let last_particle = |m: usize| -> usize {
-        let offset = match layout {
-            Layout::Interleaved(_) => interleaved_offset(d, m),
-            _ => m,
-        };
-        a[i] as usize + offset + d
-    };
     let padded = slots.next_multiple_of(LANES);
-    let slots = if last_particle(padded - 1) < particles {
+    let slots = if a[i] as usize + offset_of(layout, d, padded - 1) + d < particles {
         padded
     } else {
         slots
@@ -383,9 +377,9 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
     let wind = sim.wind.active;
     if wind {
         let forces = sim.wind.particle_forces();
-        let (order, p) = (&sim.soa_order, &mut sim.projections);
+        let p = &mut sim.projections;
         for (s, w) in p.inv_mass.iter().enumerate() {
-            let f = forces[order.get(s).map_or(s, |&i| i as usize)];
+            let f = forces[p.order.get(s).map_or(s, |&i| i as usize)];
             p.wind_dv.set(s, f * (*w * h));
         }
     }
