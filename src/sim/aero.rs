@@ -97,15 +97,34 @@ pub fn add_aero_forces(
         "one wind per triangle"
     );
 
-    for (tri, &wind) in triangles.iter().zip(triangle_wind) {
+    add_aero_forces_in(
+        positions,
+        velocities,
+        triangles,
+        |t| triangle_wind[t],
+        params,
+        forces,
+    );
+}
+
+/// [`add_aero_forces`] with the wind at triangle `t` given by `wind(t)`.
+pub(crate) fn add_aero_forces_in(
+    positions: &[Vec3],
+    velocities: &[Vec3],
+    triangles: &[[u32; 3]],
+    wind: impl Fn(usize) -> Vec3,
+    params: &AeroParams,
+    forces: &mut [Vec3],
+) {
+    for (t, tri) in triangles.iter().enumerate() {
         let [a, b, c] = tri.map(|i| i as usize);
-        let force = triangle_force(
+        let third = triangle_force(
             [positions[a], positions[b], positions[c]],
             [velocities[a], velocities[b], velocities[c]],
-            wind,
+            wind(t),
             params,
+            1.0 / 3.0,
         );
-        let third = force / 3.0;
         forces[a] += third;
         forces[b] += third;
         forces[c] += third;
@@ -126,29 +145,29 @@ pub fn triangle_centroids(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut 
     }
 }
 
-/// Total aerodynamic force (N) on one triangle; see [`add_aero_forces`].
-#[inline]
-fn triangle_force(p: [Vec3; 3], v: [Vec3; 3], wind: Vec3, params: &AeroParams) -> Vec3 {
+/// `share` times the aerodynamic force (N) on one triangle; see [`add_aero_forces`].
+///
+/// With the cross product `c = (p₁ − p₀) × (p₂ − p₀)` (so `A = |c|/2`, `n = c/|c|`) and `k = c·u`,
+/// the force `q (C_d |cos θ| û + C_l cos θ (n − cos θ û))` becomes
+/// `ρ/4 (C_d |k| u + C_l k (|u|² c − k u) / (|c| |u|))`: one square root and one division, and
+/// exactly zero when the plate is edge-on (`k = 0`).
+#[inline(always)]
+fn triangle_force(p: [Vec3; 3], v: [Vec3; 3], wind: Vec3, params: &AeroParams, share: f32) -> Vec3 {
     // Averaging the per-vertex differences makes `u` exactly zero when every vertex moves with
     // the wind (averaging the velocities first would leave rounding noise).
-    let u = ((wind - v[0]) + (wind - v[1]) + (wind - v[2])) / 3.0;
+    let u = ((wind - v[0]) + (wind - v[1]) + (wind - v[2])) * (1.0 / 3.0);
     let speed_sq = u.length_squared();
-    if speed_sq < MIN_SPEED_SQ {
+    let c = (p[1] - p[0]).cross(p[2] - p[0]);
+    let cross_sq = c.length_squared();
+    // |c| = 2A.
+    if speed_sq < MIN_SPEED_SQ || cross_sq < 4.0 * MIN_AREA * MIN_AREA {
         return Vec3::ZERO;
     }
-    let cross = (p[1] - p[0]).cross(p[2] - p[0]);
-    let twice_area = cross.length();
-    let area = 0.5 * twice_area;
-    if area < MIN_AREA {
-        return Vec3::ZERO;
-    }
-    let n = cross / twice_area;
-    let u_hat = u / speed_sq.sqrt();
-    let cos = n.dot(u_hat);
-    let q = 0.5 * params.air_density * area * speed_sq;
-    let drag = params.drag * cos.abs() * u_hat;
-    let lift = params.lift * cos * (n - cos * u_hat);
-    q * (drag + lift)
+    let k = c.dot(u);
+    let r = 1.0 / (cross_sq * speed_sq).sqrt();
+    let drag = params.drag * k.abs() * u;
+    let lift = (params.lift * k * r) * (speed_sq * c - k * u);
+    (0.25 * params.air_density * share) * (drag + lift)
 }
 
 /// A gusty wind field: a base wind whose speed and direction fluctuate smoothly in time, with the
@@ -516,7 +535,7 @@ mod tests {
         ];
         let wind = Vec3::new(5.0, 2.0, -3.0);
         let params = AeroParams::default();
-        let expected = triangle_force(TILTED, velocities, wind, &params);
+        let expected = triangle_force(TILTED, velocities, wind, &params, 1.0);
         let mut forces = [Vec3::splat(1.0); 3];
         add_aero_forces(
             &TILTED,

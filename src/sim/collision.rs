@@ -132,6 +132,22 @@ impl ColliderShape {
         }
     }
 
+    /// What the shape at `pose` stays clear of, with a radius: the shape lies within that radius
+    /// of the returned centre (its ball), or, for a half-space, on and below the returned plane
+    /// (radius 0). A point at distance `D` from it is at least `D − radius` from the shape.
+    fn near(&self, pose: &Pose) -> (Near, f32) {
+        let centre = pose.translation;
+        match *self {
+            ColliderShape::Sphere(s) => (Near::Point(centre), s.radius),
+            ColliderShape::Capsule(c) => (Near::Point(centre), c.half_length + c.radius),
+            ColliderShape::Cuboid(b) => (Near::Point(centre), b.half_size.length()),
+            ColliderShape::HalfSpace(plane) => (
+                Near::Plane(centre, pose.rotation * Vec3::from(plane.normal)),
+                0.0,
+            ),
+        }
+    }
+
     /// World-space bounding box at `pose`, or `None` for the unbounded half-space.
     fn bounds(&self, pose: &Pose) -> Option<(Vec3, Vec3)> {
         let half = match *self {
@@ -348,14 +364,98 @@ impl ActiveCollider {
     }
 }
 
-/// Per-cloth collision state: the colliders that survived this step's broad phase and the particle
-/// positions at the start of the current substep. Buffers are reused from step to step; they grow
-/// (allocate) only when a step has more active colliders than any step before.
+/// The particle state a contact response reads and writes, in whatever layout a step keeps it:
+/// each particle's position and velocity at the end of the substep and its position at the start.
+/// Particles are addressed by where they are stored; [`Self::slot`] maps a model particle there.
+pub(crate) trait ContactState {
+    /// Number of particles.
+    fn len(&self) -> usize;
+    /// Inverse mass of the particle stored at `i` (0: pinned, never moved by a contact).
+    fn inv_mass(&self, i: usize) -> f32;
+    /// Where model particle `p` is stored.
+    fn slot(&self, p: u32) -> usize;
+    /// Position at the start of the substep.
+    fn start(&self, i: usize) -> Vec3;
+    /// Position now.
+    fn position(&self, i: usize) -> Vec3;
+    /// Velocity now.
+    fn velocity(&self, i: usize) -> Vec3;
+    /// Moves particle `i` to `x` with velocity `v`; its start stays where it was.
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3);
+    /// For every particle, `near.distance(x) − |x − start|` into `out`: a lower bound on its
+    /// distance from `near`'s point or plane all along its path over the substep.
+    fn clearances(&self, near: Near, out: &mut [f32]);
+}
+
+/// What a particle's clearance from a collider is measured to (see [`ContactState::clearances`]):
+/// the centre of its bounding ball, or, for a half-space, its plane.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Near {
+    /// Euclidean distance from the point.
+    Point(Vec3),
+    /// Signed distance from the plane through the point with the unit normal.
+    Plane(Vec3, Vec3),
+}
+
+impl Near {
+    /// Distance (signed for a plane) of `x`.
+    #[inline(always)]
+    pub fn distance(&self, x: Vec3) -> f32 {
+        match *self {
+            Near::Point(c) => (x - c).length(),
+            Near::Plane(c, n) => (x - c).dot(n),
+        }
+    }
+}
+
+/// The state as three arrays of vectors in the particles' own order.
+struct Vectors<'a> {
+    x: &'a mut [Vec3],
+    v: &'a mut [Vec3],
+    start: &'a [Vec3],
+    inv_mass: &'a [f32],
+}
+
+impl ContactState for Vectors<'_> {
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+    fn inv_mass(&self, i: usize) -> f32 {
+        self.inv_mass[i]
+    }
+    fn slot(&self, p: u32) -> usize {
+        p as usize
+    }
+    fn start(&self, i: usize) -> Vec3 {
+        self.start[i]
+    }
+    fn position(&self, i: usize) -> Vec3 {
+        self.x[i]
+    }
+    fn velocity(&self, i: usize) -> Vec3 {
+        self.v[i]
+    }
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+        (self.x[i], self.v[i]) = (x, v);
+    }
+    fn clearances(&self, near: Near, out: &mut [f32]) {
+        for ((o, x), s) in out.iter_mut().zip(&*self.x).zip(self.start) {
+            *o = near.distance(*x) - x.distance(*s);
+        }
+    }
+}
+
+/// Per-cloth collision state: the colliders that survived this step's broad phase, the particle
+/// positions at the start of the current substep (for states without their own, see
+/// [`Contacts::resolve`]) and the particles' clearances. Buffers are reused from step to step;
+/// they grow (allocate) only when a step has more active colliders than any step before.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Contacts {
     active: Vec<ActiveCollider>,
     /// Particle positions at the start of the current substep.
     start: Vec<Vec3>,
+    /// Each particle's clearance from the collider being resolved (scratch).
+    clearance: Vec<f32>,
     /// The longest edge of the cloth's triangles at rest, m: spheres smaller than this get the
     /// particle–triangle test.
     max_edge: f32,
@@ -367,6 +467,7 @@ impl Contacts {
         Self {
             active: Vec::new(),
             start: vec![Vec3::ZERO; particles],
+            clearance: vec![0.0; particles],
             max_edge,
         }
     }
@@ -444,19 +545,19 @@ impl Contacts {
             .any(|c| c.collider.start != c.collider.end)
     }
 
-    /// Records the particle positions at the start of a substep (only when a collider is active).
+    /// Records the particle positions at the start of a substep (only when a collider is active),
+    /// for [`Self::resolve`].
     pub fn begin_substep(&mut self, positions: &[Vec3]) {
         if self.is_active() {
             self.start.copy_from_slice(positions);
         }
     }
 
-    /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
-    /// `h`: every free particle (inverse mass > 0) is moved out of every active collider and its
-    /// velocity corrected; then, for small spheres, every triangle.
+    /// [`Self::resolve_state`] for positions `x` and velocities `v` in the particles' own order,
+    /// which started the substep where [`Self::begin_substep`] recorded.
     #[allow(clippy::too_many_arguments)]
     pub fn resolve(
-        &self,
+        &mut self,
         t0: f32,
         t1: f32,
         h: f32,
@@ -465,54 +566,98 @@ impl Contacts {
         x: &mut [Vec3],
         v: &mut [Vec3],
     ) {
-        for c in &self.active {
-            let pose0 = c.collider.start.lerp(&c.collider.end, t0);
-            let pose1 = c.collider.start.lerp(&c.collider.end, t1);
-            let still = pose0 == pose1;
-            for i in 0..x.len() {
-                if inv_mass[i] > 0.0 {
-                    collide_particle(
-                        c,
-                        (&pose0, &pose1, still),
-                        h,
-                        self.start[i],
-                        &mut x[i],
-                        &mut v[i],
-                    );
+        let Self {
+            active,
+            start,
+            clearance,
+            ..
+        } = self;
+        let mut state = Vectors {
+            x,
+            v,
+            start,
+            inv_mass,
+        };
+        resolve(active, clearance, (t0, t1, h), triangles, &mut state);
+    }
+
+    /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
+    /// `h`: every free particle (inverse mass > 0) is moved out of every active collider and its
+    /// velocity corrected; then, for small spheres, every triangle.
+    pub fn resolve_state<S: ContactState>(
+        &mut self,
+        (t0, t1, h): (f32, f32, f32),
+        triangles: &[u32],
+        state: &mut S,
+    ) {
+        resolve(
+            &self.active,
+            &mut self.clearance,
+            (t0, t1, h),
+            triangles,
+            state,
+        );
+    }
+}
+
+/// See [`Contacts::resolve_state`]. Before the exact test, a particle whose clearance (see
+/// [`ContactState::clearances`]) from the collider's bounding ball or plane exceeds the ball's
+/// radius, the margin and the collider's travel over the substep is skipped: no point of its path
+/// comes within the margin, so the exact test would leave it alone. This bound holds for colliders
+/// that do not rotate during the substep; rotating ones get the exact test everywhere.
+fn resolve<S: ContactState>(
+    active: &[ActiveCollider],
+    clearance: &mut [f32],
+    (t0, t1, h): (f32, f32, f32),
+    triangles: &[u32],
+    state: &mut S,
+) {
+    for c in active {
+        let pose0 = c.collider.start.lerp(&c.collider.end, t0);
+        let pose1 = c.collider.start.lerp(&c.collider.end, t1);
+        let still = pose0 == pose1;
+        let bound = (pose0.rotation == pose1.rotation).then(|| c.collider.shape.near(&pose1));
+        if let Some((near, radius)) = bound {
+            let travel = pose0.translation.distance(pose1.translation);
+            // Rounding in the exact test is far below this slack (relative to the coordinates).
+            let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);
+            let skip = radius + c.collider.margin + travel + slack;
+            state.clearances(near, clearance);
+            for (i, &gap) in clearance.iter().enumerate() {
+                if gap <= skip && state.inv_mass(i) > 0.0 {
+                    collide_particle(c, (&pose0, &pose1, still), h, state, i);
                 }
             }
-            if c.triangles {
-                for _ in 0..TRIANGLE_PASSES {
-                    if !collide_triangles(
-                        c,
-                        (&pose0, &pose1, h),
-                        &self.start,
-                        triangles,
-                        inv_mass,
-                        x,
-                        v,
-                    ) {
-                        break;
-                    }
+        } else {
+            for i in 0..state.len() {
+                if state.inv_mass(i) > 0.0 {
+                    collide_particle(c, (&pose0, &pose1, still), h, state, i);
+                }
+            }
+        }
+        if c.triangles {
+            for _ in 0..TRIANGLE_PASSES {
+                if !collide_triangles(c, (&pose0, &pose1, h), triangles, state) {
+                    break;
                 }
             }
         }
     }
 }
 
-/// Contact of one particle with one collider over a substep: projection, then the velocity split
+/// Contact of particle `i` with one collider over a substep: projection, then the velocity split
 /// and Coulomb friction described in the module docs.
-fn collide_particle(
+fn collide_particle<S: ContactState>(
     c: &ActiveCollider,
     (pose0, pose1, still): (&Pose, &Pose, bool),
     h: f32,
-    start: Vec3,
-    x: &mut Vec3,
-    v: &mut Vec3,
+    state: &mut S,
+    i: usize,
 ) {
     let shape = &c.collider.shape;
     let margin = c.collider.margin;
-    let mut local = pose1.inverse_transform_point(*x);
+    let (x, start) = (state.position(i), state.start(i));
+    let mut local = pose1.inverse_transform_point(x);
     let (mut d, mut normal) = shape.signed_distance(local);
     // The signed distance changes no faster than the point moves: a particle that ends the
     // substep farther from a collider at rest than it travelled cannot have passed through it.
@@ -526,19 +671,20 @@ fn collide_particle(
             None => return,
         }
     }
-    let target = pose1.transform_point(local + normal * (margin - d));
-    let push = (target - *x).length();
-    *x = target;
-    let vc = c.velocity_at(target, pose1.translation);
+    let mut x = pose1.transform_point(local + normal * (margin - d));
+    let push = (x - state.position(i)).length();
+    let mut v = state.velocity(i);
+    let vc = c.velocity_at(x, pose1.translation);
     respond(
         &c.collider.friction,
         pose1.rotation * normal,
         push,
         vc,
         (h, start),
-        x,
-        v,
+        &mut x,
+        &mut v,
     );
+    state.set(i, x, v);
 }
 
 /// The response of a contact just pushed out by `push` along the outward normal `n`, against a
@@ -602,15 +748,11 @@ fn sweep(shape: &ColliderShape, from: Vec3, to: Vec3, margin: f32) -> Option<(Ve
 /// the substep (the direction from the triangle's closest point to the centre then), so neither a
 /// fast sphere nor a triangle folding over it lets it pop through. The moved vertices get the same response as
 /// particle contacts (friction, inward velocity removed). Returns whether any triangle was moved.
-#[allow(clippy::too_many_arguments)]
-fn collide_triangles(
+fn collide_triangles<S: ContactState>(
     c: &ActiveCollider,
     (pose0, pose1, h): (&Pose, &Pose, f32),
-    start: &[Vec3],
     triangles: &[u32],
-    inv_mass: &[f32],
-    x: &mut [Vec3],
-    v: &mut [Vec3],
+    state: &mut S,
 ) -> bool {
     let ColliderShape::Sphere(sphere) = c.collider.shape else {
         return false;
@@ -619,9 +761,9 @@ fn collide_triangles(
     let reach = sphere.radius + c.collider.margin;
     let (centre0, centre) = (pose0.translation, pose1.translation);
     for tri in triangles.chunks_exact(3) {
-        let ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-        let [a, b, p] = ids.map(|i| x[i]);
-        let [a0, b0, p0] = ids.map(|i| start[i]);
+        let ids = [tri[0], tri[1], tri[2]].map(|p| state.slot(p));
+        let [a, b, p] = ids.map(|i| state.position(i));
+        let [a0, b0, p0] = ids.map(|i| state.start(i));
         // Swept boxes: the triangle from its start to its current place against the centre's
         // path, so a triangle that swept past the sphere within the substep is still tested.
         let lo = a.min(b).min(p).min(a0.min(b0).min(p0)) - Vec3::splat(reach);
@@ -653,7 +795,8 @@ fn collide_triangles(
         if depth <= 0.0 || dir == Vec3::ZERO {
             continue;
         }
-        let weights = [0, 1, 2].map(|k| bary[k] * inv_mass[ids[k]]);
+        let inv_mass = ids.map(|i| state.inv_mass(i));
+        let weights = [0, 1, 2].map(|k| bary[k] * inv_mass[k]);
         let denom: f32 = (0..3).map(|k| bary[k] * weights[k]).sum();
         if denom <= 1e-12 {
             continue;
@@ -661,7 +804,7 @@ fn collide_triangles(
         moved = true;
         for k in 0..3 {
             let i = ids[k];
-            if inv_mass[i] <= 0.0 {
+            if inv_mass[k] <= 0.0 {
                 continue;
             }
             // With all corners free no corner moves more than 3× the depth (Σ b² ≥ 1/3). With
@@ -670,17 +813,18 @@ fn collide_triangles(
             // capped there, and the pinned triangle lets the sphere sink in instead of flinging
             // the corner.
             let push = (depth * weights[k] / denom).min(3.0 * depth);
-            x[i] -= dir * push;
-            let vc = c.velocity_at(x[i], centre);
+            let (mut x, mut v) = (state.position(i) - dir * push, state.velocity(i));
+            let vc = c.velocity_at(x, centre);
             respond(
                 &c.collider.friction,
                 -dir,
                 push,
                 vc,
-                (h, start[i]),
-                &mut x[i],
-                &mut v[i],
+                (h, state.start(i)),
+                &mut x,
+                &mut v,
             );
+            state.set(i, x, v);
         }
     }
     moved
@@ -925,6 +1069,114 @@ mod tests {
                 v[0]
             );
             assert!(v[0].x <= slide / 0.01 + 1e-6);
+        }
+    }
+
+    /// [`Vectors`] without the clearance skip: every particle gets the exact test.
+    struct Exact<'a>(Vectors<'a>);
+
+    impl ContactState for Exact<'_> {
+        fn len(&self) -> usize {
+            self.0.len()
+        }
+        fn inv_mass(&self, i: usize) -> f32 {
+            self.0.inv_mass(i)
+        }
+        fn slot(&self, p: u32) -> usize {
+            self.0.slot(p)
+        }
+        fn start(&self, i: usize) -> Vec3 {
+            self.0.start(i)
+        }
+        fn position(&self, i: usize) -> Vec3 {
+            self.0.position(i)
+        }
+        fn velocity(&self, i: usize) -> Vec3 {
+            self.0.velocity(i)
+        }
+        fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+            self.0.set(i, x, v);
+        }
+        fn clearances(&self, _: Near, out: &mut [f32]) {
+            out.fill(f32::NEG_INFINITY);
+        }
+    }
+
+    #[test]
+    fn the_clearance_skip_changes_no_contact() {
+        // Particles scattered around each shape, some inside, some grazing it, some far, moving
+        // up to 0.6 m in the substep; colliders at rest, translating and rotating.
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut uniform = |lo: f32, hi: f32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            lo + (hi - lo) * (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let n = 3000;
+        let start: Vec<Vec3> = (0..n)
+            .map(|_| Vec3::new(uniform(-1.1, 1.1), uniform(-1.1, 1.1), uniform(-1.1, 1.1)))
+            .collect();
+        let end: Vec<Vec3> = start
+            .iter()
+            .map(|s| {
+                *s + 0.2 * Vec3::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0), uniform(-1.0, 1.0))
+            })
+            .collect();
+        let v0: Vec<Vec3> = (0..n)
+            .map(|_| Vec3::new(uniform(-3.0, 3.0), uniform(-3.0, 3.0), uniform(-3.0, 3.0)))
+            .collect();
+        let inv_mass: Vec<f32> = (0..n)
+            .map(|i| if i % 50 == 0 { 0.0 } else { 1.0 })
+            .collect();
+        let pose = Pose {
+            rotation: Quat::from_rotation_y(0.4) * Quat::from_rotation_x(0.3),
+            translation: Vec3::new(0.1, -0.2, 0.05),
+        };
+        let motions = [
+            pose,
+            Pose {
+                translation: pose.translation + Vec3::new(1.2, 0.4, -0.8),
+                ..pose
+            },
+            Pose {
+                rotation: Quat::from_rotation_z(0.5) * pose.rotation,
+                ..pose
+            },
+        ];
+        for shape in shapes() {
+            for end_pose in motions {
+                let collider = Collider {
+                    end: end_pose,
+                    ..Collider::fixed(shape, pose, Friction::new(0.5), 0.02)
+                };
+                let mut contacts = active(collider, 1.0 / 60.0, 0.1);
+                let mut run = |exact: bool| {
+                    let (mut x, mut v) = (end.clone(), v0.clone());
+                    let state = Vectors {
+                        x: &mut x,
+                        v: &mut v,
+                        start: &start,
+                        inv_mass: &inv_mass,
+                    };
+                    let (active, clearance) = (&contacts.active, &mut contacts.clearance);
+                    clearance.resize(n, 0.0);
+                    let t = (0.25, 0.5, 1.0 / 240.0);
+                    if exact {
+                        resolve(active, clearance, t, &[], &mut Exact(state));
+                    } else {
+                        resolve(active, clearance, t, &[], &mut { state });
+                    }
+                    (x, v)
+                };
+                let (skipped, exact) = (run(false), run(true));
+                assert_eq!(skipped, exact, "{shape:?} moving to {end_pose:?}");
+                let moved = (0..n).filter(|&i| exact.0[i] != end[i]).count();
+                assert!(
+                    moved > 50 && moved < n - 50,
+                    "{shape:?}: {moved} of {n} in contact"
+                );
+            }
         }
     }
 

@@ -137,6 +137,13 @@ impl Soa {
         }
     }
 
+    /// Copies `other`'s vectors in (both hold the same number).
+    pub fn copy_from(&mut self, other: &Soa) {
+        self.x.copy_from_slice(&other.x);
+        self.y.copy_from_slice(&other.y);
+        self.z.copy_from_slice(&other.z);
+    }
+
     /// Vector `i`.
     pub fn get(&self, i: usize) -> Vec3 {
         Vec3::new(self.x[i], self.y[i], self.z[i])

@@ -10,7 +10,7 @@ use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::collision::{Collider, Contacts, bounds};
+use super::collision::{Collider, ContactState, Contacts, Near, bounds};
 use super::forces::{ForceRuns, Soa, SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, SpringKind};
@@ -243,8 +243,6 @@ pub(super) fn drive_pins(
     }
 }
 
-/// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length
-/// `1/inv_h`, and the velocity of its motion over the substep.
 /// The storage order of a step's coordinate arrays (`soa`, `velocity_soa`): `order[s]` is the
 /// particle stored at `s`, empty for the particles' own order. XPBD's layout chooses it; the other
 /// integrators keep the particles' order.
@@ -256,6 +254,8 @@ fn storage_order(integrator: Integrator, projections: &Projections) -> &[u32] {
     }
 }
 
+/// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length
+/// `1/inv_h`, and the velocity of its motion over the substep.
 pub(super) fn pin_motion(pin: &PinState, t0: f32, t1: f32, inv_h: f32) -> (Vec3, Vec3) {
     let target = pin.from.lerp(pin.to, t1);
     // `from` is where the particle was when the step began (pins start where their particle is).
@@ -893,27 +893,6 @@ impl ClothSim {
         2.0 * speed * dt + self.settings.gravity.length() * dt * dt + pin_jump
     }
 
-    /// Contacts at the end of substep `sub` of `n` (length `h`): after the integrator has its final
-    /// positions and velocities for the substep.
-    pub(super) fn resolve_contacts(&mut self, sub: u32, n: u32, h: f32) {
-        if self.contacts.is_active() {
-            let before = self.contact_work.map(|_| self.energy().total());
-            self.contacts.resolve(
-                sub as f32 / n as f32,
-                (sub + 1) as f32 / n as f32,
-                h,
-                &self.model.triangles,
-                &self.inv_mass,
-                &mut self.positions,
-                &mut self.velocities,
-            );
-            if let Some(before) = before {
-                let gain = (self.energy().total() - before).max(0.0);
-                self.contact_work = self.contact_work.map(|work| work + gain);
-            }
-        }
-    }
-
     /// Copies the state into one array per coordinate for a step: positions into `soa`,
     /// velocities into `velocity_soa`, where the integrators' particle loops are vector code. The
     /// step works there and copies it back with [`Self::store_soa_state`] at its end and around
@@ -940,21 +919,57 @@ impl ClothSim {
         }
     }
 
-    /// Where a substep begins, for the contact response's swept tests (state in `soa`).
+    /// Where a substep begins, for the contact response's swept tests: recorded in `displacement`
+    /// by the explicit integrators (XPBD's displacement is already the record, see
+    /// [`Self::resolve_soa_contacts`]).
     pub(super) fn begin_soa_substep(&mut self) {
         if self.contacts.is_active() {
-            let order = storage_order(self.settings.integrator, &self.projections);
-            self.soa.write_ordered(&mut self.positions, order);
-            self.contacts.begin_substep(&self.positions);
+            self.displacement.copy_from(&self.soa);
         }
     }
 
-    /// [`Self::resolve_contacts`] with the state in `soa` and `velocity_soa`.
+    /// Contacts at the end of substep `sub` of `n` (length `h`), after the integrator has its
+    /// final positions and velocities for the substep, in `soa` and `velocity_soa`. The response
+    /// works on them in place ([`SoaContacts`]), with `displacement` holding each particle's
+    /// displacement over the substep: XPBD's own, or for the other integrators the difference from
+    /// the start [`Self::begin_soa_substep`] recorded.
     pub(super) fn resolve_soa_contacts(&mut self, sub: u32, n: u32, h: f32) {
-        if self.contacts.is_active() {
-            self.store_soa_state();
-            self.resolve_contacts(sub, n, h);
-            self.load_soa_state();
+        if !self.contacts.is_active() {
+            return;
+        }
+        let xpbd = self.settings.integrator == Integrator::Xpbd;
+        if !xpbd {
+            let (x, d) = (&self.soa, &mut self.displacement);
+            for (x, d) in [(&x.x, &mut d.x), (&x.y, &mut d.y), (&x.z, &mut d.z)] {
+                for (x, d) in x.iter().zip(d.iter_mut()) {
+                    *d = *x - *d;
+                }
+            }
+        }
+        let energy = |sim: &mut Self| {
+            sim.contact_work.map(|_| {
+                sim.store_soa_state();
+                sim.energy().total()
+            })
+        };
+        let before = energy(self);
+        let mut state = SoaContacts {
+            x: &mut self.soa,
+            v: &mut self.velocity_soa,
+            d: &mut self.displacement,
+            inv_mass: if xpbd {
+                self.projections.inv_mass()
+            } else {
+                &self.inv_mass
+            },
+            layout: xpbd.then_some(&self.projections),
+        };
+        let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+        self.contacts
+            .resolve_state((t0, t1, h), &self.model.triangles, &mut state);
+        if let (Some(before), Some(after)) = (before, energy(self)) {
+            let gain = (after - before).max(0.0);
+            self.contact_work = self.contact_work.map(|work| work + gain);
         }
     }
 
@@ -971,6 +986,67 @@ impl ClothSim {
     }
 }
 
+/// A step's coordinate arrays as the contact response's state (see
+/// [`ClothSim::resolve_soa_contacts`]): positions `x`, velocities `v` and displacements `d` over
+/// the substep, so a particle started at `x − d`. Moving a particle moves its displacement with it,
+/// so its start stays put.
+struct SoaContacts<'a> {
+    x: &'a mut Soa,
+    v: &'a mut Soa,
+    d: &'a mut Soa,
+    /// Inverse masses in storage order.
+    inv_mass: &'a [f32],
+    /// XPBD's layout, whose storage order the arrays are in; `None`: the particles' own order.
+    layout: Option<&'a Projections>,
+}
+
+impl ContactState for SoaContacts<'_> {
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+    fn inv_mass(&self, i: usize) -> f32 {
+        self.inv_mass[i]
+    }
+    fn slot(&self, p: u32) -> usize {
+        self.layout.map_or(p, |l| l.stored(p)) as usize
+    }
+    fn start(&self, i: usize) -> Vec3 {
+        self.x.get(i) - self.d.get(i)
+    }
+    fn position(&self, i: usize) -> Vec3 {
+        self.x.get(i)
+    }
+    fn velocity(&self, i: usize) -> Vec3 {
+        self.v.get(i)
+    }
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+        self.d.set(i, self.d.get(i) + (x - self.x.get(i)));
+        self.x.set(i, x);
+        self.v.set(i, v);
+    }
+    fn clearances(&self, near: Near, out: &mut [f32]) {
+        let n = out.len().min(self.x.len()).min(self.d.len());
+        let (x, y, z) = (&self.x.x[..n], &self.x.y[..n], &self.x.z[..n]);
+        let (dx, dy, dz) = (&self.d.x[..n], &self.d.y[..n], &self.d.z[..n]);
+        let moved = |i: usize| (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+        match near {
+            Near::Point(c) => {
+                for (i, o) in out[..n].iter_mut().enumerate() {
+                    let (ex, ey, ez) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
+                    *o = (ex * ex + ey * ey + ez * ez).sqrt() - moved(i);
+                }
+            }
+            Near::Plane(c, normal) => {
+                for (i, o) in out[..n].iter_mut().enumerate() {
+                    let along =
+                        (x[i] - c.x) * normal.x + (y[i] - c.y) * normal.y + (z[i] - c.z) * normal.z;
+                    *o = along - moved(i);
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -983,6 +1059,80 @@ mod tests {
             |p| p,
         )
         .unwrap()
+    }
+
+    #[test]
+    fn contacts_on_the_coordinate_arrays_match_contacts_on_vectors() {
+        use crate::sim::collision::{ColliderShape, Friction, Pose};
+        use bevy::math::primitives::Sphere;
+        // A 40×12 grid (stored in XPBD's grid order), jostled, against a sphere smaller than its
+        // edges (so triangles are tested too) and a large one, with every tenth particle pinned.
+        let model = ClothModel::grid(&GridSpec::new(40, 12, 0.05)).unwrap();
+        let layout = Projections::new(&model);
+        assert!(!layout.order().is_empty(), "the grid order is in use");
+        let n = model.particle_count();
+        let wobble = |i: usize, k: usize| ((i * 7 + k * 13) % 17) as f32 / 17.0 - 0.5;
+        let start: Vec<Vec3> = model.rest_positions.clone();
+        let end: Vec<Vec3> = (0..n)
+            .map(|i| start[i] + 0.02 * Vec3::new(wobble(i, 0), wobble(i, 1) - 0.6, wobble(i, 2)))
+            .collect();
+        let velocity: Vec<Vec3> = (0..n).map(|i| Vec3::new(wobble(i, 3), -1.0, 0.0)).collect();
+        let inv_mass: Vec<f32> = (0..n)
+            .map(|i| if i % 10 == 0 { 0.0 } else { 2.0 })
+            .collect();
+        let (lo, hi) = bounds(&start);
+        let centre = 0.5 * (lo + hi);
+        let sphere = |r: f32, at: Vec3| {
+            Collider::fixed(
+                ColliderShape::Sphere(Sphere::new(r)),
+                Pose::from_translation(at),
+                Friction::new(0.3),
+                0.005,
+            )
+        };
+        let colliders = [
+            sphere(0.02, centre - 0.012 * Vec3::Y),
+            sphere(0.3, centre + Vec3::new(0.6, -0.27, 0.0)),
+        ];
+        let mut contacts = Contacts::new(n, model.max_edge_length());
+        contacts.begin_step(&colliders, u32::MAX, (lo, hi), 0.1, 1.0 / 60.0);
+        assert_eq!(contacts.active_count(), 2);
+        let t = (0.0, 0.05, 1.0 / 1200.0);
+
+        let (mut x, mut v) = (end.clone(), velocity.clone());
+        contacts.begin_substep(&start);
+        contacts.resolve(t.0, t.1, t.2, &model.triangles, &inv_mass, &mut x, &mut v);
+
+        let order = layout.order();
+        let mut soa = [Soa::new(n), Soa::new(n), Soa::new(n)];
+        soa[0].load_ordered(&end, order);
+        soa[1].load_ordered(&velocity, order);
+        let moved: Vec<Vec3> = (0..n).map(|i| end[i] - start[i]).collect();
+        soa[2].load_ordered(&moved, order);
+        let stored_mass: Vec<f32> = order.iter().map(|&i| inv_mass[i as usize]).collect();
+        let [xs, vs, ds] = &mut soa;
+        let mut state = SoaContacts {
+            x: xs,
+            v: vs,
+            d: ds,
+            inv_mass: &stored_mass,
+            layout: Some(&layout),
+        };
+        contacts.resolve_state(t, &model.triangles, &mut state);
+
+        let mut touched = 0;
+        for p in 0..n {
+            let s = layout.stored(p as u32) as usize;
+            let close = |a: Vec3, b: Vec3| (a - b).length() <= 1e-5 * b.length().max(1.0);
+            assert!(close(soa[0].get(s), x[p]), "position of {p}");
+            assert!(close(soa[1].get(s), v[p]), "velocity of {p}");
+            assert!(
+                close(soa[0].get(s) - soa[2].get(s), start[p]),
+                "start of {p}"
+            );
+            touched += usize::from(x[p] != end[p]);
+        }
+        assert!(touched > 20, "{touched} particles in contact");
     }
 
     #[test]

@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 
-use super::aero::{AeroParams, Gusts, add_aero_forces, triangle_centroids};
+use super::aero::{AeroParams, Gusts, add_aero_forces, add_aero_forces_in, triangle_centroids};
 use crate::error::{ClothError, finite_vec3, non_negative, unit_interval};
 
 /// A region of extra wind: inside `shape` (in the zone's frame, placed by `to_local`), `velocity` is
@@ -89,6 +89,11 @@ pub struct WindField {
 }
 
 impl WindField {
+    /// Whether the wind is the same everywhere: no gusts and no zones.
+    pub fn is_uniform(&self) -> bool {
+        self.gusts.is_none() && self.zones.is_empty()
+    }
+
     /// The wind velocity at world point `p`.
     pub fn sample(&self, p: Vec3) -> Vec3 {
         let gust = |gusts: &Option<Gusts>, base: Vec3| match gusts {
@@ -195,43 +200,57 @@ impl WindScratch {
             lift: coefficients.1,
         };
         let triangles = triangles.as_chunks::<3>().0;
-        triangle_centroids(positions, triangles, &mut self.centroids);
-        for (w, c) in self.triangle_wind.iter_mut().zip(&self.centroids) {
-            *w = field.sample(*c);
-        }
         self.particle_force.fill(Vec3::ZERO);
-        add_aero_forces(
-            positions,
-            velocities,
-            triangles,
-            &self.triangle_wind,
-            &self.params,
-            &mut self.particle_force,
-        );
-        self.limit_to_relative_speed(velocities, inv_mass, dt, triangles);
+        // A uniform field needs no sampling, and its mean around every particle is itself.
+        let uniform = field.is_uniform().then_some(field.velocity);
+        if let Some(wind) = uniform {
+            add_aero_forces_in(
+                positions,
+                velocities,
+                triangles,
+                |_| wind,
+                &self.params,
+                &mut self.particle_force,
+            );
+        } else {
+            triangle_centroids(positions, triangles, &mut self.centroids);
+            for (w, c) in self.triangle_wind.iter_mut().zip(&self.centroids) {
+                *w = field.sample(*c);
+            }
+            add_aero_forces(
+                positions,
+                velocities,
+                triangles,
+                &self.triangle_wind,
+                &self.params,
+                &mut self.particle_force,
+            );
+            // The mean wind around each particle.
+            self.wind_sum.fill((Vec3::ZERO, 0));
+            for (tri, w) in triangles.iter().zip(&self.triangle_wind) {
+                for &i in tri {
+                    let slot = &mut self.wind_sum[i as usize];
+                    slot.0 += *w;
+                    slot.1 += 1;
+                }
+            }
+        }
+        self.limit_to_relative_speed(velocities, inv_mass, dt, uniform);
     }
 
     /// Held over a step, drag is an explicit force: at relative speeds where `ρ C_d A |u| dt / m`
     /// nears 2 it would overshoot the wind and grow without bound. The air can at most bring a
     /// particle to its own speed, so each particle's aerodynamic velocity change over the step is
-    /// capped at its speed relative to the mean wind of its triangles. At ordinary speeds (for
-    /// cloth the rate is a few per second) the cap never binds.
+    /// capped at its speed relative to the mean wind of its triangles (`uniform`, or from
+    /// `wind_sum`). At ordinary speeds (for cloth the rate is a few per second) the cap never
+    /// binds.
     fn limit_to_relative_speed(
         &mut self,
         velocities: &[Vec3],
         inv_mass: &[f32],
         dt: f32,
-        triangles: &[[u32; 3]],
+        uniform: Option<Vec3>,
     ) {
-        // The mean wind around each particle.
-        self.wind_sum.fill((Vec3::ZERO, 0));
-        for (tri, w) in triangles.iter().zip(&self.triangle_wind) {
-            for &i in tri {
-                let slot = &mut self.wind_sum[i as usize];
-                slot.0 += *w;
-                slot.1 += 1;
-            }
-        }
         for (((f, v), w), (sum, n)) in self
             .particle_force
             .iter_mut()
@@ -239,13 +258,15 @@ impl WindScratch {
             .zip(inv_mass)
             .zip(&self.wind_sum)
         {
-            if *n == 0 || *w <= 0.0 {
-                continue;
-            }
-            let relative = (*sum / *n as f32 - *v).length();
-            let dv = f.length() * w * dt;
-            if dv > relative {
-                *f *= relative / dv;
+            let mean = match uniform {
+                Some(wind) => wind,
+                None if *n > 0 => *sum / *n as f32,
+                None => continue,
+            };
+            let relative_sq = (mean - *v).length_squared();
+            let dv_sq = f.length_squared() * (*w * dt) * (*w * dt);
+            if dv_sq > relative_sq {
+                *f *= (relative_sq / dv_sq).sqrt();
             }
         }
     }

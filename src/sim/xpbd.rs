@@ -140,6 +140,11 @@ impl Projections {
         p
     }
 
+    /// Inverse masses in storage order.
+    pub(super) fn inv_mass(&self) -> &[f32] {
+        &self.inv_mass
+    }
+
     /// Where particle `i` is stored.
     pub(super) fn stored(&self, i: u32) -> u32 {
         self.slot.get(i as usize).copied().unwrap_or(i)
@@ -387,7 +392,6 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
     // of the next but the pins' drive, so the two particle passes are one.
     let fused = !sim.contacts.is_active();
     for sub in 0..n {
-        sim.begin_soa_substep();
         if sub == 0 || !fused {
             advance::<false, true>(sim, &motion, wind);
         }
