@@ -107,7 +107,9 @@ pub fn add_aero_forces(
     );
 }
 
-/// [`add_aero_forces`] with the wind at triangle `t` given by `wind(t)`.
+/// [`add_aero_forces`] with the wind at triangle `t` given by `wind(t)`. Triangles go in batches
+/// of [`AERO_LANES`], whose forces are computed lane by lane (vector code) and then added to their
+/// vertices in order; the rest one by one, with the same arithmetic.
 pub(crate) fn add_aero_forces_in(
     positions: &[Vec3],
     velocities: &[Vec3],
@@ -116,18 +118,29 @@ pub(crate) fn add_aero_forces_in(
     params: &AeroParams,
     forces: &mut [Vec3],
 ) {
-    for (t, tri) in triangles.iter().enumerate() {
-        let [a, b, c] = tri.map(|i| i as usize);
-        let third = triangle_force(
-            [positions[a], positions[b], positions[c]],
-            [velocities[a], velocities[b], velocities[c]],
-            wind(t),
-            params,
-            1.0 / 3.0,
-        );
-        forces[a] += third;
-        forces[b] += third;
-        forces[c] += third;
+    let (batches, rest) = triangles.as_chunks::<AERO_LANES>();
+    let mut add = |tris: &[[u32; 3]], f: &[[f32; AERO_LANES]; 3]| {
+        for (l, tri) in tris.iter().enumerate() {
+            let third = Vec3::new(f[0][l], f[1][l], f[2][l]);
+            for &i in tri {
+                forces[i as usize] += third;
+            }
+        }
+    };
+    for (b, batch) in batches.iter().enumerate() {
+        let lanes =
+            TriangleLanes::gather(batch, positions, velocities, |l| wind(b * AERO_LANES + l));
+        add(batch, &lanes.forces(params, 1.0 / 3.0));
+    }
+    let first = batches.len() * AERO_LANES;
+    for (t, tri) in rest.iter().enumerate() {
+        let lane = TriangleLanes::<1>::gather(&[*tri], positions, velocities, |_| wind(first + t));
+        let f = lane.forces(params, 1.0 / 3.0);
+        let mut wide = [[0.0; AERO_LANES]; 3];
+        for c in 0..3 {
+            wide[c][0] = f[c][0];
+        }
+        add(&[*tri], &wide);
     }
 }
 
@@ -145,29 +158,92 @@ pub fn triangle_centroids(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut 
     }
 }
 
-/// `share` times the aerodynamic force (N) on one triangle; see [`add_aero_forces`].
-///
-/// With the cross product `c = (p₁ − p₀) × (p₂ − p₀)` (so `A = |c|/2`, `n = c/|c|`) and `k = c·u`,
-/// the force `q (C_d |cos θ| û + C_l cos θ (n − cos θ û))` becomes
-/// `ρ/4 (C_d |k| u + C_l k (|u|² c − k u) / (|c| |u|))`: one square root and one division, and
-/// exactly zero when the plate is edge-on (`k = 0`).
-#[inline(always)]
-fn triangle_force(p: [Vec3; 3], v: [Vec3; 3], wind: Vec3, params: &AeroParams, share: f32) -> Vec3 {
-    // Averaging the per-vertex differences makes `u` exactly zero when every vertex moves with
-    // the wind (averaging the velocities first would leave rounding noise).
-    let u = ((wind - v[0]) + (wind - v[1]) + (wind - v[2])) * (1.0 / 3.0);
-    let speed_sq = u.length_squared();
-    let c = (p[1] - p[0]).cross(p[2] - p[0]);
-    let cross_sq = c.length_squared();
-    // |c| = 2A.
-    if speed_sq < MIN_SPEED_SQ || cross_sq < 4.0 * MIN_AREA * MIN_AREA {
-        return Vec3::ZERO;
+/// Triangles per batch in [`add_aero_forces_in`].
+const AERO_LANES: usize = 8;
+
+/// `N` triangles' aerodynamic inputs, one array per coordinate: the edges `e₁ = p₁ − p₀`,
+/// `e₂ = p₂ − p₀` and the relative wind `u`.
+struct TriangleLanes<const N: usize> {
+    e1: [[f32; N]; 3],
+    e2: [[f32; N]; 3],
+    u: [[f32; N]; 3],
+}
+
+impl<const N: usize> TriangleLanes<N> {
+    /// The inputs of `triangles` (`N` of them), the wind at the `l`-th being `wind(l)`.
+    #[inline(always)]
+    fn gather(
+        triangles: &[[u32; 3]],
+        positions: &[Vec3],
+        velocities: &[Vec3],
+        wind: impl Fn(usize) -> Vec3,
+    ) -> Self {
+        let mut lanes = Self {
+            e1: [[0.0; N]; 3],
+            e2: [[0.0; N]; 3],
+            u: [[0.0; N]; 3],
+        };
+        for (l, tri) in triangles.iter().enumerate().take(N) {
+            let [a, b, c] = tri.map(|i| i as usize);
+            let (p0, w) = (positions[a], wind(l));
+            let e1 = positions[b] - p0;
+            let e2 = positions[c] - p0;
+            // Averaging the per-vertex differences makes `u` exactly zero when every vertex
+            // moves with the wind (averaging the velocities first would leave rounding noise).
+            let u = ((w - velocities[a]) + (w - velocities[b]) + (w - velocities[c])) * (1.0 / 3.0);
+            for (k, (e1, e2, u)) in [(e1.x, e2.x, u.x), (e1.y, e2.y, u.y), (e1.z, e2.z, u.z)]
+                .into_iter()
+                .enumerate()
+            {
+                (lanes.e1[k][l], lanes.e2[k][l], lanes.u[k][l]) = (e1, e2, u);
+            }
+        }
+        lanes
     }
-    let k = c.dot(u);
-    let r = 1.0 / (cross_sq * speed_sq).sqrt();
-    let drag = params.drag * k.abs() * u;
-    let lift = (params.lift * k * r) * (speed_sq * c - k * u);
-    (0.25 * params.air_density * share) * (drag + lift)
+
+    /// `share` times each triangle's aerodynamic force (N); see [`add_aero_forces`].
+    ///
+    /// With the cross product `c = e₁ × e₂` (so `A = |c|/2`, `n = c/|c|`) and `k = c·u`, the
+    /// force `q (C_d |cos θ| û + C_l cos θ (n − cos θ û))` becomes
+    /// `ρ/4 (C_d |k| u + C_l k (|u|² c − k u) / (|c| |u|))`: one square root and one division,
+    /// and exactly zero when the plate is edge-on (`k = 0`).
+    #[inline(always)]
+    fn forces(&self, params: &AeroParams, share: f32) -> [[f32; N]; 3] {
+        let scale = 0.25 * params.air_density * share;
+        let (e1, e2, u) = (&self.e1, &self.e2, &self.u);
+        let mut f = [[0.0; N]; 3];
+        for l in 0..N {
+            let c = [
+                e1[1][l] * e2[2][l] - e1[2][l] * e2[1][l],
+                e1[2][l] * e2[0][l] - e1[0][l] * e2[2][l],
+                e1[0][l] * e2[1][l] - e1[1][l] * e2[0][l],
+            ];
+            let u = [u[0][l], u[1][l], u[2][l]];
+            let speed_sq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+            let cross_sq = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+            let k = c[0] * u[0] + c[1] * u[1] + c[2] * u[2];
+            let r = 1.0 / (cross_sq * speed_sq).sqrt();
+            // Still air, or a degenerate triangle (|c| = 2A): no force.
+            let on = speed_sq >= MIN_SPEED_SQ && cross_sq >= 4.0 * MIN_AREA * MIN_AREA;
+            let (drag, lift) = if on {
+                (scale * params.drag * k.abs(), scale * params.lift * k * r)
+            } else {
+                (0.0, 0.0)
+            };
+            for d in 0..3 {
+                f[d][l] = drag * u[d] + lift * (speed_sq * c[d] - k * u[d]);
+            }
+        }
+        f
+    }
+}
+
+/// `share` times the aerodynamic force (N) on one triangle; see [`TriangleLanes::forces`].
+#[cfg(test)]
+fn triangle_force(p: [Vec3; 3], v: [Vec3; 3], wind: Vec3, params: &AeroParams, share: f32) -> Vec3 {
+    let lane = TriangleLanes::<1>::gather(&[[0, 1, 2]], &p, &v, |_| wind);
+    let f = lane.forces(params, share);
+    Vec3::new(f[0][0], f[1][0], f[2][0])
 }
 
 /// A gusty wind field: a base wind whose speed and direction fluctuate smoothly in time, with the

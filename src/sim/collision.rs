@@ -169,10 +169,19 @@ impl ColliderShape {
 
 /// The axis-aligned bounding box `(min, max)` of `positions` (min > max when empty).
 pub fn bounds(positions: &[Vec3]) -> (Vec3, Vec3) {
-    positions
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
+    // Eight independent running boxes, so the loop is not one long chain of dependent min/max.
+    let (chunks, rest) = positions.as_chunks::<8>();
+    let mut boxes = [(Vec3::INFINITY, Vec3::NEG_INFINITY); 8];
+    for chunk in chunks {
+        for ((lo, hi), p) in boxes.iter_mut().zip(chunk) {
+            (*lo, *hi) = (lo.min(*p), hi.max(*p));
+        }
+    }
+    boxes
+        .into_iter()
+        .chain(rest.iter().map(|p| (*p, *p)))
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
+            (lo.min(a), hi.max(b))
         })
 }
 
@@ -623,9 +632,18 @@ fn resolve<S: ContactState>(
             let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);
             let skip = radius + c.collider.margin + travel + slack;
             state.clearances(near, clearance);
-            for (i, &gap) in clearance.iter().enumerate() {
-                if gap <= skip && state.inv_mass(i) > 0.0 {
-                    collide_particle(c, (&pose0, &pose1, still), h, state, i);
+            // Sixteen clearances compared at a time (vector code), then the few near ones visited.
+            for (k, chunk) in clearance.chunks(16).enumerate() {
+                let mut near = chunk
+                    .iter()
+                    .enumerate()
+                    .fold(0u32, |m, (l, &gap)| m | (u32::from(gap <= skip) << l));
+                while near != 0 {
+                    let i = 16 * k + near.trailing_zeros() as usize;
+                    near &= near - 1;
+                    if state.inv_mass(i) > 0.0 {
+                        collide_particle(c, (&pose0, &pose1, still), h, state, i);
+                    }
                 }
             }
         } else {

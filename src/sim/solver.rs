@@ -243,6 +243,23 @@ pub(super) fn drive_pins(
     }
 }
 
+/// The largest length among `vectors` (0 for none).
+fn max_length(vectors: &[Vec3]) -> f32 {
+    // Eight independent running maxima, so the loop is not one long chain of dependent maxima.
+    let (chunks, rest) = vectors.as_chunks::<8>();
+    let mut max = [0.0f32; 8];
+    for chunk in chunks {
+        for (m, v) in max.iter_mut().zip(chunk) {
+            *m = m.max(v.length_squared());
+        }
+    }
+    rest.iter()
+        .map(|v| v.length_squared())
+        .chain(max)
+        .fold(0.0, f32::max)
+        .sqrt()
+}
+
 /// The storage order of a step's coordinate arrays (`soa`, `velocity_soa`): `order[s]` is the
 /// particle stored at `s`, empty for the particles' own order. XPBD's layout chooses it; the other
 /// integrators keep the particles' order.
@@ -740,12 +757,7 @@ impl ClothSim {
                     self.reach_bound(dt, self.settings.sleep_speed),
                 )
             } else {
-                let speed = self
-                    .velocities
-                    .iter()
-                    .map(|v| v.length_squared())
-                    .fold(0.0, f32::max)
-                    .sqrt();
+                let speed = max_length(&self.velocities);
                 // Never below the sleep threshold, so that falling asleep does not change which
                 // colliders are in reach.
                 let speed = speed.max(self.settings.sleep_speed);
@@ -1025,23 +1037,42 @@ impl ContactState for SoaContacts<'_> {
         self.v.set(i, v);
     }
     fn clearances(&self, near: Near, out: &mut [f32]) {
-        let n = out.len().min(self.x.len()).min(self.d.len());
-        let (x, y, z) = (&self.x.x[..n], &self.x.y[..n], &self.x.z[..n]);
-        let (dx, dy, dz) = (&self.d.x[..n], &self.d.y[..n], &self.d.z[..n]);
-        let moved = |i: usize| (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
-        match near {
-            Near::Point(c) => {
-                for (i, o) in out[..n].iter_mut().enumerate() {
-                    let (ex, ey, ez) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
-                    *o = (ex * ex + ey * ey + ez * ez).sqrt() - moved(i);
-                }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports the feature the function is compiled for (checked above).
+            unsafe { clearances_avx2(self.x, self.d, near, out) };
+            return;
+        }
+        clearances_body(self.x, self.d, near, out);
+    }
+}
+
+/// [`clearances_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn clearances_avx2(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+    clearances_body(x, d, near, out);
+}
+
+/// [`ContactState::clearances`] of particles at `x` displaced by `d` over the substep.
+#[inline(always)]
+fn clearances_body(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+    let n = out.len().min(x.len()).min(d.len());
+    let (x, y, z) = (&x.x[..n], &x.y[..n], &x.z[..n]);
+    let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);
+    let moved = |i: usize| (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+    match near {
+        Near::Point(c) => {
+            for (i, o) in out[..n].iter_mut().enumerate() {
+                let (ex, ey, ez) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
+                *o = (ex * ex + ey * ey + ez * ez).sqrt() - moved(i);
             }
-            Near::Plane(c, normal) => {
-                for (i, o) in out[..n].iter_mut().enumerate() {
-                    let along =
-                        (x[i] - c.x) * normal.x + (y[i] - c.y) * normal.y + (z[i] - c.z) * normal.z;
-                    *o = along - moved(i);
-                }
+        }
+        Near::Plane(c, normal) => {
+            for (i, o) in out[..n].iter_mut().enumerate() {
+                let along =
+                    (x[i] - c.x) * normal.x + (y[i] - c.y) * normal.y + (z[i] - c.z) * normal.z;
+                *o = along - moved(i);
             }
         }
     }
