@@ -369,6 +369,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut chosen = Vec::new();
             for name in &integrators {
                 chosen.push(match name.as_str() {
+                    "auto" => Integrator::Auto,
                     "xpbd" => Integrator::Xpbd,
                     "symplectic-euler" => Integrator::SymplecticEuler,
                     "verlet" => Integrator::Verlet,

@@ -178,7 +178,7 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
     egui::ComboBox::from_label("integrator")
         .selected_text(s.integrator.name())
         .show_ui(ui, |ui| {
-            for i in Integrator::ALL {
+            for i in Integrator::CHOICES {
                 ui.selectable_value(&mut s.integrator, i, i.name());
             }
         });

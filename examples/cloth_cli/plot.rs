@@ -19,8 +19,19 @@ pub fn color(integrator: Integrator) -> RGBColor {
         Integrator::SymplecticEuler => RGBColor(31, 119, 180),
         Integrator::Verlet => RGBColor(44, 160, 44),
         Integrator::ImplicitEuler => RGBColor(148, 103, 189),
+        Integrator::Auto => RGBColor(0, 0, 0),
     }
 }
+
+/// The curves drawn, in drawing order: the four methods, then the default's choice among them on
+/// top.
+pub const CURVES: [Integrator; 5] = [
+    Integrator::Xpbd,
+    Integrator::SymplecticEuler,
+    Integrator::Verlet,
+    Integrator::ImplicitEuler,
+    Integrator::Auto,
+];
 
 /// Colour names for the Markdown legend.
 pub fn color_name(integrator: Integrator) -> &'static str {
@@ -29,6 +40,7 @@ pub fn color_name(integrator: Integrator) -> &'static str {
         Integrator::SymplecticEuler => "blue",
         Integrator::Verlet => "green",
         Integrator::ImplicitEuler => "purple",
+        Integrator::Auto => "black",
     }
 }
 
@@ -143,7 +155,7 @@ pub fn write_plot(
             draw_panel(panel, *scene, measurements)?;
         }
         let mut x = 80;
-        for integrator in Integrator::ALL {
+        for integrator in CURVES {
             let c = color(integrator);
             legend
                 .draw(&PathElement::new(
@@ -253,17 +265,23 @@ fn draw_panel<DB: DrawingBackend>(
             BLACK.stroke_width(1),
         ))
         .map_err(|e| e.to_string())?;
-    for integrator in Integrator::ALL {
+    for integrator in CURVES {
         let c = color(integrator);
         let mine: Vec<&Measurement> = measurements
             .iter()
             .filter(|m| m.integrator == integrator)
             .collect();
         let front = pareto_front(mine.iter().copied());
+        // The default's curve is thinner, drawn over the methods it chooses between.
+        let (width, dot) = if integrator == Integrator::Auto {
+            (2, 2)
+        } else {
+            (3, 4)
+        };
         chart
             .draw_series(LineSeries::new(
                 front.iter().map(|(t, e)| (*t, *e)),
-                c.stroke_width(3),
+                c.stroke_width(width),
             ))
             .map_err(|e| e.to_string())?;
         for m in &mine {
@@ -271,7 +289,7 @@ fn draw_panel<DB: DrawingBackend>(
                 Some(e) => chart
                     .draw_series(std::iter::once(Circle::new(
                         (m.ms_per_frame, e.max(y0)),
-                        4,
+                        dot,
                         c.filled(),
                     )))
                     .map_err(|e| e.to_string())?,

@@ -18,8 +18,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// One timed run of one configuration on one scene.
 #[derive(Debug, Clone)]
 pub struct Measurement {
-    /// The integrator.
+    /// The integrator configured.
     pub integrator: Integrator,
+    /// The method that ran ([`Integrator::Auto`]'s choice, else `integrator`).
+    pub method: Integrator,
     /// Substeps per frame actually taken.
     pub substeps: u32,
     /// `SolverSettings::iterations` (XPBD sweeps; implicit Euler CG cap).
@@ -57,6 +59,23 @@ fn sweep(quick: bool) -> Vec<SolverSettings> {
     } else {
         (&[5, 10, 20, 40, 80, 160, 320, 640, 1024], &[1, 4])
     };
+    // The default's one knob, over both ranges (it runs XPBD below the stability bound and Verlet
+    // from it on); `run` adds each scene's bound itself.
+    let mut auto: Vec<u32> = xpbd_substeps.to_vec();
+    auto.extend_from_slice(if quick {
+        &[64, 128]
+    } else {
+        &[12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 768]
+    });
+    auto.sort_unstable();
+    auto.dedup();
+    for substeps in auto {
+        out.push(SolverSettings {
+            integrator: Integrator::Auto,
+            substeps,
+            ..base
+        });
+    }
     for &iterations in xpbd_iterations {
         for &substeps in xpbd_substeps {
             out.push(SolverSettings {
@@ -108,7 +127,8 @@ fn sweep(quick: bool) -> Vec<SolverSettings> {
     out
 }
 
-/// Runs `settings` on `scene` (repeating for timing until `min_time` has passed, at most 5 runs)
+/// Runs `settings` on `scene` (repeating for timing until `min_time` has passed, at most
+/// [`REPETITIONS`] runs)
 /// and measures its error against `reference`.
 fn measure(
     scene: AccuracyScene,
@@ -122,7 +142,7 @@ fn measure(
     let mut best = f64::INFINITY;
     let mut spent = Duration::ZERO;
     let mut result: Option<Measurement> = None;
-    for _ in 0..5 {
+    for _ in 0..REPETITIONS {
         let mut sim = scene.build(settings)?;
         let substeps = sim.substeps_for(dt);
         let start = Instant::now();
@@ -143,6 +163,7 @@ fn measure(
             }
             result = Some(Measurement {
                 integrator: settings.integrator,
+                method: sim.active_integrator(),
                 substeps,
                 iterations: settings.iterations,
                 is_default,
@@ -161,6 +182,10 @@ fn measure(
     m.ms_per_frame = best;
     Ok(m)
 }
+
+/// Timed runs of each configuration at most: the fastest is kept, so that the same computation
+/// configured two ways (the default at the stability bound, and Verlet there) times alike.
+const REPETITIONS: usize = 15;
 
 /// The lower-left envelope of the successful runs: `(ms per frame, error)` sorted by time, each
 /// point more accurate than every cheaper one.
@@ -244,7 +269,7 @@ pub fn run(
     let configs = sweep(quick);
     let default = SolverSettings::default();
     let min_time = Duration::from_millis(if quick { 60 } else { 300 });
-    let total = scenes.len() as u64 * (configs.len() as u64 + 1 + 2);
+    let total = scenes.len() as u64 * (configs.len() as u64 + 2 + 2);
     let bar = ProgressBar::new(total);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")?
@@ -287,6 +312,15 @@ pub fn run(
         ));
         let mut runs = Vec::new();
         let mut all: Vec<(SolverSettings, bool)> = configs.iter().map(|c| (*c, false)).collect();
+        all.push((
+            SolverSettings {
+                integrator: Integrator::Auto,
+                substeps: initial.stable_substeps(AccuracyScene::FRAME_DT),
+                auto_substeps: false,
+                ..default
+            },
+            false,
+        ));
         all.push((default, true));
         for (settings, is_default) in all {
             bar.set_message(format!(
@@ -325,7 +359,7 @@ pub fn run(
         md,
         "Curves: {}. Dots are single runs, lines each integrator's Pareto front; the gold lines \
          mark the goal (error 1e-3 at 1 ms per frame per 1000 particles).\n",
-        Integrator::ALL
+        super::plot::CURVES
             .iter()
             .map(|i| format!("{} {}", super::plot::color_name(*i), i.name()))
             .collect::<Vec<_>>()
@@ -391,11 +425,15 @@ pub fn run(
             writeln!(
                 md,
                 "| {}{}{} | {} | {} | {:.4} | {:.4} | {} |",
-                m.integrator.name(),
+                if m.integrator == Integrator::Auto {
+                    format!("auto ({})", m.method.name())
+                } else {
+                    m.integrator.name().to_string()
+                },
                 if m.is_default { " (default)" } else { "" },
                 if m.auto { " (auto substeps)" } else { "" },
                 m.substeps,
-                if m.integrator.is_explicit() {
+                if m.method.is_explicit() {
                     "–".to_string()
                 } else {
                     m.iterations.to_string()
@@ -416,7 +454,7 @@ pub fn run(
         "scenes": results.iter().map(|(s, runs)| serde_json::json!({
             "scene": s.name(),
             "runs": runs.iter().map(|m| serde_json::json!({
-                "integrator": m.integrator.name(), "substeps": m.substeps, "iterations": m.iterations,
+                "integrator": m.integrator.name(), "method": m.method.name(), "substeps": m.substeps, "iterations": m.iterations,
                 "default": m.is_default, "auto_substeps": m.auto, "particles": m.particles, "ms_per_frame": m.ms_per_frame,
                 "error": m.error, "failure": m.failure,
             })).collect::<Vec<_>>(),

@@ -36,12 +36,8 @@ pub enum Integrator {
     /// Extended position-based dynamics with substeps: springs as compliant distance constraints
     /// (compliance `α = 1/k`), solved by coloured Gauss-Seidel, `iterations` sweeps per substep.
     /// Unconditionally stable, first order, with numerical damping that shrinks with the substep.
-    ///
-    /// The default, for robustness rather than accuracy: on the work-precision benchmark Verlet is
-    /// far more accurate wherever it is stable (docs/accuracy.md), but a force-based integrator
-    /// turns a teleported pin into the large elastic energy of the stretched springs and flings
-    /// the cloth, where XPBD's projection absorbs it.
-    #[default]
+    /// Robust where a force-based integrator is not: it absorbs a teleported pin (whose stretched
+    /// springs would fling a force-based cloth) and any stiffness.
     Xpbd,
     /// Symplectic (semi-implicit) Euler with explicit spring forces: `v += h a(x)`, then `x += h v`.
     /// First order, symplectic (no energy drift), stable only for `h ω_max < 2`; see
@@ -59,10 +55,22 @@ pub enum Integrator {
     /// [`CG_TOLERANCE`](super::CG_TOLERANCE)); pins by filtering the CG. Unconditionally stable for
     /// the clamped (positive semi-definite) `K`, first order, strongly damped at large steps.
     ImplicitEuler,
+    /// The default: chosen afresh each step between the two that the work-precision benchmark
+    /// (docs/accuracy.md) puts on the best front. [`Verlet`](Self::Verlet) at `substeps` when
+    /// that many substeps are within its stability bound ([`ClothSim::stable_substeps`]) and no
+    /// pin jumps farther than the cloth's longest edge in the step; [`Xpbd`](Self::Xpbd) at
+    /// `substeps` otherwise. Verlet errs 600–5,000× less at equal run time where it is stable,
+    /// and XPBD is the only one of the two that runs below that bound, takes any stiffness and
+    /// absorbs a teleported pin. So `substeps` is the one cost knob: at the default 20 a cloth
+    /// of the default stiffness and mass runs XPBD (its bound is about 84 at 60 Hz); raised to
+    /// the bound, it runs Verlet. [`ClothSim::active_integrator`] tells which one a step used.
+    #[default]
+    Auto,
 }
 
 impl Integrator {
-    /// All integrators, in declaration order.
+    /// The four integration methods, in declaration order ([`Integrator::Auto`] chooses among
+    /// them).
     pub const ALL: [Integrator; 4] = [
         Integrator::Xpbd,
         Integrator::SymplecticEuler,
@@ -77,8 +85,18 @@ impl Integrator {
             Integrator::SymplecticEuler => "symplectic Euler",
             Integrator::Verlet => "Verlet",
             Integrator::ImplicitEuler => "implicit Euler",
+            Integrator::Auto => "auto",
         }
     }
+
+    /// Every setting of the enum: [`Integrator::Auto`] first, then [`Integrator::ALL`].
+    pub const CHOICES: [Integrator; 5] = [
+        Integrator::Auto,
+        Integrator::Xpbd,
+        Integrator::SymplecticEuler,
+        Integrator::Verlet,
+        Integrator::ImplicitEuler,
+    ];
 
     /// Whether the method is stable only below a step-size limit (`h ω_max < 2`).
     pub fn is_explicit(self) -> bool {
@@ -172,7 +190,7 @@ pub struct SolverSettings {
 impl Default for SolverSettings {
     fn default() -> Self {
         Self {
-            integrator: Integrator::Xpbd,
+            integrator: Integrator::Auto,
             substeps: 20,
             iterations: 1,
             auto_substeps: true,
@@ -361,6 +379,12 @@ pub struct ClothSim {
     pub(super) implicit: ImplicitScratch,
     /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
     pub(super) omega_max: f32,
+    /// The longest spring's rest length, m: a pin moving farther in one step makes
+    /// [`Integrator::Auto`] choose XPBD.
+    longest_spring: f32,
+    /// The integrator of the current (or last) step: the configured one, or
+    /// [`Integrator::Auto`]'s choice.
+    pub(super) active: Integrator,
     /// Colliders that passed this step's broad phase, and substep scratch for contacts.
     pub(super) contacts: Contacts,
     /// The wind at each triangle for this step.
@@ -472,6 +496,8 @@ impl ClothSim {
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
             omega_max: 0.0,
+            longest_spring: model.springs.rest.iter().copied().fold(0.0, f32::max),
+            active: settings.integrator,
             contacts: Contacts::new(n, model.max_edge_length()),
             wind: WindScratch::new(n, model.triangles.len() / 3),
             pins: Vec::new(),
@@ -562,25 +588,27 @@ impl ClothSim {
         }
         let mut scratch = vec![0.0; self.positions.len()];
         self.omega_max = max_frequency_bound(self.spring_set(), &self.inv_mass, &mut scratch);
-        if self.settings.integrator == Integrator::ImplicitEuler
-            && !self.implicit.fits(self.positions.len(), s.len())
+        let chosen = self.settings.integrator;
+        let auto = chosen == Integrator::Auto;
+        if chosen == Integrator::ImplicitEuler && !self.implicit.fits(self.positions.len(), s.len())
         {
             self.implicit = ImplicitScratch::new(self.positions.len(), s.len());
         }
-        if self.settings.integrator.is_explicit() {
+        if chosen.is_explicit() || auto {
             if !self.force_runs.fits(s.len()) || self.force_sums.len() != self.positions.len() {
                 self.force_runs = ForceRuns::new(&s.a, &s.b);
                 self.force_sums = Soa::new(self.positions.len());
             }
             self.force_runs.set_stiffness(&s.rest, &self.stiffness);
         }
-        if self.settings.integrator == Integrator::Xpbd {
+        if chosen == Integrator::Xpbd || auto {
             if !self.projections.fits(s.len()) {
                 self.projections = Projections::new(&self.model);
             }
             self.projections
                 .set_constants(&s.rest, &self.stiffness, &self.inv_mass);
         }
+        self.active = self.choose_integrator(1.0 / 60.0);
     }
 
     /// The springs with their current stiffness, for the force kernel.
@@ -609,11 +637,40 @@ impl ClothSim {
         if !(self.settings.auto_substeps && self.settings.integrator.is_explicit()) {
             return n;
         }
+        n.max(self.stable_substeps(dt).min(MAX_SUBSTEPS))
+    }
+
+    /// The fewest substeps per step of `dt` seconds at which the explicit integrators are within
+    /// their stability bound, `h ≤ STABILITY_FRACTION · 2/ω_max` (see
+    /// [`max_frequency`](Self::max_frequency)); `u32::MAX` if no count is.
+    pub fn stable_substeps(&self, dt: f32) -> u32 {
         let needed = (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil();
-        if needed.is_finite() {
-            n.max(needed.min(MAX_SUBSTEPS as f32) as u32)
+        if needed.is_finite() && needed < u32::MAX as f32 {
+            (needed as u32).max(1)
         } else {
-            MAX_SUBSTEPS
+            u32::MAX
+        }
+    }
+
+    /// The integrator the current (or last) step used: the configured one, or the one
+    /// [`Integrator::Auto`] chose for it (before the first step, its choice for a step of 1/60 s).
+    pub fn active_integrator(&self) -> Integrator {
+        self.active
+    }
+
+    /// The method for a step of `dt`: the configured one, or [`Integrator::Auto`]'s choice.
+    fn choose_integrator(&self, dt: f32) -> Integrator {
+        if self.settings.integrator != Integrator::Auto {
+            return self.settings.integrator;
+        }
+        let jump = self
+            .pins
+            .iter()
+            .any(|p| p.from.distance(p.to) > self.longest_spring);
+        if !jump && self.stable_substeps(dt) <= self.settings.substeps {
+            Integrator::Verlet
+        } else {
+            Integrator::Xpbd
         }
     }
 
@@ -744,6 +801,7 @@ impl ClothSim {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
+        self.active = self.choose_integrator(dt);
         let substeps = self.substeps_for(dt);
         if env.colliders.is_empty() {
             self.contacts
@@ -787,8 +845,9 @@ impl ClothSim {
             (&self.inv_mass, dt),
             &self.model.triangles,
         );
-        match self.settings.integrator {
-            Integrator::Xpbd => xpbd::step_xpbd(self, dt, substeps),
+        match self.active {
+            // `choose_integrator` never leaves `Auto` active.
+            Integrator::Xpbd | Integrator::Auto => xpbd::step_xpbd(self, dt, substeps),
             Integrator::SymplecticEuler => explicit::step_symplectic_euler(self, dt, substeps),
             Integrator::Verlet => explicit::step_verlet(self, dt, substeps),
             Integrator::ImplicitEuler => implicit::step_implicit_euler(self, dt, substeps),
@@ -818,7 +877,7 @@ impl ClothSim {
     fn check_runaway(&mut self, dt: f32, substeps: u32) -> Result<(), ClothError> {
         let h = dt / substeps as f32;
         let h_omega = h * self.omega_max;
-        if !(self.settings.integrator.is_explicit() && h_omega >= 2.0) {
+        if !(self.active.is_explicit() && h_omega >= 2.0) {
             self.runaway = Runaway::default();
             return Ok(());
         }
@@ -836,7 +895,7 @@ impl ClothSim {
         r.energy = energy;
         if r.streak >= RUNAWAY_STEPS {
             return Err(ClothError::Unstable {
-                integrator: self.settings.integrator.name(),
+                integrator: self.active.name(),
                 step: self.steps,
                 h,
                 omega_max: self.omega_max,
@@ -910,21 +969,21 @@ impl ClothSim {
     /// step works there and copies it back with [`Self::store_soa_state`] at its end and around
     /// the contact response (which works on the vectors).
     pub(super) fn load_soa_state(&mut self) {
-        let order = storage_order(self.settings.integrator, &self.projections);
+        let order = storage_order(self.active, &self.projections);
         self.soa.load_ordered(&self.positions, order);
         self.velocity_soa.load_ordered(&self.velocities, order);
     }
 
     /// Copies the state back from `soa` and `velocity_soa` (see [`Self::load_soa_state`]).
     pub(super) fn store_soa_state(&mut self) {
-        let order = storage_order(self.settings.integrator, &self.projections);
+        let order = storage_order(self.active, &self.projections);
         self.soa.write_ordered(&mut self.positions, order);
         self.velocity_soa.write_ordered(&mut self.velocities, order);
     }
 
     /// Where particle `p` is stored in `soa` and `velocity_soa` (see [`storage_order`]).
     pub(super) fn soa_index(&self, p: u32) -> usize {
-        if self.settings.integrator == Integrator::Xpbd {
+        if self.active == Integrator::Xpbd {
             self.projections.stored(p) as usize
         } else {
             p as usize
@@ -949,7 +1008,7 @@ impl ClothSim {
         if !self.contacts.is_active() {
             return;
         }
-        let xpbd = self.settings.integrator == Integrator::Xpbd;
+        let xpbd = self.active == Integrator::Xpbd;
         if !xpbd {
             let (x, d) = (&self.soa, &mut self.displacement);
             for (x, d) in [(&x.x, &mut d.x), (&x.y, &mut d.y), (&x.z, &mut d.z)] {
@@ -1164,6 +1223,55 @@ mod tests {
             touched += usize::from(x[p] != end[p]);
         }
         assert!(touched > 20, "{touched} particles in contact");
+    }
+
+    #[test]
+    fn auto_runs_verlet_within_its_stability_bound_and_xpbd_otherwise() {
+        let dt = 1.0 / 60.0;
+        let build = |integrator, substeps, structural| {
+            let settings = SolverSettings {
+                integrator,
+                substeps,
+                auto_substeps: false,
+                stiffness: Stiffness {
+                    structural,
+                    ..Stiffness::default()
+                },
+                ..Default::default()
+            };
+            let mut s = sim(16, settings);
+            s.set_pins([(0, s.positions()[0]), (15, s.positions()[15])])
+                .unwrap();
+            s
+        };
+        let bound = build(Integrator::Auto, 20, 5_000.0).stable_substeps(dt);
+        assert!(bound > 20 && bound < 1_000, "bound {bound}");
+        // Below the bound Auto is XPBD, from it on Verlet: the same steps, bit for bit.
+        for (substeps, method) in [(bound - 1, Integrator::Xpbd), (bound, Integrator::Verlet)] {
+            let mut auto = build(Integrator::Auto, substeps, 5_000.0);
+            let mut plain = build(method, substeps, 5_000.0);
+            for _ in 0..20 {
+                auto.step(dt).unwrap();
+                plain.step(dt).unwrap();
+                assert_eq!(auto.active_integrator(), method);
+            }
+            assert_eq!(auto.positions(), plain.positions(), "{substeps} substeps");
+            assert_eq!(auto.velocities(), plain.velocities());
+        }
+        // A pin jumping farther than the longest spring: XPBD for that step, then Verlet again.
+        let mut auto = build(Integrator::Auto, bound, 5_000.0);
+        auto.step(dt).unwrap();
+        let (a, b) = (auto.positions()[0], auto.positions()[15]);
+        auto.move_pins([a + Vec3::X, b + Vec3::X]);
+        auto.step(dt).unwrap();
+        assert_eq!(auto.active_integrator(), Integrator::Xpbd);
+        auto.step(dt).unwrap();
+        assert_eq!(auto.active_integrator(), Integrator::Verlet);
+        // Too stiff for any affordable substep count: XPBD.
+        let mut stiff = build(Integrator::Auto, bound, 1e9);
+        stiff.step(dt).unwrap();
+        assert_eq!(stiff.active_integrator(), Integrator::Xpbd);
+        assert!(stiff.stable_substeps(dt) > MAX_SUBSTEPS);
     }
 
     #[test]

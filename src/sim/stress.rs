@@ -195,7 +195,7 @@ pub fn draw_case(
     let mut rng = Rng(seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03));
     rng.next();
     let integrator = rng.pick(if integrators.is_empty() {
-        &Integrator::ALL
+        &Integrator::CHOICES
     } else {
         integrators
     });
@@ -475,7 +475,12 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
     // factor 1/(1 - (hω/2)²), so the true energy may exceed its start by up to
     // (hω)²/(4 - (hω)²) times the energy in the oscillation (bounded here by the largest elastic
     // energy seen). `auto_substeps` keeps hω ≤ 1.8 for the Gershgorin bound of ω: a factor ≤ 1.07.
-    let elastic_slack = if case.settings.integrator.is_explicit() {
+    // `Auto` may run Verlet.
+    let may_run_explicit = matches!(
+        case.settings.integrator,
+        Integrator::Auto | Integrator::Verlet | Integrator::SymplecticEuler
+    );
+    let elastic_slack = if may_run_explicit {
         let x = (result.h_omega as f64).min(1.9).powi(2);
         x / (4.0 - x)
     } else {
