@@ -29,7 +29,7 @@ pub use model::{
 };
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{
-    ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
-    SolverSettings, Stiffness,
+    AUTO_MAX_STRETCH, ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
+    STABILITY_FRACTION, SolverSettings, Stiffness,
 };
 pub use wind::{PlacedWindZone, WindField, WindZoneShape};

@@ -28,6 +28,10 @@ pub const MAX_ITERATIONS: u32 = 256;
 /// stays within, applied to the Gershgorin bound on `ω_max` (which itself over-estimates it).
 pub const STABILITY_FRACTION: f32 = 0.9;
 
+/// [`Integrator::Auto`] runs XPBD while any spring is stretched by more than this fraction of its
+/// rest length (a hanging cloth of the default stiffness stretches by under 2%).
+pub const AUTO_MAX_STRETCH: f32 = 0.1;
+
 /// The time integration method. Every integrator solves the same canonical model (DESIGN.md): the
 /// same springs, masses, gravity, pins (pinned particles follow their targets, interpolated across
 /// substeps) and damping (velocities decay as `exp(-damping t)`).
@@ -55,15 +59,18 @@ pub enum Integrator {
     /// [`CG_TOLERANCE`](super::CG_TOLERANCE)); pins by filtering the CG. Unconditionally stable for
     /// the clamped (positive semi-definite) `K`, first order, strongly damped at large steps.
     ImplicitEuler,
-    /// The default: chosen afresh each step between the two that the work-precision benchmark
-    /// (docs/accuracy.md) puts on the best front. [`Verlet`](Self::Verlet) at `substeps` when
-    /// that many substeps are within its stability bound ([`ClothSim::stable_substeps`]) and no
-    /// pin jumps farther than the cloth's longest edge in the step; [`Xpbd`](Self::Xpbd) at
-    /// `substeps` otherwise. Verlet errs 600–5,000× less at equal run time where it is stable,
-    /// and XPBD is the only one of the two that runs below that bound, takes any stiffness and
-    /// absorbs a teleported pin. So `substeps` is the one cost knob: at the default 20 a cloth
-    /// of the default stiffness and mass runs XPBD (its bound is about 84 at 60 Hz); raised to
-    /// the bound, it runs Verlet. [`ClothSim::active_integrator`] tells which one a step used.
+    /// The default: chosen afresh each step between the two integrators that the work-precision
+    /// benchmark (docs/accuracy.md) puts on the best front. [`Verlet`](Self::Verlet) errs
+    /// 600–5,000× less than XPBD at equal run time wherever it is stable; XPBD is the one that
+    /// runs below Verlet's stability bound, takes any stiffness and absorbs a teleported pin.
+    ///
+    /// Verlet runs when `substeps` are within its stability bound ([`ClothSim::stable_substeps`]),
+    /// no pin jumps farther than the cloth's longest spring in the step and no spring is stretched
+    /// by more than [`AUTO_MAX_STRETCH`] (a force-based integrator would release that energy as
+    /// motion); XPBD runs otherwise, at the same `substeps`. So `substeps` is the one cost knob:
+    /// at the default 20 a cloth of the default stiffness and mass at 60 Hz runs XPBD (fast,
+    /// numerically damped: its swing errs 2e-3 of the cloth's size after 0.2 s); from its bound of
+    /// 84 on it runs Verlet (1e-6). [`ClothSim::active_integrator`] tells which one a step used.
     #[default]
     Auto,
 }
@@ -162,7 +169,8 @@ pub struct SolverSettings {
     /// For the explicit integrators (symplectic Euler, Verlet): raise the substep count, if needed,
     /// to what the stability bound asks for, `h ≤ STABILITY_FRACTION · 2/ω_max` with `ω_max` bounded
     /// from each particle's springs and mass. `substeps` stays the minimum. Ignored by XPBD and
-    /// implicit Euler, which are stable at any step.
+    /// implicit Euler, which are stable at any step, and by [`Integrator::Auto`], which runs Verlet
+    /// only within the bound.
     pub auto_substeps: bool,
     /// Spring stiffness per family, N/m.
     pub stiffness: Stiffness,
@@ -660,18 +668,31 @@ impl ClothSim {
 
     /// The method for a step of `dt`: the configured one, or [`Integrator::Auto`]'s choice.
     fn choose_integrator(&self, dt: f32) -> Integrator {
-        if self.settings.integrator != Integrator::Auto {
-            return self.settings.integrator;
+        let s = &self.settings;
+        if s.integrator != Integrator::Auto {
+            return s.integrator;
         }
         let jump = self
             .pins
             .iter()
             .any(|p| p.from.distance(p.to) > self.longest_spring);
-        if !jump && self.stable_substeps(dt) <= self.settings.substeps {
+        if self.stable_substeps(dt) <= s.substeps && !jump && !self.overstretched() {
             Integrator::Verlet
         } else {
             Integrator::Xpbd
         }
+    }
+
+    /// Whether a spring is stretched by more than [`AUTO_MAX_STRETCH`] of its rest length. A
+    /// force-based integrator would release that elastic energy as motion (a teleported pin flings
+    /// the cloth), so [`Integrator::Auto`] leaves such a state to XPBD until it has relaxed.
+    fn overstretched(&self) -> bool {
+        let s = &self.model.springs;
+        let x = &self.positions;
+        s.a.iter().zip(&s.b).zip(&s.rest).any(|((&a, &b), &rest)| {
+            x[a as usize].distance_squared(x[b as usize])
+                > (rest * (1.0 + AUTO_MAX_STRETCH)).powi(2)
+        })
     }
 
     /// Conjugate-gradient iterations taken in the last substep of implicit Euler (0 before the first
@@ -1258,15 +1279,26 @@ mod tests {
             assert_eq!(auto.positions(), plain.positions(), "{substeps} substeps");
             assert_eq!(auto.velocities(), plain.velocities());
         }
-        // A pin jumping farther than the longest spring: XPBD for that step, then Verlet again.
+        // A pin jumping farther than the longest spring: XPBD for that step, and on while a
+        // spring is stretched by more than `AUTO_MAX_STRETCH`; then Verlet again.
         let mut auto = build(Integrator::Auto, bound, 5_000.0);
         auto.step(dt).unwrap();
+        assert_eq!(auto.active_integrator(), Integrator::Verlet);
         let (a, b) = (auto.positions()[0], auto.positions()[15]);
         auto.move_pins([a + Vec3::X, b + Vec3::X]);
         auto.step(dt).unwrap();
         assert_eq!(auto.active_integrator(), Integrator::Xpbd);
-        auto.step(dt).unwrap();
-        assert_eq!(auto.active_integrator(), Integrator::Verlet);
+        assert!(auto.overstretched(), "the jump leaves springs stretched");
+        let mut steps = 0;
+        while auto.active_integrator() == Integrator::Xpbd && steps < 600 {
+            auto.step(dt).unwrap();
+            steps += 1;
+        }
+        assert_eq!(
+            auto.active_integrator(),
+            Integrator::Verlet,
+            "{steps} steps"
+        );
         // Too stiff for any affordable substep count: XPBD.
         let mut stiff = build(Integrator::Auto, bound, 1e9);
         stiff.step(dt).unwrap();
