@@ -239,35 +239,56 @@ fn best_within(front: &[(f64, f64)], budget: f64) -> Option<f64> {
 struct GoalCheck {
     default_error: Option<f64>,
     default_ms_per_kparticle: f64,
+    /// The default integrator's cheapest run with error ≤ 1e-3: ms per frame per 1000 particles
+    /// and its substeps.
+    cheapest_accurate: Option<(f64, u32)>,
     /// Largest ratio (default integrator's best error / best error of all) over the budgets where
     /// the default integrator has a stable run, and the budget where it occurs.
     worst_ratio: (f64, f64),
+    /// The same with the default integrator's budget [`TIMING_SLACK`] larger: the ratio a
+    /// timing difference that small cannot decide.
+    worst_ratio_with_slack: (f64, f64),
     /// Budgets (ms per frame) below the default integrator's cheapest stable run at which another
     /// integrator already has a stable run.
     uncovered_budgets: usize,
 }
 
+/// Relative timing difference below which the goal check does not rank two runs (see
+/// [`GoalCheck::worst_ratio_with_slack`]): repeated timings of one computation on this shared
+/// machine differ by more.
+const TIMING_SLACK: f64 = 0.05;
+
 fn goal_check(runs: &[Measurement], default_integrator: Integrator) -> GoalCheck {
     let default = runs.iter().find(|m| m.is_default);
     let all = pareto_front(runs.iter());
     let mine = pareto_front(runs.iter().filter(|m| m.integrator == default_integrator));
-    let mut worst = (1.0, 0.0);
+    let (mut worst, mut worst_with_slack) = ((1.0, 0.0), (1.0, 0.0));
     let mut uncovered = 0;
     for (budget, best) in &all {
         match best_within(&mine, *budget) {
             Some(e) => {
-                let ratio = e / best;
-                if ratio > worst.0 {
-                    worst = (ratio, *budget);
+                if e / best > worst.0 {
+                    worst = (e / best, *budget);
+                }
+                let e = best_within(&mine, *budget * (1.0 + TIMING_SLACK)).unwrap_or(e);
+                if e / best > worst_with_slack.0 {
+                    worst_with_slack = (e / best, *budget);
                 }
             }
             None => uncovered += 1,
         }
     }
+    let cheapest_accurate = runs
+        .iter()
+        .filter(|m| m.integrator == default_integrator && m.error.is_some_and(|e| e <= 1e-3))
+        .min_by(|a, b| a.ms_per_frame.total_cmp(&b.ms_per_frame))
+        .map(|m| (m.ms_per_kparticle(), m.substeps));
     GoalCheck {
         default_error: default.and_then(|d| d.error),
         default_ms_per_kparticle: default.map_or(f64::NAN, Measurement::ms_per_kparticle),
+        cheapest_accurate,
         worst_ratio: worst,
+        worst_ratio_with_slack: worst_with_slack,
         uncovered_budgets: uncovered,
     }
 }
@@ -419,24 +440,28 @@ pub fn run(
     )?;
     writeln!(
         md,
-        "| scene | default error | default ms/frame per 1k particles | error ≤ 1e-3 within 1 ms? | worst ratio of {}'s best error to the best of all, at budget (ms/frame) | budgets where {} has no stable run |",
+        "| scene | default error | default ms/frame per 1k particles | error ≤ 1e-3 within 1 ms at the default? | {0}'s cheapest run with error ≤ 1e-3: ms/frame per 1k particles (substeps) | worst ratio of {0}'s best error to the best of all, at budget (ms/frame) | the same, allowing {0} {1:.0}% more time | budgets where {0} has no stable run |",
         default.integrator.name(),
-        default.integrator.name()
+        100.0 * TIMING_SLACK
     )?;
-    writeln!(md, "|---|---|---|---|---|---|")?;
+    writeln!(md, "|---|---|---|---|---|---|---|---|")?;
     for (scene, runs) in &results {
         let g = goal_check(runs, default.integrator);
         let ok = g.default_error.is_some_and(|e| e <= 1e-3) && g.default_ms_per_kparticle <= 1.0;
         writeln!(
             md,
-            "| {} | {} | {:.3} | {} | {:.2} at {:.3} | {} |",
+            "| {} | {} | {:.3} | {} | {} | {:.2} at {:.3} | {:.2} at {:.3} | {} |",
             scene.name(),
             g.default_error
                 .map_or("unstable".into(), |e| format!("{e:.2e}")),
             g.default_ms_per_kparticle,
             if ok { "yes" } else { "**no**" },
+            g.cheapest_accurate
+                .map_or("none".into(), |(t, n)| format!("{t:.3} ({n})")),
             g.worst_ratio.0,
             g.worst_ratio.1,
+            g.worst_ratio_with_slack.0,
+            g.worst_ratio_with_slack.1,
             g.uncovered_budgets
         )?;
     }
