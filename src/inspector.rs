@@ -129,9 +129,10 @@ fn inspector_window(
                         }
                         if let Some(state) = state {
                             ui.label(format!(
-                                "{} particles, {} steps, {} colliders near{}",
+                                "{} particles, {} steps ({}), {} colliders near{}",
                                 state.positions().len(),
                                 state.steps(),
+                                state.sim().active_integrator().name(),
                                 state.sim().active_colliders(),
                                 if state.sim().is_sleeping() {
                                     ", asleep"
