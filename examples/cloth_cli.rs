@@ -98,7 +98,7 @@ enum Command {
         /// Index of the first case (to rerun one case: `--from I --cases 1`).
         #[arg(long, default_value_t = 0)]
         from: u64,
-        /// Integrators to draw from (xpbd, symplectic-euler, verlet, implicit-euler); all by
+        /// Integrators to draw from (auto, xpbd, symplectic-euler, verlet, implicit-euler); all by
         /// default.
         #[arg(long, value_delimiter = ',')]
         integrators: Vec<String>,

@@ -35,7 +35,7 @@ pub fn run(cases: std::ops::Range<u64>, seed: u64, integrators: &[Integrator]) -
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    let mut tallies: Vec<(Integrator, Tally)> = Integrator::ALL
+    let mut tallies: Vec<(Integrator, Tally)> = Integrator::CHOICES
         .iter()
         .map(|i| (*i, Tally::default()))
         .collect();

@@ -616,11 +616,13 @@ impl Contacts {
 /// that do not rotate during the substep; rotating ones get the exact test everywhere.
 fn resolve<S: ContactState>(
     active: &[ActiveCollider],
-    clearance: &mut [f32],
+    clearance: &mut Vec<f32>,
     (t0, t1, h): (f32, f32, f32),
     triangles: &[u32],
     state: &mut S,
 ) {
+    // Sized with the cloth (`Contacts::new`), so this allocates only for a state of another size.
+    clearance.resize(state.len(), 0.0);
     for c in active {
         let pose0 = c.collider.start.lerp(&c.collider.end, t0);
         let pose1 = c.collider.start.lerp(&c.collider.end, t1);
@@ -632,15 +634,15 @@ fn resolve<S: ContactState>(
             let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);
             let skip = radius + c.collider.margin + travel + slack;
             state.clearances(near, clearance);
-            // Sixteen clearances compared at a time (vector code), then the few near ones visited.
+            // Sixteen clearances compared at a time (vector code), then the few close ones visited.
             for (k, chunk) in clearance.chunks(16).enumerate() {
-                let mut near = chunk
+                let mut close = chunk
                     .iter()
                     .enumerate()
                     .fold(0u32, |m, (l, &gap)| m | (u32::from(gap <= skip) << l));
-                while near != 0 {
-                    let i = 16 * k + near.trailing_zeros() as usize;
-                    near &= near - 1;
+                while close != 0 {
+                    let i = 16 * k + close.trailing_zeros() as usize;
+                    close &= close - 1;
                     if state.inv_mass(i) > 0.0 {
                         collide_particle(c, (&pose0, &pose1, still), h, state, i);
                     }
@@ -1178,7 +1180,6 @@ mod tests {
                         inv_mass: &inv_mass,
                     };
                     let (active, clearance) = (&contacts.active, &mut contacts.clearance);
-                    clearance.resize(n, 0.0);
                     let t = (0.25, 0.5, 1.0 / 240.0);
                     if exact {
                         resolve(active, clearance, t, &[], &mut Exact(state));
