@@ -378,6 +378,9 @@ pub struct ClothSim {
     pub(super) velocity_soa: Soa,
     /// XPBD's displacements of the current substep (scratch, see `xpbd::Split`).
     pub(super) displacement: Soa,
+    /// The velocities contacts set in the current substep, by storage slot, in order (scratch; see
+    /// `xpbd::AheadOfEnd`), and whether each slot has one.
+    pub(super) contact_velocities: (Vec<(u32, Vec3)>, Vec<bool>),
     /// The springs laid out for XPBD's vector kernel (empty until XPBD is the integrator). While
     /// it is, `soa` and `velocity_soa` are in the layout's storage order (see [`storage_order`]).
     pub(super) projections: Projections,
@@ -500,6 +503,7 @@ impl ClothSim {
             force_sums: Soa::default(),
             velocity_soa: Soa::new(n),
             displacement: Soa::new(n),
+            contact_velocities: (Vec::new(), vec![false; n]),
             projections: Projections::default(),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
@@ -1120,38 +1124,45 @@ impl ContactState for SoaContacts<'_> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-            unsafe { clearances_avx2(self.x, self.d, near, out) };
+            unsafe { clearances_avx2::<false>(self.x, self.d, near, out) };
             return;
         }
-        clearances_body(self.x, self.d, near, out);
+        clearances_body::<false>(self.x, self.d, near, out);
     }
 }
 
 /// [`clearances_body`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn clearances_avx2(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
-    clearances_body(x, d, near, out);
+pub(super) fn clearances_avx2<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+    clearances_body::<AHEAD>(x, d, near, out);
 }
 
-/// [`ContactState::clearances`] of particles at `x` displaced by `d` over the substep.
+/// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
+/// with `AHEAD` starting at `x` (and ending at `x + d`).
 #[inline(always)]
-fn clearances_body(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+pub(super) fn clearances_body<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
     let n = out.len().min(x.len()).min(d.len());
     let (x, y, z) = (&x.x[..n], &x.y[..n], &x.z[..n]);
     let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);
     let moved = |i: usize| (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+    let end = |x: &[f32], d: &[f32], i: usize| if AHEAD { x[i] + d[i] } else { x[i] };
     match near {
         Near::Point(c) => {
             for (i, o) in out[..n].iter_mut().enumerate() {
-                let (ex, ey, ez) = (x[i] - c.x, y[i] - c.y, z[i] - c.z);
+                let (ex, ey, ez) = (
+                    end(x, dx, i) - c.x,
+                    end(y, dy, i) - c.y,
+                    end(z, dz, i) - c.z,
+                );
                 *o = (ex * ex + ey * ey + ez * ez).sqrt() - moved(i);
             }
         }
         Near::Plane(c, normal) => {
             for (i, o) in out[..n].iter_mut().enumerate() {
-                let along =
-                    (x[i] - c.x) * normal.x + (y[i] - c.y) * normal.y + (z[i] - c.z) * normal.z;
+                let along = (end(x, dx, i) - c.x) * normal.x
+                    + (end(y, dy, i) - c.y) * normal.y
+                    + (end(z, dz, i) - c.z) * normal.z;
                 *o = along - moved(i);
             }
         }

@@ -11,11 +11,13 @@
 //!
 //! Nothing here allocates inside a step.
 
+use super::collision::{ContactState, Near};
 use super::forces::Soa;
 #[cfg(test)]
 use super::model::Springs;
 use super::model::{ClothModel, GridSpec};
-use super::solver::{ClothSim, pin_motion};
+use super::solver::{ClothSim, clearances_body, pin_motion};
+use glam::Vec3;
 
 /// Springs projected together by the vector kernel. Within one colour no two springs share a
 /// particle, so a batch gives exactly the sequential Gauss-Seidel result.
@@ -388,9 +390,13 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
             p.wind_dv.set(s, f * (*w * h));
         }
     }
-    // Without contacts nothing happens to the state between the end of one substep and the start
-    // of the next but the pins' drive, so the two particle passes are one.
-    let fused = !sim.contacts.is_active();
+    // Nothing happens to the state between the end of one substep and the start of the next but
+    // the pins' drive, so the two particle passes are one: contacts are resolved just before it,
+    // on the state the substep ends in (`AheadOfEnd`). Only while their energy is being tracked
+    // (the stress suite) do they run after the end pass, on the state itself.
+    let contacts = sim.contacts.is_active();
+    let ahead = contacts && sim.contact_work.is_none();
+    let fused = !contacts || ahead;
     for sub in 0..n {
         if sub == 0 || !fused {
             advance::<false, true>(sim, &motion, wind);
@@ -417,18 +423,123 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
                 solve_springs::<true>(p, &mut x, inv_h2);
             }
         }
-        if fused && sub + 1 < n {
+        // Contacts last, so every substep ends outside the colliders; their push-out is not
+        // turned into velocity (see `collision.rs`).
+        if ahead {
+            resolve_contacts_ahead(sim, (t0, t1, h));
+        }
+        let begin = fused && sub + 1 < n;
+        if begin {
             advance::<true, true>(sim, &motion, wind);
         } else {
             advance::<true, false>(sim, &motion, wind);
         }
+        if ahead {
+            apply_contact_velocities(sim, &motion, wind, begin);
+        }
         // Pinned particles end on their targets, at the velocity that takes them there.
         sim.drive_soa_pins(t0, t1, inv_h);
-        // Contacts last, so every substep ends outside the colliders; their push-out is not
-        // turned into velocity (see `collision.rs`).
-        sim.resolve_soa_contacts(sub, n, h);
+        if !ahead {
+            sim.resolve_soa_contacts(sub, n, h);
+        }
     }
     sim.store_soa_state();
+}
+
+/// XPBD's arrays between a substep's projections and its end pass, as the contact response's
+/// state: each particle starts the substep at `x` and ends it at `x + d`, moving at `d / h`
+/// unless a contact has set its velocity (kept in `v` and listed in `touched`, for
+/// [`apply_contact_velocities`]). Moving a particle changes its `d`.
+struct AheadOfEnd<'a> {
+    x: &'a Soa,
+    d: &'a mut Soa,
+    v: &'a mut Soa,
+    inv_h: f32,
+    layout: &'a Projections,
+    touched: &'a mut Vec<(u32, Vec3)>,
+    has_velocity: &'a mut [bool],
+}
+
+impl ContactState for AheadOfEnd<'_> {
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+    fn inv_mass(&self, i: usize) -> f32 {
+        self.layout.inv_mass[i]
+    }
+    fn slot(&self, p: u32) -> usize {
+        self.layout.stored(p) as usize
+    }
+    fn start(&self, i: usize) -> Vec3 {
+        self.x.get(i)
+    }
+    fn position(&self, i: usize) -> Vec3 {
+        // The end pass's `x += d`, coordinate by coordinate.
+        self.x.get(i) + self.d.get(i)
+    }
+    fn velocity(&self, i: usize) -> Vec3 {
+        if self.has_velocity[i] {
+            self.v.get(i)
+        } else {
+            self.d.get(i) * self.inv_h
+        }
+    }
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+        self.d.set(i, x - self.x.get(i));
+        self.v.set(i, v);
+        self.has_velocity[i] = true;
+        self.touched.push((i as u32, v));
+    }
+    fn clearances(&self, near: Near, out: &mut [f32]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports the feature the function is compiled for (checked above).
+            unsafe { super::solver::clearances_avx2::<true>(self.x, self.d, near, out) };
+            return;
+        }
+        clearances_body::<true>(self.x, self.d, near, out);
+    }
+}
+
+/// The contact response for substep `[t0, t1]` of length `h`, ahead of the end pass
+/// ([`AheadOfEnd`]).
+fn resolve_contacts_ahead(sim: &mut ClothSim, t: (f32, f32, f32)) {
+    let (touched, has_velocity) = &mut sim.contact_velocities;
+    has_velocity.resize(sim.soa.len(), false);
+    let mut state = AheadOfEnd {
+        x: &sim.soa,
+        d: &mut sim.displacement,
+        v: &mut sim.velocity_soa,
+        inv_h: 1.0 / t.2,
+        layout: &sim.projections,
+        touched,
+        has_velocity,
+    };
+    sim.contacts
+        .resolve_state(t, &sim.model.triangles, &mut state);
+}
+
+/// After the end pass, the velocities the contacts set replace the displacement's: in the next
+/// substep's start (`begin`, the same formula as [`advance`]'s) or, at the step's end, in
+/// `velocity_soa`.
+fn apply_contact_velocities(sim: &mut ClothSim, m: &Motion, wind: bool, begin: bool) {
+    let (touched, has_velocity) = &mut sim.contact_velocities;
+    for &(i, v) in touched.iter() {
+        let i = i as usize;
+        has_velocity[i] = false;
+        if !begin {
+            sim.velocity_soa.set(i, v);
+            continue;
+        }
+        let a = if wind {
+            sim.projections.wind_dv.get(i)
+        } else {
+            Vec3::ZERO
+        };
+        let g = Vec3::from_array(m.gravity);
+        sim.displacement.set(i, ((v + g + a) * m.keep) * m.h);
+    }
+    touched.clear();
 }
 
 /// The constants of a step's particle passes: substep `h`, `1/h`, the velocity kept over a
@@ -829,7 +940,7 @@ fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{ClothModel, GridSpec};
+    use crate::sim::{ClothModel, GridSpec, Integrator};
     use glam::Vec3;
 
     /// Checks the layout and returns the number of gathered (scattered or tail) springs.
@@ -909,7 +1020,11 @@ mod tests {
             ..Default::default()
         };
         let run = |model: ClothModel| {
-            let mut sim = ClothSim::new(model, SolverSettings::default(), |p| p).unwrap();
+            let settings = SolverSettings {
+                integrator: Integrator::Xpbd,
+                ..Default::default()
+            };
+            let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
             // Corners stay where they are stored; particle 22 moves to the third column block.
             let ends = [Vec3::new(-1.0, 0.0, 0.3), Vec3::new(0.1, 0.0, 0.3)];
             let pins = [(0, ends[0]), (22, ends[1]), (39, Vec3::new(1.0, 0.0, 0.3))];
@@ -925,6 +1040,77 @@ mod tests {
         };
         let (a, b) = (run(grid), run(plain));
         assert!(a == b, "the storage order changed the result");
+    }
+
+    #[test]
+    fn contacts_ahead_of_the_end_pass_match_contacts_after_it() {
+        use crate::sim::{
+            ClothSim, Collider, ColliderShape, Environment, Friction, Pose, SolverSettings,
+            WindField,
+        };
+        use bevy::math::primitives::Sphere;
+        // A 40×12 cloth (stored in the grid order) blown onto a sphere and pinned at two
+        // corners: contacts resolved on the state the substep ends in, then the fused end-and-start
+        // pass (the default), against contacts on the end state after a separate end pass (the
+        // path taken while contact work is tracked). They differ by rounding only: the end
+        // position `x + Δ` is rounded once more after a push.
+        let sphere = [Collider::fixed(
+            ColliderShape::Sphere(Sphere::new(0.25)),
+            Pose::from_translation(Vec3::new(0.9, -0.3, 0.4)),
+            Friction::new(0.4),
+            0.01,
+        )];
+        let wind = WindField {
+            velocity: Vec3::new(0.0, 0.0, 6.0),
+            air_density: 1.225,
+            ..Default::default()
+        };
+        let env = Environment {
+            colliders: &sphere,
+            wind: Some(&wind),
+            ..Default::default()
+        };
+        let run = |tracked: bool| {
+            let model = ClothModel::grid(&GridSpec::new(40, 12, 0.05)).unwrap();
+            let settings = SolverSettings {
+                integrator: Integrator::Xpbd,
+                ..Default::default()
+            };
+            let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+            sim.set_pins([(0, sim.positions()[0]), (39, sim.positions()[39])])
+                .unwrap();
+            if tracked {
+                sim.track_contact_work();
+            }
+            let mut touching = 0;
+            for _ in 0..30 {
+                sim.step_in(1.0 / 60.0, &env).unwrap();
+                touching += sim.active_colliders();
+            }
+            assert!(
+                touching > 10,
+                "the sphere was in reach for {touching} steps"
+            );
+            (sim.positions().to_vec(), sim.velocities().to_vec())
+        };
+        let ((xa, va), (xb, vb)) = (run(false), run(true));
+        assert_ne!(xa, xb, "the two paths are distinct");
+        let worst = |a: &[Vec3], b: &[Vec3]| {
+            a.iter()
+                .zip(b)
+                .map(|(a, b)| a.distance(*b))
+                .fold(0.0, f32::max)
+        };
+        assert!(
+            worst(&xa, &xb) < 1e-5,
+            "positions differ by {}",
+            worst(&xa, &xb)
+        );
+        assert!(
+            worst(&va, &vb) < 1e-3,
+            "velocities differ by {}",
+            worst(&va, &vb)
+        );
     }
 
     #[test]
