@@ -5,9 +5,12 @@
 //!    the farthest any particle can travel in the step, against each collider's box swept from its
 //!    start pose to its end pose and grown by its margin. Colliders that cannot be reached, or whose
 //!    `layers` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
-//! 2. **Narrow phase** (every substep, `Contacts::resolve`): the collider's pose is interpolated to
-//!    the end of the substep; each free particle is taken into the collider's local frame and tested
-//!    by the shape's signed distance `d`. A particle with `d < margin` is in contact. A particle that
+//! 2. **Narrow phase** (every substep, `Contacts::resolve_state`, on whatever layout the integrator
+//!    keeps its particles in: `ContactState`): the collider's pose is interpolated to the end of the
+//!    substep. A vector pass first skips every particle whose distance from the collider's bounding
+//!    ball (or plane), less how far it moved, exceeds the ball's radius, the margin and the
+//!    collider's travel. Each remaining free particle is taken into the collider's local frame and
+//!    tested by the shape's signed distance `d`. A particle with `d < margin` is in contact. A particle that
 //!    ends the substep outside, but whose path in the collider's frame (start to end of the substep)
 //!    passes within the margin, tunnelled: a swept test (sphere tracing along that path, exact because
 //!    every signed distance here is exact) finds the first touching point and puts it back there.
