@@ -378,9 +378,10 @@ pub struct ClothSim {
     pub(super) velocity_soa: Soa,
     /// XPBD's displacements of the current substep (scratch, see `xpbd::Split`).
     pub(super) displacement: Soa,
-    /// The velocities contacts set in the current substep, by storage slot, in order (scratch; see
-    /// `xpbd::AheadOfEnd`), and whether each slot has one.
-    pub(super) contact_velocities: (Vec<(u32, Vec3)>, Vec<bool>),
+    /// The velocities contacts set in the current substep, by storage slot (scratch, at most one
+    /// per particle; see `xpbd::AheadOfEnd`), and where each slot's is in that list (1 + its place;
+    /// 0 for none).
+    pub(super) contact_velocities: (Vec<(u32, Vec3)>, Vec<u32>),
     /// The springs laid out for XPBD's vector kernel (empty until XPBD is the integrator). While
     /// it is, `soa` and `velocity_soa` are in the layout's storage order (see [`storage_order`]).
     pub(super) projections: Projections,
@@ -503,7 +504,7 @@ impl ClothSim {
             force_sums: Soa::default(),
             velocity_soa: Soa::new(n),
             displacement: Soa::new(n),
-            contact_velocities: (Vec::new(), vec![false; n]),
+            contact_velocities: (Vec::with_capacity(n), vec![0; n]),
             projections: Projections::default(),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
