@@ -382,6 +382,10 @@ pub struct ClothSim {
     /// per particle; see `xpbd::AheadOfEnd`), and where each slot's is in that list (1 + its place;
     /// 0 for none).
     pub(super) contact_velocities: (Vec<(u32, Vec3)>, Vec<u32>),
+    /// Test builds only: XPBD resolves contacts after a separate end pass, on the end state, as
+    /// the reference for the contacts it resolves ahead of its fused pass.
+    #[cfg(test)]
+    pub(super) contacts_after_end: bool,
     /// The springs laid out for XPBD's vector kernel (empty until XPBD is the integrator). While
     /// it is, `soa` and `velocity_soa` are in the layout's storage order (see [`storage_order`]).
     pub(super) projections: Projections,
@@ -505,6 +509,8 @@ impl ClothSim {
             velocity_soa: Soa::new(n),
             displacement: Soa::new(n),
             contact_velocities: (Vec::with_capacity(n), vec![0; n]),
+            #[cfg(test)]
+            contacts_after_end: false,
             projections: Projections::default(),
             force_runs: ForceRuns::default(),
             implicit: ImplicitScratch::default(),
@@ -1005,6 +1011,15 @@ impl ClothSim {
         let order = storage_order(self.active, &self.projections);
         self.soa.write_ordered(&mut self.positions, order);
         self.velocity_soa.write_ordered(&mut self.velocities, order);
+    }
+
+    /// Whether XPBD resolves contacts after its end pass (a test-only reference path; see
+    /// `contacts_after_end`).
+    pub(super) fn contacts_after_end(&self) -> bool {
+        #[cfg(test)]
+        return self.contacts_after_end;
+        #[cfg(not(test))]
+        false
     }
 
     /// Where particle `p` is stored in `soa` and `velocity_soa` (see [`storage_order`]).
