@@ -10,10 +10,11 @@
 //!    substep. A vector pass first skips every particle whose distance from the collider's bounding
 //!    ball (or plane), less how far it moved, exceeds the ball's radius, the margin and the
 //!    collider's travel. Each remaining free particle is taken into the collider's local frame and
-//!    tested by the shape's signed distance `d`. A particle with `d < margin` is in contact. A particle that
-//!    ends the substep outside, but whose path in the collider's frame (start to end of the substep)
-//!    passes within the margin, tunnelled: a swept test (sphere tracing along that path, exact because
-//!    every signed distance here is exact) finds the first touching point and puts it back there.
+//!    tested by the shape's signed distance `d`. A particle with `d < margin` is in contact. A
+//!    particle that ends the substep outside, but whose path in the collider's frame (start to end
+//!    of the substep) passes within the margin, tunnelled: a swept test (sphere tracing along that
+//!    path, exact because every signed distance here is exact) finds the first touching point and
+//!    puts it back there.
 //!    Spheres smaller than the cloth's longest edge are also tested against every triangle, so a
 //!    small sphere cannot slip between particles.
 //! 3. **Response**, per contact: the particle is projected to the surface plus margin, along the

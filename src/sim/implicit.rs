@@ -16,7 +16,7 @@ use glam::Vec3;
 use super::forces::{
     SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
 };
-use super::solver::{ClothSim, drive_pins, energy_of};
+use super::solver::{ClothSim, count_contact_work, drive_pins, energy_of};
 
 /// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
 /// right-hand side and the substep's gravity impulse `h m g` (both as Euclidean norms).
@@ -228,8 +228,7 @@ pub(super) fn step_implicit_euler(sim: &mut ClothSim, dt: f32, n: u32) {
             let before = contact_work.map(|_| energy(x, v).total());
             contacts.resolve(t0, t1, h, &model.triangles, inv_mass, x, v);
             if let Some(before) = before {
-                let gain = (energy(x, v).total() - before).max(0.0);
-                *contact_work = contact_work.map(|work| work + gain);
+                count_contact_work(contact_work, before, energy(x, v).total());
             }
         }
     }

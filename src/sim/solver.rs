@@ -269,6 +269,14 @@ pub(super) fn drive_pins(
     }
 }
 
+/// Adds to tracked contact work (see [`ClothSim::track_contact_work`]) what a contact response
+/// raised the total energy by, from `before` to `after`, J.
+pub(super) fn count_contact_work(work: &mut Option<f64>, before: f64, after: f64) {
+    if let Some(work) = work {
+        *work += (after - before).max(0.0);
+    }
+}
+
 /// The largest length among `vectors` (0 for none).
 fn max_length(vectors: &[Vec3]) -> f32 {
     // Eight independent running maxima, so the loop is not one long chain of dependent maxima.
@@ -1080,8 +1088,7 @@ impl ClothSim {
         self.contacts
             .resolve_state((t0, t1, h), &self.model.triangles, &mut state);
         if let (Some(before), Some(after)) = (before, energy(self)) {
-            let gain = (after - before).max(0.0);
-            self.contact_work = self.contact_work.map(|work| work + gain);
+            count_contact_work(&mut self.contact_work, before, after);
         }
     }
 
@@ -1137,27 +1144,32 @@ impl ContactState for SoaContacts<'_> {
         self.v.set(i, v);
     }
     fn clearances(&self, near: Near, out: &mut [f32]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-            unsafe { clearances_avx2::<false>(self.x, self.d, near, out) };
-            return;
-        }
-        clearances_body::<false>(self.x, self.d, near, out);
+        soa_clearances::<false>(self.x, self.d, near, out);
     }
+}
+
+/// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
+/// with `AHEAD` starting at `x` (and ending at `x + d`). On x86-64 CPUs with AVX2 the loop runs as
+/// 8-wide vectors; the results are the same.
+pub(super) fn soa_clearances<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports the feature the function is compiled for (checked above).
+        unsafe { clearances_avx2::<AHEAD>(x, d, near, out) };
+        return;
+    }
+    clearances_body::<AHEAD>(x, d, near, out);
 }
 
 /// [`clearances_body`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub(super) fn clearances_avx2<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+fn clearances_avx2<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
     clearances_body::<AHEAD>(x, d, near, out);
 }
 
-/// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
-/// with `AHEAD` starting at `x` (and ending at `x + d`).
 #[inline(always)]
-pub(super) fn clearances_body<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+fn clearances_body<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
     let n = out.len().min(x.len()).min(d.len());
     let (x, y, z) = (&x.x[..n], &x.y[..n], &x.z[..n]);
     let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);

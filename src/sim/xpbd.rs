@@ -16,7 +16,7 @@ use super::forces::Soa;
 #[cfg(test)]
 use super::model::Springs;
 use super::model::{ClothModel, GridSpec};
-use super::solver::{ClothSim, clearances_body, pin_motion};
+use super::solver::{ClothSim, count_contact_work, pin_motion, soa_clearances};
 use glam::Vec3;
 
 /// Springs projected together by the vector kernel. Within one colour no two springs share a
@@ -494,13 +494,7 @@ impl ContactState for AheadOfEnd<'_> {
         }
     }
     fn clearances(&self, near: Near, out: &mut [f32]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-            unsafe { super::solver::clearances_avx2::<true>(self.x, self.d, near, out) };
-            return;
-        }
-        clearances_body::<true>(self.x, self.d, near, out);
+        soa_clearances::<true>(self.x, self.d, near, out);
     }
 }
 
@@ -521,8 +515,8 @@ fn resolve_contacts_ahead(sim: &mut ClothSim, t: (f32, f32, f32)) {
     sim.contacts
         .resolve_state(t, &sim.model.triangles, &mut state);
     if let Some(before) = before {
-        let gain = (energy_ahead(sim, 1.0 / t.2) - before).max(0.0);
-        sim.contact_work = sim.contact_work.map(|work| work + gain);
+        let after = energy_ahead(sim, 1.0 / t.2);
+        count_contact_work(&mut sim.contact_work, before, after);
     }
 }
 
@@ -963,8 +957,29 @@ fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{ClothModel, GridSpec, Integrator};
+    use crate::sim::WindField;
+    use crate::sim::{ClothModel, Collider, ColliderShape, Friction, GridSpec, Integrator, Pose};
+    use bevy::math::primitives::Sphere;
     use glam::Vec3;
+
+    /// A still sphere of radius `r` at `at`, with a 1 cm margin.
+    fn ball(r: f32, at: Vec3, friction: Friction) -> Collider {
+        Collider::fixed(
+            ColliderShape::Sphere(Sphere::new(r)),
+            Pose::from_translation(at),
+            friction,
+            0.01,
+        )
+    }
+
+    /// Sea-level air moving at `velocity`, without gusts.
+    fn air(velocity: Vec3) -> WindField {
+        WindField {
+            velocity,
+            air_density: 1.225,
+            ..Default::default()
+        }
+    }
 
     /// Checks the layout and returns the number of gathered (scattered or tail) springs.
     fn gathered(model: &ClothModel) -> usize {
@@ -1010,11 +1025,7 @@ mod tests {
 
     #[test]
     fn the_grid_storage_order_changes_no_result() {
-        use crate::sim::{
-            ClothSim, Collider, ColliderShape, Environment, Friction, Pose, SolverSettings,
-            WindField,
-        };
-        use bevy::math::primitives::Sphere;
+        use crate::sim::{ClothSim, Environment, SolverSettings};
         // The same 40×12 cloth with and without its grid (which alone selects the storage
         // order): pinned and moved, draped over a sphere, in wind. The lane arithmetic is the
         // same in every layout, so the positions must be bit-identical.
@@ -1026,17 +1037,8 @@ mod tests {
         let mut plain = grid.clone();
         plain.grid = None;
         assert!(!grid_order(grid.grid.as_ref().unwrap()).is_empty());
-        let sphere = [Collider::fixed(
-            ColliderShape::Sphere(Sphere::new(0.2)),
-            Pose::from_translation(Vec3::new(0.3, -0.35, 0.05)),
-            Friction::default(),
-            0.01,
-        )];
-        let wind = WindField {
-            velocity: Vec3::new(3.0, 0.0, 4.0),
-            air_density: 1.225,
-            ..Default::default()
-        };
+        let sphere = [ball(0.2, Vec3::new(0.3, -0.35, 0.05), Friction::default())];
+        let wind = air(Vec3::new(3.0, 0.0, 4.0));
         let env = Environment {
             colliders: &sphere,
             wind: Some(&wind),
@@ -1067,37 +1069,22 @@ mod tests {
 
     #[test]
     fn contacts_ahead_of_the_end_pass_match_contacts_after_it() {
-        use crate::sim::{
-            ClothSim, Collider, ColliderShape, Environment, Friction, Pose, SolverSettings,
-            WindField,
-        };
-        use bevy::math::primitives::Sphere;
-        // A 40×12 cloth (stored in the grid order) blown onto a sphere and pinned at two
-        // corners: contacts resolved on the state the substep ends in, then the fused end-and-start
-        // pass, against contacts on the end state after a separate end pass (a test-only path). They differ by rounding only: the end
-        // position `x + Δ` is rounded once more after a push (measured: 1.4e-6 m and 9e-5 m/s
+        use crate::sim::{ClothSim, Environment, SolverSettings};
+        // A 40×12 cloth (stored in the grid order) blown onto spheres and pinned at two corners:
+        // contacts resolved on the state the substep ends in, then the fused end-and-start pass,
+        // against contacts on the end state after a separate end pass (a test-only path). They
+        // differ by rounding only: the end position `x + Δ` is rounded once more after a push (measured: 1.4e-6 m and 9e-5 m/s
         // after 30 frames; keeping only the first of a particle's contact velocities in a substep
         // gives 8e-6 m and 3e-4 m/s, leaving out the velocity write-back 3e-4 m).
         // A second sphere overlapping the first, and a small one (smaller than the cloth's edges,
         // so triangles are tested too): particles are pushed more than once in a substep.
-        let ball = |r: f32, at: Vec3| {
-            Collider::fixed(
-                ColliderShape::Sphere(Sphere::new(r)),
-                Pose::from_translation(at),
-                Friction::new(0.4),
-                0.01,
-            )
-        };
+        let friction = Friction::new(0.4);
         let sphere = [
-            ball(0.25, Vec3::new(0.9, -0.3, 0.4)),
-            ball(0.25, Vec3::new(1.0, -0.3, 0.4)),
-            ball(0.03, Vec3::new(0.5, -0.04, 0.3)),
+            ball(0.25, Vec3::new(0.9, -0.3, 0.4), friction),
+            ball(0.25, Vec3::new(1.0, -0.3, 0.4), friction),
+            ball(0.03, Vec3::new(0.5, -0.04, 0.3), friction),
         ];
-        let wind = WindField {
-            velocity: Vec3::new(0.0, 0.0, 6.0),
-            air_density: 1.225,
-            ..Default::default()
-        };
+        let wind = air(Vec3::new(0.0, 0.0, 6.0));
         let env = Environment {
             colliders: &sphere,
             wind: Some(&wind),
