@@ -31,6 +31,7 @@
 
 pub mod components;
 pub mod error;
+mod hash;
 #[cfg(feature = "egui")]
 pub mod inspector;
 pub mod plugin;

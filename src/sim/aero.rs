@@ -16,6 +16,7 @@
 //! SI units throughout (m, s, kg, N). Plain slices in, plain slices out; nothing here allocates and
 //! nothing holds state.
 
+use crate::hash::{GOLDEN_GAMMA, mix64};
 use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -410,17 +411,6 @@ fn channel_seed(seed: u64, channel: u64) -> u64 {
 #[inline]
 fn unit_interval(h: u64) -> f32 {
     (h >> 40) as f32 / ((1u32 << 24) - 1) as f32
-}
-
-/// `2⁶⁴ / φ`, the increment of the SplitMix64 generator.
-const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
-
-/// The SplitMix64 output function: a bijective 64-bit mixer.
-#[inline]
-fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 #[cfg(test)]

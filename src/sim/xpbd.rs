@@ -1073,9 +1073,10 @@ mod tests {
         // A 40×12 cloth (stored in the grid order) blown onto spheres and pinned at two corners:
         // contacts resolved on the state the substep ends in, then the fused end-and-start pass,
         // against contacts on the end state after a separate end pass (a test-only path). They
-        // differ by rounding only: the end position `x + Δ` is rounded once more after a push (measured: 1.4e-6 m and 9e-5 m/s
-        // after 30 frames; keeping only the first of a particle's contact velocities in a substep
-        // gives 8e-6 m and 3e-4 m/s, leaving out the velocity write-back 3e-4 m).
+        // differ by rounding only: the end position `x + Δ` is rounded once more after a push
+        // (measured: 1.4e-6 m and 9e-5 m/s after 30 frames; keeping only the first of a
+        // particle's contact velocities in a substep gives 8e-6 m and 3e-4 m/s, leaving out the
+        // velocity write-back 3e-4 m).
         // A second sphere overlapping the first, and a small one (smaller than the cloth's edges,
         // so triangles are tested too): particles are pushed more than once in a substep.
         let friction = Friction::new(0.4);

@@ -19,6 +19,7 @@
 
 pub mod analysis;
 mod error;
+mod grid;
 mod mesh;
 mod obj;
 mod refine;

@@ -97,6 +97,9 @@ pub(crate) struct Refinement {
     pub uvs: Option<Vec<Vec2>>,
     /// For each control vertex, the index of its descendant vertex point.
     pub control_vertex_map: Vec<u32>,
+    /// Where each vertex of the final level lies on the refined grid, if the control mesh is a
+    /// grid (see [`grid`](super::grid)).
+    pub grid_coordinates: Option<Vec<[u32; 2]>>,
 }
 
 /// Checks `level` against [`MAX_LEVEL`] and the refined face count against
@@ -123,9 +126,12 @@ fn check_level(base: &LevelTopology, level: u32) -> Result<(), SubdivisionError>
 }
 
 /// Refines `base` uniformly `level` times, keeping each level's masks.
+/// With `grid_coordinates` (the control vertices' places on a grid), their descendants' places on
+/// the refined grid are carried along.
 pub(crate) fn refine(
     base: &LevelTopology,
     uvs: Option<Vec<Vec2>>,
+    grid_coordinates: Option<Vec<[u32; 2]>>,
     level: u32,
     rule: VertexRule,
     boundary: BoundaryMode,
@@ -134,7 +140,7 @@ pub(crate) fn refine(
     let mut map: Vec<u32> = (0..base.num_vertices as u32).collect();
     let mut levels = Vec::with_capacity(level as usize);
     let mut topo = Cow::Borrowed(base);
-    let mut uvs = uvs;
+    let (mut uvs, mut grid) = (uvs, grid_coordinates);
     for _ in 0..level {
         levels.push(level_masks(&topo, rule, boundary)?);
         let offset = (topo.face_count() + topo.edges.len()) as u32;
@@ -142,6 +148,7 @@ pub(crate) fn refine(
             *m += offset;
         }
         uvs = uvs.map(|u| child_uvs(&topo, &u));
+        grid = grid.map(|g| super::grid::child_coordinates(&topo, &g));
         topo = Cow::Owned(topo.refine_child());
     }
     Ok(Refinement {
@@ -149,6 +156,7 @@ pub(crate) fn refine(
         topology: topo.into_owned(),
         uvs,
         control_vertex_map: map,
+        grid_coordinates: grid,
     })
 }
 

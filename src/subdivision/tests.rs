@@ -603,3 +603,90 @@ fn unused_vertices_stay_in_place() {
         refine_positions(&mesh, 2, VertexRule::Enhanced, BoundaryMode::EdgeOnly).expect("L2");
     assert_eq!(refined.positions().last(), Some(&DVec3::new(7.0, 8.0, 9.0)));
 }
+
+#[test]
+fn grids_are_evaluated_as_curve_products_with_the_corners_fixed_up() {
+    // Sizes from the smallest grid up, square and not, with bumpy heights; levels 1 to 4.
+    for (nx, nz) in [(2, 2), (3, 2), (2, 5), (5, 4), (9, 7), (16, 16)] {
+        let mesh = grid(nx, nz, pseudo_random);
+        let control = mesh.positions_f32();
+        for rule in VertexRule::ALL {
+            for boundary in [BoundaryMode::EdgeOnly, BoundaryMode::EdgeAndCorner] {
+                for level in 1..=4 {
+                    let mut sub =
+                        Subdivider::new(&mesh, level, rule, boundary).expect("subdivider");
+                    let fixed = sub.grid().expect("a grid is recognised").fixed_count();
+                    // Only the corners' crease rule in edge-only mode mixes the two directions; it
+                    // shapes the corner cells: their (2^L − 1)² inner refined vertices each (fewer
+                    // where corner cells share vertices).
+                    let cell = ((1usize << level) - 1).pow(2);
+                    match boundary {
+                        BoundaryMode::EdgeAndCorner => assert_eq!(fixed, 0),
+                        BoundaryMode::EdgeOnly if nx >= 3 && nz >= 3 => assert_eq!(fixed, 4 * cell),
+                        BoundaryMode::EdgeOnly => assert!((4..=4 * cell).contains(&fixed)),
+                    }
+                    let mut exact = vec![DVec3::ZERO; sub.refined_vertex_count()];
+                    sub.apply_f64(mesh.positions(), &mut exact).expect("f64");
+                    let mut fast = vec![Vec3::ZERO; sub.refined_vertex_count()];
+                    sub.apply(&control, &mut fast).expect("grid");
+                    for (v, (a, b)) in exact.iter().zip(&fast).enumerate() {
+                        // f32 rounding, relative to the grid's extent.
+                        let d = a.as_vec3().distance(*b) / nx.max(nz) as f32;
+                        assert!(
+                            d < 1e-6,
+                            "{nx}×{nz} {rule:?} {boundary:?} L{level} v{v}: {d}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn meshes_that_are_not_numbered_grids_use_the_level_tables() {
+    let level = 2;
+    let bumpy = grid(6, 5, pseudo_random);
+    // The same grid with its vertices numbered in another order, a cube, and a grid missing a cell.
+    let mut order: Vec<usize> = (0..30).collect();
+    order.reverse();
+    order.swap(3, 17);
+    let mut renumbered = vec![DVec3::ZERO; 30];
+    for (old, &new) in order.iter().enumerate() {
+        renumbered[new] = bumpy.positions()[old];
+    }
+    let quads: Vec<u32> = bumpy
+        .face_indices()
+        .iter()
+        .map(|&v| order[v as usize] as u32)
+        .collect();
+    let shuffled = PolyMesh::from_quads(renumbered, &quads).expect("shuffled grid");
+    let holed =
+        PolyMesh::from_quads(bumpy.positions().to_vec(), &bumpy.face_indices()[4..]).expect("hole");
+    for mesh in [&shuffled, &cube(), &holed] {
+        let mut sub = Subdivider::new(mesh, level, VertexRule::Original, BoundaryMode::EdgeOnly)
+            .expect("sub");
+        assert!(sub.grid().is_none());
+        let mut exact = vec![DVec3::ZERO; sub.refined_vertex_count()];
+        sub.apply_f64(mesh.positions(), &mut exact).expect("f64");
+        let mut fast = vec![Vec3::ZERO; sub.refined_vertex_count()];
+        sub.apply(&mesh.positions_f32(), &mut fast).expect("f32");
+        for (a, b) in exact.iter().zip(&fast) {
+            assert!(a.as_vec3().distance(*b) < 1e-5);
+        }
+    }
+    // Both numberings of the grid give the same surface.
+    let mut a: Vec<DVec3> = Vec::new();
+    for mesh in [&bumpy, &shuffled] {
+        let sub = Subdivider::new(mesh, level, VertexRule::Original, BoundaryMode::EdgeOnly)
+            .expect("sub");
+        let mut out = vec![DVec3::ZERO; sub.refined_vertex_count()];
+        sub.apply_f64(mesh.positions(), &mut out).expect("f64");
+        out.sort_by(|p, q| p.to_array().partial_cmp(&q.to_array()).expect("finite"));
+        if a.is_empty() {
+            a = out;
+        } else {
+            assert!(a.iter().zip(&out).all(|(p, q)| p.distance(*q) < 1e-12));
+        }
+    }
+}
