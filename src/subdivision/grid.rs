@@ -21,7 +21,7 @@ use glam::{DVec3, Vec3};
 
 use super::refine::SparseRows;
 use super::stencil::StencilTable;
-use super::topology::LevelTopology;
+use super::topology::{LevelFaces, LevelTopology};
 use crate::hash::splitmix;
 
 /// A control mesh that is a grid: control vertex `(r, c)` is vertex `r * cols + c`, and the faces
@@ -82,8 +82,8 @@ impl GridShape {
 
 /// The `(row, column)` of each vertex of the level after `topo`, in that level's units, from those
 /// of `topo`'s vertices: face points at the mean of their corners, edge points at the mean of their
-/// ends, vertex points where their vertex was (see `LevelTopology::refine_child` for the order).
-pub(crate) fn child_coordinates(topo: &LevelTopology, coords: &[[u32; 2]]) -> Vec<[u32; 2]> {
+/// ends, vertex points where their vertex was (see `LevelFaces::refine_child` for the order).
+pub(crate) fn child_coordinates(topo: &LevelFaces, coords: &[[u32; 2]]) -> Vec<[u32; 2]> {
     let sum = |vs: &mut dyn Iterator<Item = u32>| {
         vs.fold([0, 0], |s, v| {
             let c = coords[v as usize];

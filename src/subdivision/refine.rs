@@ -19,7 +19,7 @@ use std::borrow::Cow;
 use glam::{DVec3, Vec2};
 
 use super::rules::{BoundaryMode, VertexRule};
-use super::topology::{LevelTopology, NO_FACE};
+use super::topology::{LevelFaces, LevelTopology, NO_FACE};
 use super::{MAX_LEVEL, MAX_REFINED_FACES, MAX_STENCIL_ENTRIES, SubdivisionError};
 
 /// Sparse rows in CSR form: row `r` is `(index, weight)` pairs
@@ -180,7 +180,7 @@ pub(crate) fn refine_direct(
             uvs,
         });
     }
-    let mut topo = Cow::Borrowed(base);
+    let mut topo = Cow::Borrowed(&base.faces);
     let mut points = interpolate_level(&topo, rule, boundary, positions);
     let mut uvs = uvs.map(|u| child_uvs(&topo, &u));
     for _ in 1..level {
@@ -207,6 +207,7 @@ pub(crate) struct RefinedFaces {
 }
 
 /// Which rule forms the vertex point of a vertex.
+#[derive(Debug, Clone, Copy)]
 enum VertexKind {
     /// No face: the vertex is copied.
     Isolated,
@@ -214,36 +215,62 @@ enum VertexKind {
     Corner,
     /// A boundary vertex on the B-spline boundary curve through its two boundary neighbours.
     Boundary([u32; 2]),
-    /// An interior vertex: the [`VertexRule`].
-    Interior,
+    /// An interior vertex with this many faces and edges: the [`VertexRule`].
+    Interior { faces: u32, edges: u32 },
 }
 
-fn vertex_kind(topo: &LevelTopology, v: usize, boundary: BoundaryMode) -> VertexKind {
-    let faces = topo.faces_of(v);
-    if faces.is_empty() {
-        return VertexKind::Isolated;
-    }
-    let mut nbrs = [0u32; 2];
-    let mut nb = 0;
-    for &e in topo.edges_of(v) {
-        if topo.is_boundary_edge(e as usize) {
-            if nb < 2 {
-                nbrs[nb] = topo.other_end(e as usize, v as u32);
-            }
-            nb += 1;
+/// What decides a vertex's rule: how many faces and edges it has, and how many of those edges are
+/// boundary edges, with the far ends of the first two.
+#[derive(Debug, Clone, Copy, Default)]
+struct VertexRing {
+    faces: u32,
+    edges: u32,
+    boundary_edges: u32,
+    boundary_ends: [u32; 2],
+}
+
+impl VertexRing {
+    fn kind(self, boundary: BoundaryMode) -> VertexKind {
+        match (self.faces, self.boundary_edges) {
+            (0, _) => VertexKind::Isolated,
+            (faces, 0) => VertexKind::Interior {
+                faces,
+                edges: self.edges,
+            },
+            (1, _) if boundary == BoundaryMode::EdgeAndCorner => VertexKind::Corner,
+            _ => VertexKind::Boundary(self.boundary_ends),
         }
     }
-    match nb {
-        0 => VertexKind::Interior,
-        _ if boundary == BoundaryMode::EdgeAndCorner && faces.len() == 1 => VertexKind::Corner,
-        _ => VertexKind::Boundary(nbrs),
+}
+
+/// The [`VertexRing`] of every vertex of `topo`, counted over the faces and edges in order (so a
+/// boundary vertex's neighbours come in the order of its edges).
+fn vertex_rings(topo: &LevelFaces) -> Vec<VertexRing> {
+    let mut rings = vec![VertexRing::default(); topo.num_vertices];
+    for &v in &topo.face_indices {
+        rings[v as usize].faces += 1;
     }
+    for (e, &[a, b]) in topo.edges.iter().enumerate() {
+        let boundary = topo.is_boundary_edge(e);
+        for (v, other) in [(a, b), (b, a)] {
+            let ring = &mut rings[v as usize];
+            ring.edges += 1;
+            if boundary {
+                if let Some(end) = ring.boundary_ends.get_mut(ring.boundary_edges as usize) {
+                    *end = other;
+                }
+                ring.boundary_edges += 1;
+            }
+        }
+    }
+    rings
 }
 
 /// One level of direct evaluation: the child points of `topo` (face points, edge points, vertex
-/// points, in that order) from its vertex positions `parent`.
+/// points, in that order) from its vertex positions `parent`. Each vertex's sums over its faces
+/// and edges are scattered from the faces and edges in order, so no vertex incidence is needed.
 fn interpolate_level(
-    topo: &LevelTopology,
+    topo: &LevelFaces,
     rule: VertexRule,
     boundary: BoundaryMode,
     parent: &[DVec3],
@@ -253,11 +280,10 @@ fn interpolate_level(
     let mut child = vec![DVec3::ZERO; nf + ne + topo.num_vertices];
     let (face_points, rest) = child.split_at_mut(nf);
     let (edge_points, vertex_points) = rest.split_at_mut(ne);
-    for (f, out) in face_points.iter_mut().enumerate() {
-        let face = topo.face(f);
+    topo.for_each_face(&topo.face_indices, |f, face| {
         let sum: DVec3 = face.iter().map(|&v| parent[v as usize]).sum();
-        *out = sum / face.len() as f64;
-    }
+        face_points[f] = sum / face.len() as f64;
+    });
     for ((&[a, b], &faces), out) in topo.edges.iter().zip(&topo.edge_faces).zip(edge_points) {
         let ends = parent[a as usize] + parent[b as usize];
         *out = match faces {
@@ -265,24 +291,28 @@ fn interpolate_level(
             [f0, f1] => (ends + face_points[f0 as usize] + face_points[f1 as usize]) * 0.25,
         };
     }
+    // Each vertex's face points summed where its vertex point goes, its neighbours in `neighbours`.
+    topo.for_each_face(&topo.face_indices, |f, face| {
+        for &v in face {
+            vertex_points[v as usize] += face_points[f];
+        }
+    });
+    let mut neighbours = vec![DVec3::ZERO; topo.num_vertices];
+    for &[a, b] in &topo.edges {
+        neighbours[a as usize] += parent[b as usize];
+        neighbours[b as usize] += parent[a as usize];
+    }
     let mut weights = ValenceWeights::new(rule);
-    for (v, out) in vertex_points.iter_mut().enumerate() {
+    for (v, (out, ring_v)) in vertex_points.iter_mut().zip(vertex_rings(topo)).enumerate() {
         let s = parent[v];
-        *out = match vertex_kind(topo, v, boundary) {
+        *out = match ring_v.kind(boundary) {
             VertexKind::Isolated | VertexKind::Corner => s,
             VertexKind::Boundary([a, b]) => {
                 s * 0.75 + (parent[a as usize] + parent[b as usize]) * 0.125
             }
-            VertexKind::Interior => {
-                let faces = topo.faces_of(v);
-                let edges = topo.edges_of(v);
-                let [ws, wr, wf] = weights.get(faces.len(), edges.len());
-                let f_sum: DVec3 = faces.iter().map(|&f| face_points[f as usize]).sum();
-                let r_sum: DVec3 = edges
-                    .iter()
-                    .map(|&e| parent[topo.other_end(e as usize, v as u32) as usize])
-                    .sum();
-                s * ws + r_sum * wr + f_sum * wf
+            VertexKind::Interior { faces, edges } => {
+                let [ws, wr, wf] = weights.get(faces as usize, edges as usize);
+                s * ws + neighbours[v] * wr + *out * wf
             }
         };
     }
@@ -371,21 +401,20 @@ fn level_masks(
 
     // Vertex points.
     let mut weights = ValenceWeights::new(rule);
-    for v in 0..nv {
+    for (v, ring) in vertex_rings(topo).into_iter().enumerate() {
         let vu = v as u32;
         scratch.clear();
-        match vertex_kind(topo, v, boundary) {
+        match ring.kind(boundary) {
             VertexKind::Isolated | VertexKind::Corner => scratch.push((vu, 1.0)),
             VertexKind::Boundary([a, b]) => {
                 scratch.push((vu, 0.75));
                 scratch.push((a, 0.125));
                 scratch.push((b, 0.125));
             }
-            VertexKind::Interior => {
+            VertexKind::Interior { faces, edges } => {
                 // The face points expanded into their corners.
-                let faces = topo.faces_of(v);
-                let edges = topo.edges_of(v);
-                let [ws, wr, wf] = weights.get(faces.len(), edges.len());
+                let [ws, wr, wf] = weights.get(faces as usize, edges as usize);
+                let (faces, edges) = (topo.faces_of(v), topo.edges_of(v));
                 scratch.push((vu, ws));
                 scratch.extend(edges.iter().map(|&e| (topo.other_end(e as usize, vu), wr)));
                 for &f in faces {
@@ -402,11 +431,9 @@ fn level_masks(
 
 /// Face-varying UVs of the child faces of `topo` (linear): a child corner on a parent corner keeps
 /// its UV, one on a parent edge gets the edge's mean UV, and the face point the face's mean UV.
-fn child_uvs(topo: &LevelTopology, uvs: &[Vec2]) -> Vec<Vec2> {
+fn child_uvs(topo: &LevelFaces, uvs: &[Vec2]) -> Vec<Vec2> {
     let mut out = Vec::with_capacity(4 * topo.face_indices.len());
-    for w in topo.face_offsets.windows(2) {
-        let (s, e) = (w[0] as usize, w[1] as usize);
-        let face = &uvs[s..e];
+    topo.for_each_face(uvs, |_, face| {
         let centre = face.iter().copied().sum::<Vec2>() / face.len() as f32;
         let mut prev = face[face.len() - 1];
         for (j, &uv) in face.iter().enumerate() {
@@ -414,7 +441,7 @@ fn child_uvs(topo: &LevelTopology, uvs: &[Vec2]) -> Vec<Vec2> {
             out.extend_from_slice(&[uv, (uv + next) * 0.5, centre, (prev + uv) * 0.5]);
             prev = uv;
         }
-    }
+    });
     out
 }
 

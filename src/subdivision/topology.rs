@@ -9,9 +9,10 @@ use super::SubdivisionError;
 /// Marker for "no second face" on a boundary edge.
 pub(crate) const NO_FACE: u32 = u32::MAX;
 
-/// Validated connectivity of a polygon mesh at one refinement level.
+/// The faces and edges of one refinement level, without vertex incidence: what the direct
+/// level-by-level evaluation needs ([`LevelTopology`] adds the vertex-face and vertex-edge lists).
 #[derive(Debug, Clone)]
-pub(crate) struct LevelTopology {
+pub(crate) struct LevelFaces {
     /// Number of vertices of this level.
     pub num_vertices: usize,
     /// CSR offsets into `face_indices`, length `faces + 1`.
@@ -25,6 +26,17 @@ pub(crate) struct LevelTopology {
     /// For each face corner `c` (parallel to `face_indices`), the edge from
     /// corner `c` to the next corner of the same face.
     pub corner_edges: Vec<u32>,
+    /// Whether every face is a quad (as on every refined level), so that face `f`'s corners are
+    /// `4f .. 4f + 4`.
+    pub quads: bool,
+}
+
+/// Validated connectivity of a polygon mesh at one refinement level: its [`LevelFaces`] (reached
+/// through `Deref`) and the incidence of each vertex.
+#[derive(Debug, Clone)]
+pub(crate) struct LevelTopology {
+    /// Faces and edges.
+    pub faces: LevelFaces,
     /// CSR offsets of `vertex_faces`, length `num_vertices + 1`.
     pub vertex_face_offsets: Vec<u32>,
     /// Faces incident to each vertex (with multiplicity one per corner).
@@ -35,7 +47,15 @@ pub(crate) struct LevelTopology {
     pub vertex_edges: Vec<u32>,
 }
 
-impl LevelTopology {
+impl std::ops::Deref for LevelTopology {
+    type Target = LevelFaces;
+
+    fn deref(&self) -> &LevelFaces {
+        &self.faces
+    }
+}
+
+impl LevelFaces {
     /// Number of faces.
     pub fn face_count(&self) -> usize {
         self.face_offsets.len() - 1
@@ -48,6 +68,126 @@ impl LevelTopology {
         &self.face_indices[s..e]
     }
 
+    /// Whether edge `e` has only one face.
+    pub fn is_boundary_edge(&self, e: usize) -> bool {
+        self.edge_faces[e][1] == NO_FACE
+    }
+
+    /// The other endpoint of edge `e` seen from vertex `v`.
+    pub fn other_end(&self, e: usize, v: u32) -> u32 {
+        let [a, b] = self.edges[e];
+        if a == v { b } else { a }
+    }
+
+    /// Calls `visit(f, &per_corner[corners of face f])` for every face in order, where
+    /// `per_corner` is parallel to `face_indices` (the corners' vertices, their UVs, …). Quads
+    /// take a path of fixed-length slices.
+    pub fn for_each_face<T>(&self, per_corner: &[T], mut visit: impl FnMut(usize, &[T])) {
+        if self.quads {
+            for (f, face) in per_corner.chunks_exact(4).enumerate() {
+                visit(f, face);
+            }
+        } else {
+            for (f, w) in self.face_offsets.windows(2).enumerate() {
+                visit(f, &per_corner[w[0] as usize..w[1] as usize]);
+            }
+        }
+    }
+
+    /// Calls `visit(face, corner, previous corner of the face)` for every face corner in order.
+    fn for_each_corner(&self, mut visit: impl FnMut(usize, usize, usize)) {
+        if self.quads {
+            for f in 0..self.face_count() {
+                let c = 4 * f;
+                for (corner, prev) in [(c, c + 3), (c + 1, c), (c + 2, c + 1), (c + 3, c + 2)] {
+                    visit(f, corner, prev);
+                }
+            }
+            return;
+        }
+        for (f, w) in self.face_offsets.windows(2).enumerate() {
+            let (s, e) = (w[0] as usize, w[1] as usize);
+            for c in s..e {
+                visit(f, c, if c == s { e - 1 } else { c - 1 });
+            }
+        }
+    }
+
+    /// The corners of the child quads of the next level, 4 per parent corner (see
+    /// [`refine_child`](Self::refine_child)), without the rest of its topology.
+    pub fn child_faces(&self) -> Vec<u32> {
+        let edge_base = self.face_count() as u32;
+        let vertex_base = edge_base + self.edges.len() as u32;
+        let mut face_indices = Vec::with_capacity(4 * self.face_indices.len());
+        self.for_each_corner(|f, c, prev| {
+            face_indices.extend_from_slice(&[
+                vertex_base + self.face_indices[c],
+                edge_base + self.corner_edges[c],
+                f as u32,
+                edge_base + self.corner_edges[prev],
+            ]);
+        });
+        face_indices
+    }
+
+    /// The faces and edges of the next uniform Catmull-Clark level, derived in linear time
+    /// without sorting or re-validating (a refined valid mesh is valid).
+    ///
+    /// Child vertices are the face points `0..F`, then the edge points `F..F+E`, then the vertex
+    /// points. Child face `c` is the quad of parent corner `c` (vertex `v`, face `f`):
+    /// `[vertex point of v, edge point of the edge leaving v, face point of f, edge point of the
+    /// edge entering v]`. Child edges are the `C` face-interior edges (corner `c`: face point to
+    /// the edge point of the edge leaving it), then two halves per parent edge `[a, b]`: `C + 2e`
+    /// ends at `a`, `C + 2e + 1` at `b`.
+    pub fn refine_child(&self) -> Self {
+        let nf = self.face_count() as u32;
+        let ne = self.edges.len() as u32;
+        let corners = self.face_indices.len();
+        let (edge_base, vertex_base) = (nf, nf + ne);
+        let half_base = corners as u32;
+        // The half of parent edge `e` that touches its end `v`.
+        let half = |e: u32, v: u32| half_base + 2 * e + u32::from(self.edges[e as usize][0] != v);
+
+        let face_indices = self.child_faces();
+        let mut corner_edges = Vec::with_capacity(4 * corners);
+        self.for_each_corner(|_, c, prev| {
+            let v = self.face_indices[c];
+            corner_edges.extend_from_slice(&[
+                half(self.corner_edges[c], v),
+                c as u32,
+                prev as u32,
+                half(self.corner_edges[prev], v),
+            ]);
+        });
+
+        let mut edges = Vec::with_capacity(corners + 2 * ne as usize);
+        self.for_each_corner(|f, c, _| edges.push([f as u32, edge_base + self.corner_edges[c]]));
+        for (e, &[a, b]) in self.edges.iter().enumerate() {
+            edges.push([edge_base + e as u32, vertex_base + a]);
+            edges.push([edge_base + e as u32, vertex_base + b]);
+        }
+
+        let mut edge_faces = vec![[NO_FACE; 2]; edges.len()];
+        for (face, quad) in corner_edges.chunks_exact(4).enumerate() {
+            for &e in quad {
+                let slot = &mut edge_faces[e as usize];
+                slot[usize::from(slot[0] != NO_FACE)] = face as u32;
+            }
+        }
+
+        LevelFaces {
+            num_vertices: (nf + ne) as usize + self.num_vertices,
+            face_offsets: (0..=corners as u32).map(|c| 4 * c).collect(),
+            face_indices,
+            edges,
+            edge_faces,
+            corner_edges,
+            quads: true,
+        }
+    }
+}
+
+impl LevelTopology {
     /// Faces around vertex `v`.
     pub fn faces_of(&self, v: usize) -> &[u32] {
         let s = self.vertex_face_offsets[v] as usize;
@@ -60,17 +200,6 @@ impl LevelTopology {
         let s = self.vertex_edge_offsets[v] as usize;
         let e = self.vertex_edge_offsets[v + 1] as usize;
         &self.vertex_edges[s..e]
-    }
-
-    /// Whether edge `e` has only one face.
-    pub fn is_boundary_edge(&self, e: usize) -> bool {
-        self.edge_faces[e][1] == NO_FACE
-    }
-
-    /// The other endpoint of edge `e` seen from vertex `v`.
-    pub fn other_end(&self, e: usize, v: u32) -> u32 {
-        let [a, b] = self.edges[e];
-        if a == v { b } else { a }
     }
 
     /// Validates a face list and derives all connectivity.
@@ -219,14 +348,16 @@ impl LevelTopology {
             i = j;
         }
 
-        let topo = Self::assemble(
+        let quads = face_offsets.windows(2).all(|w| w[1] - w[0] == 4);
+        let topo = Self::assemble(LevelFaces {
+            quads,
             num_vertices,
             face_offsets,
             face_indices,
             edges,
             edge_faces,
             corner_edges,
-        );
+        });
         for v in 0..num_vertices {
             let boundary = topo
                 .edges_of(v)
@@ -243,19 +374,24 @@ impl LevelTopology {
         Ok(topo)
     }
 
+    /// The topology of the next uniform Catmull-Clark level (see [`LevelFaces::refine_child`]).
+    pub fn refine_child(&self) -> Self {
+        Self::assemble(self.faces.refine_child())
+    }
+
     /// Completes a topology from its faces and edges by deriving the vertex-face and vertex-edge
     /// incidence. The inputs must already be consistent.
-    fn assemble(
-        num_vertices: usize,
-        face_offsets: Vec<u32>,
-        face_indices: Vec<u32>,
-        edges: Vec<[u32; 2]>,
-        edge_faces: Vec<[u32; 2]>,
-        corner_edges: Vec<u32>,
-    ) -> Self {
+    fn assemble(faces: LevelFaces) -> Self {
+        let LevelFaces {
+            num_vertices,
+            ref face_offsets,
+            ref face_indices,
+            ref edges,
+            ..
+        } = faces;
         // Vertex -> faces (one entry per corner).
         let mut vertex_face_offsets = vec![0u32; num_vertices + 1];
-        for &v in &face_indices {
+        for &v in face_indices {
             vertex_face_offsets[v as usize + 1] += 1;
         }
         prefix_sum(&mut vertex_face_offsets);
@@ -271,7 +407,7 @@ impl LevelTopology {
 
         // Vertex -> edges.
         let mut vertex_edge_offsets = vec![0u32; num_vertices + 1];
-        for &[a, b] in &edges {
+        for &[a, b] in edges {
             vertex_edge_offsets[a as usize + 1] += 1;
             vertex_edge_offsets[b as usize + 1] += 1;
         }
@@ -286,100 +422,12 @@ impl LevelTopology {
         }
 
         LevelTopology {
-            num_vertices,
-            face_offsets,
-            face_indices,
-            edges,
-            edge_faces,
-            corner_edges,
+            faces,
             vertex_face_offsets,
             vertex_faces,
             vertex_edge_offsets,
             vertex_edges,
         }
-    }
-
-    /// Calls `visit(face, corner, previous corner of the face)` for every face corner in order.
-    fn for_each_corner(&self, mut visit: impl FnMut(usize, usize, usize)) {
-        for (f, w) in self.face_offsets.windows(2).enumerate() {
-            let (s, e) = (w[0] as usize, w[1] as usize);
-            for c in s..e {
-                visit(f, c, if c == s { e - 1 } else { c - 1 });
-            }
-        }
-    }
-
-    /// The corners of the child quads of the next level, 4 per parent corner (see
-    /// [`refine_child`](Self::refine_child)), without the rest of its topology.
-    pub fn child_faces(&self) -> Vec<u32> {
-        let edge_base = self.face_count() as u32;
-        let vertex_base = edge_base + self.edges.len() as u32;
-        let mut face_indices = Vec::with_capacity(4 * self.face_indices.len());
-        self.for_each_corner(|f, c, prev| {
-            face_indices.extend_from_slice(&[
-                vertex_base + self.face_indices[c],
-                edge_base + self.corner_edges[c],
-                f as u32,
-                edge_base + self.corner_edges[prev],
-            ]);
-        });
-        face_indices
-    }
-
-    /// The topology of the next uniform Catmull-Clark level, derived in linear time without
-    /// sorting or re-validating (a refined valid mesh is valid).
-    ///
-    /// Child vertices are the face points `0..F`, then the edge points `F..F+E`, then the vertex
-    /// points. Child face `c` is the quad of parent corner `c` (vertex `v`, face `f`):
-    /// `[vertex point of v, edge point of the edge leaving v, face point of f, edge point of the
-    /// edge entering v]`. Child edges are the `C` face-interior edges (corner `c`: face point to
-    /// the edge point of the edge leaving it), then two halves per parent edge `[a, b]`: `C + 2e`
-    /// ends at `a`, `C + 2e + 1` at `b`.
-    pub fn refine_child(&self) -> Self {
-        let nf = self.face_count() as u32;
-        let ne = self.edges.len() as u32;
-        let corners = self.face_indices.len();
-        let (edge_base, vertex_base) = (nf, nf + ne);
-        let half_base = corners as u32;
-        // The half of parent edge `e` that touches its end `v`.
-        let half = |e: u32, v: u32| half_base + 2 * e + u32::from(self.edges[e as usize][0] != v);
-
-        let face_indices = self.child_faces();
-        let mut corner_edges = Vec::with_capacity(4 * corners);
-        self.for_each_corner(|_, c, prev| {
-            let v = self.face_indices[c];
-            corner_edges.extend_from_slice(&[
-                half(self.corner_edges[c], v),
-                c as u32,
-                prev as u32,
-                half(self.corner_edges[prev], v),
-            ]);
-        });
-
-        let mut edges = Vec::with_capacity(corners + 2 * ne as usize);
-        self.for_each_corner(|f, c, _| edges.push([f as u32, edge_base + self.corner_edges[c]]));
-        for (e, &[a, b]) in self.edges.iter().enumerate() {
-            edges.push([edge_base + e as u32, vertex_base + a]);
-            edges.push([edge_base + e as u32, vertex_base + b]);
-        }
-
-        let mut edge_faces = vec![[NO_FACE; 2]; edges.len()];
-        for (face, quad) in corner_edges.chunks_exact(4).enumerate() {
-            for &e in quad {
-                let slot = &mut edge_faces[e as usize];
-                slot[usize::from(slot[0] != NO_FACE)] = face as u32;
-            }
-        }
-
-        let face_offsets = (0..=corners as u32).map(|c| 4 * c).collect();
-        Self::assemble(
-            (nf + ne) as usize + self.num_vertices,
-            face_offsets,
-            face_indices,
-            edges,
-            edge_faces,
-            corner_edges,
-        )
     }
 }
 
