@@ -9,6 +9,12 @@ log=target/test-all.log
 mkdir -p target
 : > "$log"
 step() { echo; echo "==> $*"; }
+# Free disk and memory, at the start and again if a step fails (a full disk or an out-of-memory
+# linker shows up in CI only as a failed link).
+resources() { df -h . ; free -g | sed -n 1,2p; }
+step "disk and memory"
+resources
+trap 'echo; echo "==> a step failed; disk and memory now:"; resources' ERR
 
 step "cargo fmt --check"
 cargo fmt --all -- --check
