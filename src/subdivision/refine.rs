@@ -280,9 +280,15 @@ fn interpolate_level(
     let mut child = vec![DVec3::ZERO; nf + ne + topo.num_vertices];
     let (face_points, rest) = child.split_at_mut(nf);
     let (edge_points, vertex_points) = rest.split_at_mut(ne);
+    // Face points, each also added where its corners' vertex points go (the vertex rule's sum
+    // over its faces, in face order).
     topo.for_each_face(&topo.face_indices, |f, face| {
         let sum: DVec3 = face.iter().map(|&v| parent[v as usize]).sum();
-        face_points[f] = sum / face.len() as f64;
+        let point = sum / face.len() as f64;
+        face_points[f] = point;
+        for &v in face {
+            vertex_points[v as usize] += point;
+        }
     });
     for ((&[a, b], &faces), out) in topo.edges.iter().zip(&topo.edge_faces).zip(edge_points) {
         let ends = parent[a as usize] + parent[b as usize];
@@ -291,12 +297,7 @@ fn interpolate_level(
             [f0, f1] => (ends + face_points[f0 as usize] + face_points[f1 as usize]) * 0.25,
         };
     }
-    // Each vertex's face points summed where its vertex point goes, its neighbours in `neighbours`.
-    topo.for_each_face(&topo.face_indices, |f, face| {
-        for &v in face {
-            vertex_points[v as usize] += face_points[f];
-        }
-    });
+    // Each vertex's neighbours summed in edge order.
     let mut neighbours = vec![DVec3::ZERO; topo.num_vertices];
     for &[a, b] in &topo.edges {
         neighbours[a as usize] += parent[b as usize];

@@ -259,9 +259,9 @@ impl Subdivider {
         )?;
         let grid_coordinates = r.grid_coordinates;
         let vertex_count = r.topology.num_vertices;
+        let all_quads = r.topology.quads;
         let face_offsets = r.topology.faces.face_offsets;
         let face_indices = r.topology.faces.face_indices;
-        let all_quads = face_offsets.windows(2).all(|w| w[1] - w[0] == 4);
         let triangles = triangulate(&face_offsets, |c| face_indices[c]);
         let render = build_render_mesh(
             vertex_count,
