@@ -1,5 +1,5 @@
 //! Time per simulated 1/60 s frame of the canonical grid cloth at 20 substeps (XPBD, one
-//! iteration), on one thread: the solver alone, without ECS overhead, with the throughput in
+//! iteration), on one thread and (64×64 and larger) on two: the solver alone, without ECS overhead, with the throughput in
 //! constraint solves (springs × substeps) per second; 128×128 also at 10 substeps. The explicit
 //! integrators (Verlet, symplectic Euler) on the same cloths at their stable substeps. Then the same
 //! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
@@ -10,10 +10,11 @@ use std::hint::black_box;
 use bevy::math::Vec3;
 use bevy::math::primitives::Sphere;
 use bevy::prelude::{Transform, default};
+use bevy::tasks::TaskPoolBuilder;
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
     ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Integrator,
-    Pose, SolverSettings, WindField,
+    Pose, ScopedThread, SolverSettings, Spread, WindField,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -59,6 +60,27 @@ fn step(c: &mut Criterion) {
                 &n,
                 |b, _| b.iter(|| sim.step(black_box(1.0 / 60.0)).unwrap()),
             );
+            if n < 64 {
+                continue;
+            }
+            // The same frame with a second thread projecting half of each colour: lent by a
+            // Bevy task pool of one thread (kept between frames), and started per frame.
+            let pool = TaskPoolBuilder::new().num_threads(1).build();
+            let env = Environment::default();
+            let spreads: [(&str, &dyn Spread); 2] = [("pool", &pool), ("scoped", &ScopedThread)];
+            for (name, spread) in spreads {
+                let mut sim = hanging_with(n, substeps);
+                group.bench_with_input(
+                    BenchmarkId::from_parameter(format!("{n}x{n}_two_threads_{name}")),
+                    &n,
+                    |b, _| {
+                        b.iter(|| {
+                            sim.step_in_parallel(black_box(1.0 / 60.0), &env, spread)
+                                .unwrap()
+                        })
+                    },
+                );
+            }
         }
         group.finish();
     }

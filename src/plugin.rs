@@ -10,6 +10,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::error;
 use bevy::math::Vec3;
 use bevy::mesh::{Mesh, Mesh3d};
+use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::{Fixed, Time};
 use bevy::transform::TransformSystems;
 use bevy::transform::components::GlobalTransform;
@@ -21,7 +22,7 @@ use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::collision::Pose;
 use crate::sim::{
-    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, WindField,
+    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, WindField,
     compute_normals,
 };
 use crate::subdivision::Subdivider;
@@ -367,7 +368,20 @@ fn resolve_pin_targets(
     }
 }
 
-/// Advances every running cloth by one step of the schedule's clock, in parallel across cloths.
+/// A Bevy task pool lends one of its threads to a step: `helper` runs as a task on the pool, `main`
+/// on the calling thread (which, if it is one of the pool's, runs `helper` itself while it waits,
+/// should no other thread have taken it).
+impl Spread for TaskPool {
+    fn join(&self, helper: &(dyn Fn() + Sync), main: &mut dyn FnMut()) {
+        self.scope(|s| {
+            s.spawn(async move { helper() });
+            main();
+        });
+    }
+}
+
+/// Advances every running cloth by one step of the schedule's clock, in parallel across cloths,
+/// and a large cloth's XPBD colours on two threads where the compute pool has more than one.
 fn step_cloths(
     time: Res<Time>,
     colliders: Res<ColliderSnapshot>,
@@ -378,17 +392,23 @@ fn step_cloths(
     if dt <= 0.0 {
         return;
     }
+    let spread = ComputeTaskPool::try_get()
+        .filter(|pool| pool.thread_num() > 1)
+        .map(|pool| -> &dyn Spread { &**pool });
     cloths.par_iter_mut().for_each(|(config, mut state)| {
         let env = Environment {
             colliders: &colliders.0,
             collision_mask: config.collision_mask,
             wind: wind.0.as_ref(),
         };
-        if state.failure.is_none()
-            && let Err(e) = state.sim.step_in(dt, &env)
-        {
-            state.failure = Some(e);
+        if state.failure.is_some() {
+            return;
         }
+        let stepped = match spread {
+            Some(spread) => state.sim.step_in_parallel(dt, &env, spread),
+            None => state.sim.step_in(dt, &env),
+        };
+        state.failure = stepped.err();
     });
 }
 

@@ -12,6 +12,7 @@ mod explicit;
 mod forces;
 mod implicit;
 mod model;
+mod parallel;
 pub mod reference;
 pub mod scenes;
 mod solver;
@@ -27,6 +28,7 @@ pub use model::{
     ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, SpringKind, Springs,
     SubdividedModel, compute_normals,
 };
+pub use parallel::{ScopedThread, Spread};
 pub use scenes::{AccuracyScene, relative_rms_error};
 pub use solver::{
     AUTO_MAX_STRETCH, ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,

@@ -14,6 +14,7 @@ use super::collision::{Collider, ContactState, Contacts, Near, bounds};
 use super::forces::{ForceRuns, Soa, SpringSet, max_frequency_bound, spring_energy};
 use super::implicit::ImplicitScratch;
 use super::model::{ClothModel, SpringKind};
+use super::parallel::Spread;
 use super::wind::{WindField, WindScratch};
 use super::xpbd::Projections;
 use super::{explicit, implicit, xpbd};
@@ -838,6 +839,27 @@ impl ClothSim {
     /// leaves the state as it was at the failure) if a position became non-finite; the caller
     /// should stop stepping this cloth.
     pub fn step_in(&mut self, dt: f32, env: &Environment) -> Result<(), ClothError> {
+        self.step_spread(dt, env, None)
+    }
+
+    /// [`Self::step_in`] with another thread from `spread`: XPBD projects each colour of a large
+    /// cloth (about 20,000 springs or more) in two shares at once. The result is bit-identical to
+    /// [`Self::step_in`]'s; other integrators and smaller cloths ignore `spread`.
+    pub fn step_in_parallel(
+        &mut self,
+        dt: f32,
+        env: &Environment,
+        spread: &dyn Spread,
+    ) -> Result<(), ClothError> {
+        self.step_spread(dt, env, Some(spread))
+    }
+
+    fn step_spread(
+        &mut self,
+        dt: f32,
+        env: &Environment,
+        spread: Option<&dyn Spread>,
+    ) -> Result<(), ClothError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
@@ -887,7 +909,7 @@ impl ClothSim {
         );
         match self.active {
             // `choose_integrator` never leaves `Auto` active.
-            Integrator::Xpbd | Integrator::Auto => xpbd::step_xpbd(self, dt, substeps),
+            Integrator::Xpbd | Integrator::Auto => xpbd::step_xpbd(self, dt, substeps, spread),
             Integrator::SymplecticEuler => explicit::step_symplectic_euler(self, dt, substeps),
             Integrator::Verlet => explicit::step_verlet(self, dt, substeps),
             Integrator::ImplicitEuler => implicit::step_implicit_euler(self, dt, substeps),

@@ -17,11 +17,18 @@ use super::forces::Soa;
 use super::model::Springs;
 use super::model::{ClothModel, GridSpec};
 use super::solver::{ClothSim, count_contact_work, pin_motion, soa_clearances};
+use super::parallel::Spread;
 use glam::Vec3;
+use std::cell::UnsafeCell;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Springs projected together by the vector kernel. Within one colour no two springs share a
 /// particle, so a batch gives exactly the sequential Gauss-Seidel result.
 const LANES: usize = 8;
+
+/// Fewest slots for which a step is shared between two threads (see
+/// [`Projections::worth_sharing`]).
+const SHARED_MIN_SLOTS: usize = 20_000;
 
 /// Longest hole (in slots) inside a run that is padded rather than ending the run: the row ends of
 /// a grid's colours leave holes of one or two.
@@ -77,6 +84,32 @@ fn slot_at(layout: Layout, offset: usize) -> Option<usize> {
     }
 }
 
+/// One colour's runs, `end` of the previous colour (0 for the first) to `end`, and where they split
+/// into two shares that touch disjoint particles, so that two threads may project them at once:
+/// runs before `cut` and runs from `cut` on (`cut == end`: the second share is empty).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Color {
+    cut: u32,
+    end: u32,
+}
+
+/// Scratch for [`Projections::cut`]: for each particle, the last stamp it was marked with.
+struct Marks {
+    of: Vec<u32>,
+    stamp: u32,
+}
+
+impl Marks {
+    /// Marks `particles` with a new stamp, and returns it.
+    fn mark(&mut self, particles: impl Iterator<Item = u32>) -> u32 {
+        self.stamp += 1;
+        for i in particles {
+            self.of[i as usize] = self.stamp;
+        }
+        self.stamp
+    }
+}
+
 /// The springs of a cloth as XPBD projects them: per slot its particles, rest length, compliance
 /// and multiplier, colour by colour, in [`Run`]s. A padding slot joins two particles that no
 /// other slot of its batch touches and has rest length 0, which the kernel skips (springs of zero
@@ -93,6 +126,8 @@ pub(super) struct Projections {
     /// Multipliers of the current substep (used with more than one iteration).
     lambda: Vec<f32>,
     runs: Vec<Run>,
+    /// The runs of each colour, split in two shares for two threads.
+    colors: Vec<Color>,
     /// Storage order of the particles during a step (empty: their own order).
     order: Vec<u32>,
     /// Where each particle is stored (empty with `order`).
@@ -121,6 +156,10 @@ impl Projections {
             slot,
             ..Self::default()
         };
+        let mut marks = Marks {
+            of: vec![0; particles],
+            stamp: 0,
+        };
         for c in 0..springs.color_count() {
             // The colour's springs between storage positions, ordered by index offset and then
             // by first particle, so that regular topology forms long runs.
@@ -132,7 +171,14 @@ impl Projections {
                 })
                 .collect();
             color.sort_unstable_by_key(|&(a, b, _)| (b - a, a));
+            let first = p.runs.len();
             p.add_color(&color, particles);
+            p.order_runs(first);
+            let cut = p.cut(first, &mut marks);
+            p.colors.push(Color {
+                cut: cut as u32,
+                end: p.runs.len() as u32,
+            });
         }
         p.rest = vec![0.0; p.a.len()];
         p.compliance = vec![0.0; p.a.len()];
@@ -181,6 +227,146 @@ impl Projections {
             let s = self.stored(i as u32) as usize;
             self.inv_mass[s] = *w;
         }
+    }
+
+    /// Whether a step is worth sharing between two threads ([`Team`]): a colour's share must
+    /// outweigh the hand-over between the threads, which costs about a microsecond.
+    pub(super) fn worth_sharing(&self) -> bool {
+        self.a.len() >= SHARED_MIN_SLOTS
+    }
+
+    /// The runs of colour `c`'s share `share` (0 or 1).
+    fn share(&self, c: usize, share: usize) -> &[Run] {
+        let begin = c.checked_sub(1).map_or(0, |c| self.colors[c].end) as usize;
+        let Color { cut, end } = self.colors[c];
+        let (cut, end) = (cut as usize, end as usize);
+        let range = if share == 0 { begin..cut } else { cut..end };
+        &self.runs[range]
+    }
+
+    /// The particles the slots of `runs` read and write (a padding slot writes back what it read,
+    /// so its particles count too).
+    #[cfg(test)]
+    fn touched(&self, runs: &[Run]) -> impl Iterator<Item = u32> {
+        runs.iter()
+            .flat_map(|r| self.touched_slots(r.start as usize..(r.start + r.len) as usize))
+    }
+
+    /// The particles slots `slots` read and write.
+    fn touched_slots(&self, slots: std::ops::Range<usize>) -> impl Iterator<Item = u32> {
+        slots.flat_map(|k| [self.a[k], self.b[k]])
+    }
+
+    /// Puts the runs from `first` on (one colour's) in the order of their first particles, their
+    /// slots with them: the rows of a grid then follow each other, so that the colour can be cut
+    /// between two rows ([`Self::cut`]; sorted by index offset, a grid's colour comes in families
+    /// whose padding slots touch the other families' particles). The springs of a colour touch
+    /// disjoint particles and a padding slot writes back what it read, so the order changes no
+    /// result.
+    fn order_runs(&mut self, first: usize) {
+        let mut runs = self.runs.split_off(first);
+        let Some(begin) = runs.first().map(|r| r.start as usize) else {
+            return;
+        };
+        runs.sort_by_key(|r| self.a[r.start as usize]);
+        let (a, b) = (self.a.split_off(begin), self.b.split_off(begin));
+        let spring = self.spring.split_off(begin);
+        for r in runs {
+            let slots = r.start as usize - begin..(r.start + r.len) as usize - begin;
+            self.runs.push(Run {
+                start: self.a.len() as u32,
+                ..r
+            });
+            self.a.extend_from_slice(&a[slots.clone()]);
+            self.b.extend_from_slice(&b[slots.clone()]);
+            self.spring.extend_from_slice(&spring[slots]);
+        }
+    }
+
+    /// Splits the runs from `first` to the end (one colour's) into two shares that touch
+    /// disjoint particles, at the run boundary, or the boundary of a pair of batches inside a run
+    /// (which is then split in two), nearest the middle of the colour's slots at which that holds.
+    /// Within a colour only padding slots can touch the other share's particles; at a run
+    /// boundary, padding at the end of a run that does is dropped (its run ends in single slots
+    /// instead). Returns the first run of the second share, or the end (no second share).
+    fn cut(&mut self, first: usize, marks: &mut Marks) -> usize {
+        let (Some(head), Some(last)) = (self.runs.get(first), self.runs.last()) else {
+            return self.runs.len();
+        };
+        let (begin, end) = (head.start as usize, (last.start + last.len) as usize);
+        let mut candidates = Vec::new();
+        for r in &self.runs[first..] {
+            let inside = (0..r.len as usize).step_by(2 * LANES).map(|m| r.start as usize + m);
+            candidates.extend(inside.filter(|&k| k > begin));
+        }
+        candidates.sort_unstable_by_key(|&k| (2 * (k - begin)).abs_diff(end - begin));
+        for &k in candidates.iter().take(8) {
+            let run = first + self.runs[first..].partition_point(|r| (r.start + r.len) as usize <= k);
+            let stamp = marks.mark(self.touched_slots(begin..k));
+            let shared: Vec<u32> = self
+                .touched_slots(k..end)
+                .filter(|&i| marks.of[i as usize] == stamp)
+                .collect();
+            if shared.is_empty() {
+                return self.split_run(run, k);
+            }
+            if self.runs[run].start as usize == k && self.drop_padding(first, &shared) {
+                return run;
+            }
+        }
+        self.runs.len()
+    }
+
+    /// Splits run `run` at slot `k` (a batch boundary inside it, or its start) and returns the
+    /// run that starts at `k`.
+    fn split_run(&mut self, run: usize, k: usize) -> usize {
+        let r = self.runs[run];
+        let k = k as u32;
+        if r.start == k {
+            return run;
+        }
+        self.runs[run].len = k - r.start;
+        let rest = Run {
+            start: k,
+            len: r.start + r.len - k,
+            ..r
+        };
+        self.runs.insert(run + 1, rest);
+        run + 1
+    }
+
+    /// Drops the padding slots of the runs from `first` on that touch a particle of `shared`, if
+    /// they all end their runs (with every slot after them padding too); returns whether it did.
+    fn drop_padding(&mut self, first: usize, shared: &[u32]) -> bool {
+        let shared: std::collections::HashSet<u32> = shared.iter().copied().collect();
+        let mut lens = Vec::with_capacity(self.runs.len() - first);
+        for r in &self.runs[first..] {
+            let slots = r.start as usize..(r.start + r.len) as usize;
+            let real_end = slots.clone().rfind(|&k| self.spring[k].is_some()).map_or(0, |k| k + 1);
+            let mut len = slots.end;
+            for k in slots.clone() {
+                let touches = shared.contains(&self.a[k]) || shared.contains(&self.b[k]);
+                if self.spring[k].is_none() && touches {
+                    if k < real_end {
+                        return false;
+                    }
+                    len = len.min(k);
+                }
+            }
+            lens.push(len - slots.start);
+        }
+        let begin = self.runs[first].start as usize;
+        let (a, b) = (self.a.split_off(begin), self.b.split_off(begin));
+        let spring = self.spring.split_off(begin);
+        for (r, len) in self.runs[first..].iter_mut().zip(lens) {
+            let from = r.start as usize - begin;
+            r.start = self.a.len() as u32;
+            r.len = len as u32;
+            self.a.extend_from_slice(&a[from..from + len]);
+            self.b.extend_from_slice(&b[from..from + len]);
+            self.spring.extend_from_slice(&spring[from..from + len]);
+        }
+        true
     }
 
     /// Lays out the springs of one colour, given as `(a, b, spring)` with storage positions
@@ -235,7 +421,7 @@ impl Projections {
     #[cfg(test)]
     fn check(&self, springs: &Springs, particles: usize) -> Result<(), String> {
         let mut seen = vec![false; springs.len()];
-        let color_of = |s: usize| springs.color_offsets.partition_point(|&o| o as usize <= s);
+        let color_of = |s: usize| springs.color_offsets.partition_point(|&o| o as usize <= s) - 1;
         let mut next = 0;
         for (r, run) in self.runs.iter().enumerate() {
             let (start, len) = (run.start as usize, run.len as usize);
@@ -291,6 +477,30 @@ impl Projections {
                     }
                 }
             }
+        }
+        // The colours' runs, in order, and their shares disjoint.
+        let mut begin = 0;
+        for (c, &Color { cut, end }) in self.colors.iter().enumerate() {
+            let (cut, end) = (cut as usize, end as usize);
+            if !(begin <= cut && cut <= end && end <= self.runs.len()) {
+                return Err(format!("colour {c}'s runs are out of order"));
+            }
+            for run in &self.runs[begin..end] {
+                let slots = run.start as usize..(run.start + run.len) as usize;
+                if let Some(s) = slots.filter_map(|k| self.spring[k]).next()
+                    && color_of(s as usize) != c
+                {
+                    return Err(format!("colour {c} holds a run of another colour"));
+                }
+            }
+            let first: std::collections::HashSet<u32> = self.touched(self.share(c, 0)).collect();
+            if let Some(i) = self.touched(self.share(c, 1)).find(|i| first.contains(i)) {
+                return Err(format!("both shares of colour {c} touch particle {i}"));
+            }
+            begin = end;
+        }
+        if begin != self.runs.len() {
+            return Err(format!("the colours hold {begin} of {} runs", self.runs.len()));
         }
         match seen.iter().position(|s| !s) {
             _ if next != self.a.len() => {
@@ -362,13 +572,92 @@ fn find_run(
 /// substep, and its displacement since. The corrections accumulate in the small displacements
 /// rather than in the large positions, so that f32 keeps them (added to a position of about 1 m,
 /// a correction below 1e-7 m would vanish, and the velocity `Δx / h` with it).
-struct Split<'a> {
-    start: [&'a [f32]; 3],
-    delta: [&'a mut [f32]; 3],
+#[derive(Clone, Copy)]
+struct Split {
+    start: [Column; 3],
+    delta: [Column; 3],
 }
 
-/// One XPBD step of `dt` seconds in `n` substeps.
-pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
+/// One array of `f32` during a sweep (a coordinate of the particles, or the multipliers), held as
+/// a pointer and a length, so that the threads of a parallel sweep can share it: each writes only
+/// the particles of its own share of a colour, and [`Projections`] proves the shares disjoint.
+#[derive(Clone, Copy)]
+struct Column {
+    ptr: *mut f32,
+    len: usize,
+}
+
+impl Column {
+    /// The elements of `s`.
+    ///
+    /// # Safety
+    /// While the column (or a copy) is used, `s` stays allocated and nothing but columns reads or
+    /// writes it; columns used on different threads at once touch disjoint elements, and a column
+    /// made from a shared slice (`start`) is only loaded from.
+    unsafe fn new(s: *mut [f32]) -> Self {
+        Self {
+            ptr: s.cast(),
+            len: s.len(),
+        }
+    }
+
+    /// The first `n` elements, if there are as many.
+    #[inline(always)]
+    fn cut(self, n: usize) -> Option<Self> {
+        (n <= self.len).then_some(Self { ptr: self.ptr, len: n })
+    }
+
+    /// Copies `N` values starting at `i` (zeros past the end, which the runs never reach).
+    #[inline(always)]
+    fn load<const N: usize>(self, i: usize) -> [f32; N] {
+        if i < self.len && N <= self.len - i {
+            // SAFETY: in bounds (checked), and no other thread writes these elements (`new`).
+            unsafe { self.ptr.add(i).cast::<[f32; N]>().read_unaligned() }
+        } else {
+            [0.0; N]
+        }
+    }
+
+    /// Writes `values` to elements `i..i + N` (nothing past the end).
+    #[inline(always)]
+    fn store<const N: usize>(self, i: usize, values: &[f32; N]) {
+        if i < self.len && N <= self.len - i {
+            // SAFETY: in bounds (checked), and no other thread touches these elements (`new`).
+            unsafe { self.ptr.add(i).cast::<[f32; N]>().write_unaligned(*values) }
+        }
+    }
+
+    /// Element `i`.
+    #[inline(always)]
+    fn get(self, i: usize) -> f32 {
+        self.load::<1>(i)[0]
+    }
+
+    /// Sets element `i`.
+    #[inline(always)]
+    fn set(self, i: usize, value: f32) {
+        self.store::<1>(i, &[value]);
+    }
+}
+
+/// One XPBD step of `dt` seconds in `n` substeps. With `spread`, a large cloth's colours are
+/// projected by two threads ([`Team`]); the result is bit-identical.
+pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32, spread: Option<&dyn Spread>) {
+    match spread.filter(|_| sim.projections.worth_sharing()) {
+        Some(spread) => {
+            let team = Team::default();
+            spread.join(&|| team.help(), &mut || {
+                // The helper returns once this is dropped, even if the step panics.
+                let _stop = team.stop_on_drop();
+                substeps(sim, dt, n, Some(&team));
+            });
+        }
+        None => substeps(sim, dt, n, None),
+    }
+}
+
+/// The substeps of [`step_xpbd`], with the sweeps shared with `team`'s helper if given.
+fn substeps(sim: &mut ClothSim, dt: f32, n: u32, team: Option<&Team>) {
     let h = dt / n as f32;
     let inv_h = 1.0 / h;
     let inv_h2 = inv_h * inv_h;
@@ -408,19 +697,34 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
             let (target, _) = pin_motion(pin, t0, t1, inv_h);
             sim.displacement.set(i, target - sim.soa.get(i));
         }
+        // λ starts at 0 each substep, so one iteration needs no multiplier storage.
+        let accumulate = sim.settings.iterations > 1;
+        if accumulate {
+            sim.projections.lambda.fill(0.0);
+        }
         let (start, delta) = (&sim.soa, &mut sim.displacement);
-        let mut x = Split {
-            start: [&start.x, &start.y, &start.z],
-            delta: [&mut delta.x, &mut delta.y, &mut delta.z],
+        // SAFETY: until the sweeps below return, the arrays are used through these columns only:
+        // `start` is only loaded from, and the team's helper writes only the particles and
+        // multipliers of its own shares, which `Projections` keeps disjoint from the others.
+        let (x, lambda) = unsafe {
+            let read = |v: &[f32]| Column::new(std::ptr::from_ref(v).cast_mut());
+            let write = |v: &mut [f32]| Column::new(v);
+            let x = Split {
+                start: [read(&start.x), read(&start.y), read(&start.z)],
+                delta: [write(&mut delta.x), write(&mut delta.y), write(&mut delta.z)],
+            };
+            (x, write(&mut sim.projections.lambda))
         };
-        let p = &mut sim.projections;
-        if sim.settings.iterations == 1 {
-            // λ starts at 0 each substep, so one iteration needs no multiplier storage.
-            solve_springs::<false>(p, &mut x, inv_h2);
-        } else {
-            p.lambda.fill(0.0);
-            for _ in 0..sim.settings.iterations {
-                solve_springs::<true>(p, &mut x, inv_h2);
+        let sweep = Sweep {
+            p: &sim.projections,
+            x,
+            lambda,
+            inv_h2,
+        };
+        for _ in 0..sim.settings.iterations {
+            match team {
+                Some(team) => team.sweep(&sweep, accumulate),
+                None => sweep.run(&sim.projections.runs, accumulate),
             }
         }
         // Contacts last, so every substep ends outside the colliders; their push-out is not
@@ -444,6 +748,173 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32) {
         }
     }
     sim.store_soa_state();
+}
+
+/// What one Gauss-Seidel sweep works on, for the thread or threads that run it.
+struct Sweep<'a> {
+    p: &'a Projections,
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+}
+
+impl Sweep<'_> {
+    /// Projects the springs of `runs` (with `accumulate`, keeping the multipliers).
+    fn run(&self, runs: &[Run], accumulate: bool) {
+        let (p, x, lambda, inv_h2) = (self.p, self.x, self.lambda, self.inv_h2);
+        if accumulate {
+            solve_springs::<true>(p, runs, x, lambda, inv_h2);
+        } else {
+            solve_springs::<false>(p, runs, x, lambda, inv_h2);
+        }
+    }
+}
+
+/// Shares of a colour that threads project at once.
+const SHARES: usize = 2;
+
+/// Two threads sharing a step's sweeps. The step's thread publishes each sweep as a run of
+/// tickets, [`SHARES`] per colour, and both threads take tickets in order; a ticket's share is
+/// projected once every ticket of the colours before it is done. Whoever takes a ticket finishes
+/// it without waiting on a later one, so the step's thread finishes every sweep alone if the
+/// helper never starts (a busy or single-threaded pool), and the helper, started late, finds
+/// nothing left. The shares of a colour touch disjoint particles ([`Projections::cut`]), so the
+/// order in which they run changes no result.
+#[derive(Default)]
+struct Team {
+    /// The next ticket to hand out.
+    next: AtomicUsize,
+    /// Tickets below this are published.
+    end: AtomicUsize,
+    /// Tickets finished.
+    done: AtomicUsize,
+    /// Set when the step is over: the helper returns.
+    stop: AtomicBool,
+    /// The published sweep. Written by the step's thread only while every ticket is done.
+    job: UnsafeCell<Job>,
+}
+
+/// A published sweep: its inputs, its first ticket, and whether it keeps multipliers.
+struct Job {
+    sweep: *const Sweep<'static>,
+    base: usize,
+    accumulate: bool,
+}
+
+impl Default for Job {
+    fn default() -> Self {
+        Self {
+            sweep: std::ptr::null(),
+            base: 0,
+            accumulate: false,
+        }
+    }
+}
+
+// SAFETY: `job` is written only by the step's thread while no ticket is out, before `end` is
+// released, and read only by a thread holding a ticket, after acquiring `end` (see `Team`).
+unsafe impl Sync for Team {}
+
+// SAFETY: a column's elements are touched by one thread at a time (`Column::new`'s contract).
+unsafe impl Send for Column {}
+// SAFETY: as above.
+unsafe impl Sync for Column {}
+
+/// Marks a [`Team`]'s step over when dropped.
+struct Stop<'a>(&'a Team);
+
+impl Drop for Stop<'_> {
+    fn drop(&mut self) {
+        self.0.stop.store(true, Ordering::Release);
+    }
+}
+
+impl Team {
+    /// A guard that ends the step, for the helper, when dropped.
+    fn stop_on_drop(&self) -> Stop<'_> {
+        Stop(self)
+    }
+
+    /// Runs `sweep` with the helper (on the step's thread): publishes it, works on it, and
+    /// returns when every share of it is done.
+    fn sweep(&self, sweep: &Sweep<'_>, accumulate: bool) {
+        let base = self.end.load(Ordering::Relaxed);
+        // SAFETY: every ticket below `end` is done, so no thread reads the job (see `Team`);
+        // the pointer is read only while this sweep's tickets are out, that is within this call.
+        unsafe {
+            *self.job.get() = Job {
+                sweep: std::ptr::from_ref(sweep).cast(),
+                base,
+                accumulate,
+            };
+        }
+        let end = base + SHARES * sweep.p.colors.len();
+        self.end.store(end, Ordering::Release);
+        while let Some(t) = self.take() {
+            self.work(t);
+        }
+        let mut spins = 0;
+        while self.done.load(Ordering::Acquire) < end {
+            pause(&mut spins);
+        }
+    }
+
+    /// The helper's side: takes tickets until the step is over.
+    fn help(&self) {
+        let mut spins = 0;
+        loop {
+            if let Some(t) = self.take() {
+                self.work(t);
+                spins = 0;
+            } else if self.stop.load(Ordering::Acquire) {
+                return;
+            } else {
+                pause(&mut spins);
+            }
+        }
+    }
+
+    /// The next published ticket, if any is left.
+    fn take(&self) -> Option<usize> {
+        let end = self.end.load(Ordering::Acquire);
+        let mut t = self.next.load(Ordering::Relaxed);
+        while t < end {
+            match self.next.compare_exchange_weak(t, t + 1, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => return Some(t),
+                Err(now) => t = now,
+            }
+        }
+        None
+    }
+
+    /// Projects ticket `t`'s share once the colours before it are done.
+    fn work(&self, t: usize) {
+        // SAFETY: the job is not written while ticket `t` is out (see `Team`).
+        let job = unsafe { &*self.job.get() };
+        let i = t - job.base;
+        let mut spins = 0;
+        while self.done.load(Ordering::Acquire) < t - i % SHARES {
+            // Only a panic on the other thread ends the step with tickets out.
+            if self.stop.load(Ordering::Relaxed) {
+                return;
+            }
+            pause(&mut spins);
+        }
+        // SAFETY: the sweep outlives its tickets (`Team::sweep` returns after they are done).
+        let sweep = unsafe { &*job.sweep };
+        sweep.run(sweep.p.share(i / SHARES, i % SHARES), job.accumulate);
+        self.done.fetch_add(1, Ordering::Release);
+    }
+}
+
+/// Waits a little: spins at first, then yields the core.
+fn pause(spins: &mut u32) {
+    *spins += 1;
+    if *spins < 1 << 10 {
+        std::hint::spin_loop();
+    } else {
+        std::thread::yield_now();
+    }
 }
 
 /// XPBD's arrays between a substep's projections and its end pass, as the contact response's
@@ -647,7 +1118,8 @@ fn advance_body<const END: bool, const BEGIN: bool>(
     }
 }
 
-/// One Gauss-Seidel sweep over all springs, colour by colour: the XPBD update
+/// One Gauss-Seidel sweep over the springs of `runs` (every colour, or one thread's share of
+/// one), run by run: the XPBD update
 /// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
 /// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
 ///
@@ -660,20 +1132,26 @@ fn advance_body<const END: bool, const BEGIN: bool>(
 /// On x86-64 CPUs the kernel runs as 8-wide AVX2 vectors, or with AVX-512 as 16-wide ones where a
 /// contiguous run allows (chosen at run time); the results are bit-identical either way (no fused
 /// multiply-add: Rust never contracts `a * b + c`).
-fn solve_springs<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
+fn solve_springs<const ACCUMULATE: bool>(
+    p: &Projections,
+    runs: &[Run],
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx512f") {
         // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-        unsafe { solve_springs_avx512::<ACCUMULATE>(p, x, inv_h2) };
+        unsafe { solve_springs_avx512::<ACCUMULATE>(p, runs, x, lambda, inv_h2) };
         return;
     }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-        unsafe { solve_springs_avx2::<ACCUMULATE>(p, x, inv_h2) };
+        unsafe { solve_springs_avx2::<ACCUMULATE>(p, runs, x, lambda, inv_h2) };
         return;
     }
-    solve_springs_body::<ACCUMULATE, false>(p, x, inv_h2);
+    solve_springs_body::<ACCUMULATE, false>(p, runs, x, lambda, inv_h2);
 }
 
 /// [`solve_springs_body`] compiled for AVX-512, with 16-lane batches where a contiguous run
@@ -682,63 +1160,77 @@ fn solve_springs<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>,
 #[target_feature(enable = "avx512f")]
 #[inline(never)]
 fn solve_springs_avx512<const ACCUMULATE: bool>(
-    p: &mut Projections,
-    x: &mut Split<'_>,
+    p: &Projections,
+    runs: &[Run],
+    x: Split,
+    lambda: Column,
     inv_h2: f32,
 ) {
-    solve_springs_body::<ACCUMULATE, true>(p, x, inv_h2);
+    solve_springs_body::<ACCUMULATE, true>(p, runs, x, lambda, inv_h2);
 }
 
 /// [`solve_springs_body`] compiled for AVX2 (8-lane vectors).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-fn solve_springs_avx2<const ACCUMULATE: bool>(p: &mut Projections, x: &mut Split<'_>, inv_h2: f32) {
-    solve_springs_body::<ACCUMULATE, false>(p, x, inv_h2);
+fn solve_springs_avx2<const ACCUMULATE: bool>(
+    p: &Projections,
+    runs: &[Run],
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+) {
+    solve_springs_body::<ACCUMULATE, false>(p, runs, x, lambda, inv_h2);
 }
 
-/// The per-slot constants of a batch, and where its multipliers live.
+/// The per-slot constants of the batch at slots `k..k + N`, and where its multipliers live.
 struct Batch<'a, const N: usize> {
     rest: &'a [f32; N],
     compliance: &'a [f32; N],
-    lambda: &'a mut [f32; N],
+    lambda: Column,
+    k: usize,
 }
 
 impl<'a, const N: usize> Batch<'a, N> {
     /// Slots `k..k + N`, or `None` past the end (which the runs never reach).
     #[inline(always)]
-    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: &'a mut [f32], k: usize) -> Option<Self> {
+    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: Column, k: usize) -> Option<Self> {
         Some(Self {
             rest: rest.get(k..k + N)?.try_into().ok()?,
             compliance: compliance.get(k..k + N)?.try_into().ok()?,
-            lambda: lambda.get_mut(k..k + N)?.try_into().ok()?,
+            lambda,
+            k,
         })
     }
 }
 
 #[inline(always)]
 fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
-    p: &mut Projections,
-    x: &mut Split<'_>,
+    p: &Projections,
+    runs: &[Run],
+    x: Split,
+    lambda: Column,
     inv_h2: f32,
 ) {
-    let (rest, compliance, lambda) = (&p.rest, &p.compliance, &mut p.lambda);
-    let inv_mass = &p.inv_mass;
-    // The slices as locals, which the compiler keeps in registers, all of the particle count's
-    // length, so that one bounds check per batch covers every array.
+    let (rest, compliance) = (&p.rest, &p.compliance);
+    let inv_mass = &p.inv_mass[..];
+    // Every column cut to the particle count, so that one bounds check per batch covers them all.
     let n = inv_mass.len();
-    let Split { start, delta } = x;
-    let ([Some(s0), Some(s1), Some(s2)], [Some(d0), Some(d1), Some(d2)]) = (
-        start.map(|s| s.get(..n)),
-        delta.each_mut().map(|d| d.get_mut(..n)),
+    let (Some(s0), Some(s1), Some(s2), Some(d0), Some(d1), Some(d2)) = (
+        x.start[0].cut(n),
+        x.start[1].cut(n),
+        x.start[2].cut(n),
+        x.delta[0].cut(n),
+        x.delta[1].cut(n),
+        x.delta[2].cut(n),
     ) else {
         return;
     };
-    let x = &mut Split {
+    let x = Split {
         start: [s0, s1, s2],
         delta: [d0, d1, d2],
     };
-    for run in &p.runs {
+    for run in runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
         let mut k = start;
         // Two batches at once where their 32 particles are distinct.
@@ -768,7 +1260,7 @@ fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
                     solve_interleaved::<ACCUMULATE, 2>(x, inv_mass, a, batch, inv_h2)
                 }
                 Layout::Scattered => {
-                    solve_gathered::<ACCUMULATE, LANES>(&p.a, &p.b, x, inv_mass, k, batch, inv_h2)
+                    solve_gathered::<ACCUMULATE, LANES>(&p.a, &p.b, x, inv_mass, batch, inv_h2)
                 }
             }
             k += LANES;
@@ -778,7 +1270,7 @@ fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
             let Some(batch) = Batch::<1>::at(rest, compliance, lambda, k) else {
                 break;
             };
-            solve_gathered::<ACCUMULATE, 1>(&p.a, &p.b, x, inv_mass, k, batch, inv_h2);
+            solve_gathered::<ACCUMULATE, 1>(&p.a, &p.b, x, inv_mass, batch, inv_h2);
         }
     }
 }
@@ -795,6 +1287,11 @@ fn project<const ACCUMULATE: bool, const N: usize>(
     batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
+    let mut lambda = if ACCUMULATE {
+        batch.lambda.load::<N>(batch.k)
+    } else {
+        [0.0; N]
+    };
     for l in 0..N {
         // The start vectors and the displacements are differenced separately, so that the
         // small displacements keep their precision.
@@ -802,7 +1299,7 @@ fn project<const ACCUMULATE: bool, const N: usize>(
         let dy = (s[1][l] - s[4][l]) + (d[1][l] - d[4][l]);
         let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
         let len2 = dx * dx + dy * dy + dz * dz;
-        let lam = if ACCUMULATE { batch.lambda[l] } else { 0.0 };
+        let lam = lambda[l];
         let alpha = batch.compliance[l] * inv_h2;
         let rest = batch.rest[l];
         let len = len2.sqrt();
@@ -816,7 +1313,7 @@ fn project<const ACCUMULATE: bool, const N: usize>(
             0.0
         };
         if ACCUMULATE {
-            batch.lambda[l] = lam + scale * len;
+            lambda[l] = lam + scale * len;
         }
         let (sa, sb) = (scale * wa[l], scale * wb[l]);
         d[0][l] += dx * sa;
@@ -825,6 +1322,9 @@ fn project<const ACCUMULATE: bool, const N: usize>(
         d[3][l] -= dx * sb;
         d[4][l] -= dy * sb;
         d[5][l] -= dz * sb;
+    }
+    if ACCUMULATE {
+        batch.lambda.store(batch.k, &lambda);
     }
 }
 
@@ -837,18 +1337,10 @@ fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
         .unwrap_or([0.0; N])
 }
 
-/// Writes `values` to `v[i..i + N]` (nothing past the end).
-#[inline(always)]
-fn store<const N: usize>(v: &mut [f32], i: usize, values: &[f32; N]) {
-    if let Some(s) = v.get_mut(i..i + N) {
-        s.copy_from_slice(values);
-    }
-}
-
 /// Slots joining particles `ia..ia + N` to `ib..ib + N`.
 #[inline(always)]
 fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
-    x: &mut Split<'_>,
+    x: Split,
     inv_mass: &[f32],
     ia: usize,
     ib: usize,
@@ -859,29 +1351,29 @@ fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
         return;
     }
     // The x, y, z of particles `ia..ia + N`, then of `ib..ib + N`.
-    let ends = |v: [&[f32]; 3]| {
+    let ends = |v: [Column; 3]| {
         [
-            load(v[0], ia),
-            load(v[1], ia),
-            load(v[2], ia),
-            load(v[0], ib),
-            load(v[1], ib),
-            load(v[2], ib),
+            v[0].load(ia),
+            v[1].load(ia),
+            v[2].load(ia),
+            v[0].load(ib),
+            v[1].load(ib),
+            v[2].load(ib),
         ]
     };
-    let (s, mut d) = (ends(x.start), ends(x.delta.each_ref().map(|d| &**d)));
+    let (s, mut d) = (ends(x.start), ends(x.delta));
     let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
     project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for (c, coord) in x.delta.iter_mut().enumerate() {
-        store(coord, ia, &d[c]);
-        store(coord, ib, &d[c + 3]);
+    for (c, coord) in x.delta.iter().enumerate() {
+        coord.store(ia, &d[c]);
+        coord.store(ib, &d[c + 3]);
     }
 }
 
 /// Eight slots over the 16 particles `window..window + 16` (see [`Layout::Interleaved`]).
 #[inline(always)]
 fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
-    x: &mut Split<'_>,
+    x: Split,
     inv_mass: &[f32],
     window: usize,
     batch: Batch<'_, LANES>,
@@ -890,14 +1382,14 @@ fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
     if window + 2 * LANES > inv_mass.len() {
         return;
     }
-    let (start, delta) = (x.start, &mut x.delta);
+    let (start, delta) = (x.start, x.delta);
     let win: [[f32; 16]; 7] = [
-        load(start[0], window),
-        load(start[1], window),
-        load(start[2], window),
-        load(delta[0], window),
-        load(delta[1], window),
-        load(delta[2], window),
+        start[0].load(window),
+        start[1].load(window),
+        start[2].load(window),
+        delta[0].load(window),
+        delta[1].load(window),
+        delta[2].load(window),
         load(inv_mass, window),
     ];
     let (mut s, mut d) = ([[0.0f32; LANES]; 6], [[0.0f32; LANES]; 6]);
@@ -911,35 +1403,34 @@ fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
         (wa[l], wb[l]) = (win[6][a], win[6][b]);
     }
     project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2);
-    for (c, coord) in delta.iter_mut().enumerate() {
+    for (c, coord) in delta.iter().enumerate() {
         let mut out = [0.0f32; 16];
         for l in 0..LANES {
             out[interleaved_offset(D, l)] = d[c][l];
             out[interleaved_offset(D, l) + D] = d[c + 3][l];
         }
-        store(coord, window, &out);
+        coord.store(window, &out);
     }
 }
 
-/// Slots `k..k + N` at arbitrary particles `a[k..]`, `b[k..]`: gather, project, scatter.
+/// The batch's slots at arbitrary particles `a[k..]`, `b[k..]`: gather, project, scatter.
 #[inline(always)]
 fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
     a: &[u32],
     b: &[u32],
-    x: &mut Split<'_>,
+    x: Split,
     inv_mass: &[f32],
-    k: usize,
     batch: Batch<'_, N>,
     inv_h2: f32,
 ) {
-    let (start, delta) = (x.start, &mut x.delta);
-    let (a, b) = (&a[k..k + N], &b[k..k + N]);
+    let (start, delta) = (x.start, x.delta);
+    let (a, b) = (&a[batch.k..batch.k + N], &b[batch.k..batch.k + N]);
     let (mut s, mut d) = ([[0.0f32; N]; 6], [[0.0f32; N]; 6]);
     let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
     for l in 0..N {
         for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
             for c in 0..3 {
-                (s[e + c][l], d[e + c][l]) = (start[c][i], delta[c][i]);
+                (s[e + c][l], d[e + c][l]) = (start[c].get(i), delta[c].get(i));
             }
         }
         (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
@@ -948,7 +1439,7 @@ fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
     for l in 0..N {
         for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
             for c in 0..3 {
-                delta[c][i] = d[e + c][l];
+                delta[c].set(i, d[e + c][l]);
             }
         }
     }
@@ -1021,6 +1512,75 @@ mod tests {
         let quad = [0, 1, 2, 3];
         let p = [Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
         gathered(&ClothModel::from_mesh(&p, None, &quad, 4).unwrap());
+    }
+
+    #[test]
+    fn grid_colours_split_into_balanced_shares() {
+        for (nx, ny) in [(64, 64), (128, 128), (100, 37)] {
+            let model = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
+            let p = Projections::new(&model);
+            p.check(&model.springs, model.particle_count()).unwrap();
+            assert!(p.worth_sharing(), "{nx}×{ny}");
+            for c in 0..p.colors.len() {
+                let [first, second] =
+                    [0, 1].map(|s| p.share(c, s).iter().map(|r| r.len).sum::<u32>());
+                let total = first + second;
+                assert!(
+                    first.abs_diff(second) * 10 <= total,
+                    "{nx}×{ny}, colour {c}: shares of {first} and {second} slots"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn shared_sweeps_match_one_thread_bit_for_bit() {
+        use crate::sim::{ClothSim, Environment, ScopedThread, SolverSettings, Spread};
+        /// Runs the helper only after the step: the step's thread must do all the work.
+        struct Late;
+        impl Spread for Late {
+            fn join(&self, helper: &(dyn Fn() + Sync), main: &mut dyn FnMut()) {
+                main();
+                helper();
+            }
+        }
+        // A 96×48 cloth (27,000 springs, so it is shared) pinned at two corners, blown onto a
+        // sphere, with one iteration and with three (which keep multipliers).
+        let sphere = [ball(0.4, Vec3::new(0.5, -0.45, 0.3), Friction::default())];
+        let wind = air(Vec3::new(2.0, 0.0, 5.0));
+        let env = Environment {
+            colliders: &sphere,
+            wind: Some(&wind),
+            ..Default::default()
+        };
+        for iterations in [1, 3] {
+            let run = |spread: Option<&dyn Spread>| {
+                let model = ClothModel::grid(&GridSpec::new(96, 48, 0.05)).unwrap();
+                let settings = SolverSettings {
+                    integrator: Integrator::Xpbd,
+                    iterations,
+                    ..Default::default()
+                };
+                let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+                assert!(sim.projections.worth_sharing());
+                sim.set_pins([(0, sim.positions()[0]), (95, sim.positions()[95])])
+                    .unwrap();
+                let mut touching = 0;
+                for _ in 0..15 {
+                    match spread {
+                        Some(spread) => sim.step_in_parallel(1.0 / 60.0, &env, spread),
+                        None => sim.step_in(1.0 / 60.0, &env),
+                    }
+                    .unwrap();
+                    touching += sim.active_colliders();
+                }
+                assert!(touching > 0, "the sphere was never in reach");
+                (sim.positions().to_vec(), sim.velocities().to_vec())
+            };
+            let alone = run(None);
+            assert!(run(Some(&ScopedThread)) == alone, "{iterations} iterations");
+            assert!(run(Some(&Late)) == alone, "{iterations} iterations, late helper");
+        }
     }
 
     #[test]
@@ -1170,14 +1730,14 @@ mod tests {
         p.lambda = vec![0.0; 8];
         p.inv_mass = vec![0.0; n];
         p.set_constants(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3], &vec![1.0; n]);
-        solve_springs::<false>(
-            p,
-            &mut Split {
-                start: [&start.x, &start.y, &start.z],
-                delta: [&mut delta.x, &mut delta.y, &mut delta.z],
-            },
-            3600.0,
-        );
+        // SAFETY: the arrays are used through the columns only, on this thread, until the sweep
+        // returns.
+        let (x, lambda) = unsafe {
+            let start = [&mut start.x, &mut start.y, &mut start.z].map(|v| Column::new(&mut v[..]));
+            let delta = [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(&mut v[..]));
+            (Split { start, delta }, Column::new(&mut p.lambda[..]))
+        };
+        solve_springs::<false>(p, &p.runs, x, lambda, 3600.0);
         for i in 0..n {
             let moved = delta.get(i) != before.get(i);
             assert_eq!(moved, matches!(i, 0..3 | 16..19), "particle {i}");
