@@ -16,8 +16,8 @@ use super::forces::Soa;
 #[cfg(test)]
 use super::model::Springs;
 use super::model::{ClothModel, GridSpec};
-use super::solver::{ClothSim, count_contact_work, pin_motion, soa_clearances};
 use super::parallel::Spread;
+use super::solver::{ClothSim, count_contact_work, pin_motion, soa_clearances};
 use glam::Vec3;
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -296,12 +296,15 @@ impl Projections {
         let (begin, end) = (head.start as usize, (last.start + last.len) as usize);
         let mut candidates = Vec::new();
         for r in &self.runs[first..] {
-            let inside = (0..r.len as usize).step_by(2 * LANES).map(|m| r.start as usize + m);
+            let inside = (0..r.len as usize)
+                .step_by(2 * LANES)
+                .map(|m| r.start as usize + m);
             candidates.extend(inside.filter(|&k| k > begin));
         }
         candidates.sort_unstable_by_key(|&k| (2 * (k - begin)).abs_diff(end - begin));
         for &k in candidates.iter().take(8) {
-            let run = first + self.runs[first..].partition_point(|r| (r.start + r.len) as usize <= k);
+            let run =
+                first + self.runs[first..].partition_point(|r| (r.start + r.len) as usize <= k);
             let stamp = marks.mark(self.touched_slots(begin..k));
             let shared: Vec<u32> = self
                 .touched_slots(k..end)
@@ -342,7 +345,10 @@ impl Projections {
         let mut lens = Vec::with_capacity(self.runs.len() - first);
         for r in &self.runs[first..] {
             let slots = r.start as usize..(r.start + r.len) as usize;
-            let real_end = slots.clone().rfind(|&k| self.spring[k].is_some()).map_or(0, |k| k + 1);
+            let real_end = slots
+                .clone()
+                .rfind(|&k| self.spring[k].is_some())
+                .map_or(0, |k| k + 1);
             let mut len = slots.end;
             for k in slots.clone() {
                 let touches = shared.contains(&self.a[k]) || shared.contains(&self.b[k]);
@@ -500,7 +506,10 @@ impl Projections {
             begin = end;
         }
         if begin != self.runs.len() {
-            return Err(format!("the colours hold {begin} of {} runs", self.runs.len()));
+            return Err(format!(
+                "the colours hold {begin} of {} runs",
+                self.runs.len()
+            ));
         }
         match seen.iter().position(|s| !s) {
             _ if next != self.a.len() => {
@@ -604,13 +613,18 @@ impl Column {
     /// The first `n` elements, if there are as many.
     #[inline(always)]
     fn cut(self, n: usize) -> Option<Self> {
-        (n <= self.len).then_some(Self { ptr: self.ptr, len: n })
+        (n <= self.len).then_some(Self {
+            ptr: self.ptr,
+            len: n,
+        })
     }
 
     /// Copies `N` values starting at `i` (zeros past the end, which the runs never reach).
     #[inline(always)]
     fn load<const N: usize>(self, i: usize) -> [f32; N] {
-        if i < self.len && N <= self.len - i {
+        // The same test as slicing `i..i + N`, which the kernel's one check per batch covers.
+        let end = i + N;
+        if i <= end && end <= self.len {
             // SAFETY: in bounds (checked), and no other thread writes these elements (`new`).
             unsafe { self.ptr.add(i).cast::<[f32; N]>().read_unaligned() }
         } else {
@@ -621,10 +635,21 @@ impl Column {
     /// Writes `values` to elements `i..i + N` (nothing past the end).
     #[inline(always)]
     fn store<const N: usize>(self, i: usize, values: &[f32; N]) {
-        if i < self.len && N <= self.len - i {
+        let end = i + N;
+        if i <= end && end <= self.len {
             // SAFETY: in bounds (checked), and no other thread touches these elements (`new`).
             unsafe { self.ptr.add(i).cast::<[f32; N]>().write_unaligned(*values) }
         }
+    }
+
+    /// Elements `range`, as a slice.
+    ///
+    /// # Safety
+    /// Nothing else reads or writes them while the slice lives.
+    unsafe fn slice_mut<'a>(self, range: std::ops::Range<usize>) -> &'a mut [f32] {
+        let range = range.start.min(self.len)..range.end.min(self.len);
+        // SAFETY: in bounds (clamped), and exclusive (the caller's contract).
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
     }
 
     /// Element `i`.
@@ -688,7 +713,7 @@ fn substeps(sim: &mut ClothSim, dt: f32, n: u32, team: Option<&Team>) {
     let ahead = contacts && !after;
     for sub in 0..n {
         if sub == 0 || after {
-            advance::<false, true>(sim, &motion, wind);
+            advance::<false, true>(sim, &motion, wind, team);
         }
         // Pinned particles are given the displacement to their targets.
         let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
@@ -711,7 +736,11 @@ fn substeps(sim: &mut ClothSim, dt: f32, n: u32, team: Option<&Team>) {
             let write = |v: &mut [f32]| Column::new(v);
             let x = Split {
                 start: [read(&start.x), read(&start.y), read(&start.z)],
-                delta: [write(&mut delta.x), write(&mut delta.y), write(&mut delta.z)],
+                delta: [
+                    write(&mut delta.x),
+                    write(&mut delta.y),
+                    write(&mut delta.z),
+                ],
             };
             (x, write(&mut sim.projections.lambda))
         };
@@ -723,7 +752,11 @@ fn substeps(sim: &mut ClothSim, dt: f32, n: u32, team: Option<&Team>) {
         };
         for _ in 0..sim.settings.iterations {
             match team {
-                Some(team) => team.sweep(&sweep, accumulate),
+                Some(team) => {
+                    for c in 0..sweep.p.colors.len() {
+                        team.run(&|s| sweep.run(sweep.p.share(c, s), accumulate));
+                    }
+                }
                 None => sweep.run(&sim.projections.runs, accumulate),
             }
         }
@@ -734,9 +767,9 @@ fn substeps(sim: &mut ClothSim, dt: f32, n: u32, team: Option<&Team>) {
         }
         let begin = !after && sub + 1 < n;
         if begin {
-            advance::<true, true>(sim, &motion, wind);
+            advance::<true, true>(sim, &motion, wind, team);
         } else {
-            advance::<true, false>(sim, &motion, wind);
+            advance::<true, false>(sim, &motion, wind, team);
         }
         if ahead {
             apply_contact_velocities(sim, &motion, wind, begin);
@@ -770,49 +803,36 @@ impl Sweep<'_> {
     }
 }
 
-/// Shares of a colour that threads project at once.
-const SHARES: usize = 2;
-
-/// Two threads sharing a step's sweeps. The step's thread publishes each sweep as a run of
-/// tickets, [`SHARES`] per colour, and both threads take tickets in order; a ticket's share is
-/// projected once every ticket of the colours before it is done. Whoever takes a ticket finishes
-/// it without waiting on a later one, so the step's thread finishes every sweep alone if the
-/// helper never starts (a busy or single-threaded pool), and the helper, started late, finds
-/// nothing left. The shares of a colour touch disjoint particles ([`Projections::cut`]), so the
-/// order in which they run changes no result.
+/// Two threads sharing a step's work, as phases of two shares each: a colour of a sweep (its
+/// shares touch disjoint particles, [`Projections::cut`]), or a particle pass (the two halves of
+/// the particles). The step's thread publishes a phase, does its first share and then claims the
+/// second, unless the helper has claimed it already; then it waits for the helper to finish it.
+/// The helper only ever claims second shares, so that each thread keeps to its own half of the
+/// cloth, and its caches. The step's thread never waits on a share nobody has claimed, so it
+/// finishes the step alone if the helper never starts (a busy or single-threaded pool), and a
+/// helper started late finds nothing left. Which thread does which share changes no result.
 #[derive(Default)]
 struct Team {
-    /// The next ticket to hand out.
-    next: AtomicUsize,
-    /// Tickets below this are published.
-    end: AtomicUsize,
-    /// Tickets finished.
-    done: AtomicUsize,
+    /// The latest published phase, counted from 1 over the step.
+    phase: AtomicUsize,
+    /// The latest phase whose second share was claimed, by either thread.
+    claimed: AtomicUsize,
+    /// The latest phase whose second share the helper has finished.
+    finished: AtomicUsize,
     /// Set when the step is over: the helper returns.
     stop: AtomicBool,
-    /// The published sweep. Written by the step's thread only while every ticket is done.
-    job: UnsafeCell<Job>,
+    /// The current phase's work, given the share. Written by the step's thread only while the
+    /// helper holds no claim.
+    job: UnsafeCell<Option<Job>>,
 }
 
-/// A published sweep: its inputs, its first ticket, and whether it keeps multipliers.
-struct Job {
-    sweep: *const Sweep<'static>,
-    base: usize,
-    accumulate: bool,
-}
+/// A phase's work, given the share (0 or 1), with its lifetime erased: it lives until the phase
+/// is over ([`Team::run`]).
+type Job = *const (dyn Fn(usize) + Sync);
 
-impl Default for Job {
-    fn default() -> Self {
-        Self {
-            sweep: std::ptr::null(),
-            base: 0,
-            accumulate: false,
-        }
-    }
-}
-
-// SAFETY: `job` is written only by the step's thread while no ticket is out, before `end` is
-// released, and read only by a thread holding a ticket, after acquiring `end` (see `Team`).
+// SAFETY: `job` is written only by the step's thread while the helper holds no claim (every claim
+// it took is finished), before the phase that publishes it is released; the helper reads it only
+// while holding a claim, after acquiring that phase (see `Team`).
 unsafe impl Sync for Team {}
 
 // SAFETY: a column's elements are touched by one thread at a time (`Column::new`'s contract).
@@ -835,75 +855,58 @@ impl Team {
         Stop(self)
     }
 
-    /// Runs `sweep` with the helper (on the step's thread): publishes it, works on it, and
-    /// returns when every share of it is done.
-    fn sweep(&self, sweep: &Sweep<'_>, accumulate: bool) {
-        let base = self.end.load(Ordering::Relaxed);
-        // SAFETY: every ticket below `end` is done, so no thread reads the job (see `Team`);
-        // the pointer is read only while this sweep's tickets are out, that is within this call.
+    /// Runs `job`'s two shares, with the helper (on the step's thread), and returns when both
+    /// are done.
+    fn run(&self, job: &(dyn Fn(usize) + Sync)) {
+        let q = self.phase.load(Ordering::Relaxed) + 1;
+        // SAFETY: every claim on an earlier phase is finished (the previous call waited for it),
+        // so the helper does not read the job; it reads the pointer only under a claim on this
+        // phase, which ends before this call returns. Only the trait object's lifetime changes.
         unsafe {
-            *self.job.get() = Job {
-                sweep: std::ptr::from_ref(sweep).cast(),
-                base,
-                accumulate,
-            };
+            *self.job.get() =
+                Some(std::mem::transmute::<*const (dyn Fn(usize) + Sync + '_), Job>(job));
         }
-        let end = base + SHARES * sweep.p.colors.len();
-        self.end.store(end, Ordering::Release);
-        while let Some(t) = self.take() {
-            self.work(t);
-        }
-        let mut spins = 0;
-        while self.done.load(Ordering::Acquire) < end {
-            pause(&mut spins);
+        self.phase.store(q, Ordering::Release);
+        job(0);
+        if self.claim(q) {
+            job(1);
+        } else {
+            let mut spins = 0;
+            while self.finished.load(Ordering::Acquire) < q {
+                pause(&mut spins);
+            }
         }
     }
 
-    /// The helper's side: takes tickets until the step is over.
+    /// Claims phase `q`'s second share, unless it is claimed already.
+    fn claim(&self, q: usize) -> bool {
+        self.claimed
+            .compare_exchange(q - 1, q, Ordering::Acquire, Ordering::Relaxed)
+            .is_ok()
+    }
+
+    /// The helper's side: claims second shares until the step is over.
     fn help(&self) {
-        let mut spins = 0;
+        let (mut seen, mut spins) = (0, 0);
         loop {
-            if let Some(t) = self.take() {
-                self.work(t);
+            let q = self.phase.load(Ordering::Acquire);
+            if q > seen {
+                seen = q;
                 spins = 0;
+                if self.claim(q) {
+                    // SAFETY: the job is not written, and outlives, while this claim is
+                    // unfinished (see `Team::run`).
+                    if let Some(job) = unsafe { *self.job.get() } {
+                        unsafe { (*job)(1) };
+                    }
+                    self.finished.store(q, Ordering::Release);
+                }
             } else if self.stop.load(Ordering::Acquire) {
                 return;
             } else {
                 pause(&mut spins);
             }
         }
-    }
-
-    /// The next published ticket, if any is left.
-    fn take(&self) -> Option<usize> {
-        let end = self.end.load(Ordering::Acquire);
-        let mut t = self.next.load(Ordering::Relaxed);
-        while t < end {
-            match self.next.compare_exchange_weak(t, t + 1, Ordering::Relaxed, Ordering::Relaxed) {
-                Ok(_) => return Some(t),
-                Err(now) => t = now,
-            }
-        }
-        None
-    }
-
-    /// Projects ticket `t`'s share once the colours before it are done.
-    fn work(&self, t: usize) {
-        // SAFETY: the job is not written while ticket `t` is out (see `Team`).
-        let job = unsafe { &*self.job.get() };
-        let i = t - job.base;
-        let mut spins = 0;
-        while self.done.load(Ordering::Acquire) < t - i % SHARES {
-            // Only a panic on the other thread ends the step with tickets out.
-            if self.stop.load(Ordering::Relaxed) {
-                return;
-            }
-            pause(&mut spins);
-        }
-        // SAFETY: the sweep outlives its tickets (`Team::sweep` returns after they are done).
-        let sweep = unsafe { &*job.sweep };
-        sweep.run(sweep.p.share(i / SHARES, i % SHARES), job.accumulate);
-        self.done.fetch_add(1, Ordering::Release);
     }
 }
 
@@ -1048,9 +1051,61 @@ struct Motion {
 /// (the end of the substep replaces it).
 ///
 /// On x86-64 CPUs with AVX2 the loops run as 8-wide vectors; the results are the same.
-fn advance<const END: bool, const BEGIN: bool>(sim: &mut ClothSim, m: &Motion, wind: bool) {
+///
+/// With `team`, the two threads each take half of the particles, the halves the colours' shares
+/// mostly keep to.
+fn advance<const END: bool, const BEGIN: bool>(
+    sim: &mut ClothSim,
+    m: &Motion,
+    wind: bool,
+    team: Option<&Team>,
+) {
     let wind_dv = wind.then_some(&sim.projections.wind_dv);
     let (x, v, d) = (&mut sim.soa, &mut sim.velocity_soa, &mut sim.displacement);
+    let Some(team) = team else {
+        return advance_slices::<END, BEGIN>(
+            [&mut x.x, &mut x.y, &mut x.z],
+            [&mut v.x, &mut v.y, &mut v.z],
+            [&mut d.x, &mut d.y, &mut d.z],
+            wind_dv.map(|w| [&w.x[..], &w.y[..], &w.z[..]]),
+            m,
+        );
+    };
+    let n = x.len();
+    let mid = (n / 2).next_multiple_of(2 * LANES).min(n);
+    // SAFETY: until `run` returns, the arrays are used through these columns only, each half by
+    // one thread at a time.
+    let cols = unsafe {
+        let write = |v: &mut [f32]| Column::new(v);
+        [
+            [&mut x.x, &mut x.y, &mut x.z].map(|a| write(a)),
+            [&mut v.x, &mut v.y, &mut v.z].map(|a| write(a)),
+            [&mut d.x, &mut d.y, &mut d.z].map(|a| write(a)),
+        ]
+    };
+    team.run(&|share| {
+        let range = if share == 0 { 0..mid } else { mid..n };
+        // SAFETY: the two shares' ranges are disjoint, and nothing else uses the arrays.
+        let [x, v, d] = cols.map(|c| c.map(|c| unsafe { c.slice_mut(range.clone()) }));
+        let wind = wind_dv.map(|w| {
+            [
+                &w.x[range.clone()],
+                &w.y[range.clone()],
+                &w.z[range.clone()],
+            ]
+        });
+        advance_slices::<END, BEGIN>(x, v, d, wind, m);
+    });
+}
+
+/// [`advance_body`] on AVX2 CPUs if possible.
+fn advance_slices<const END: bool, const BEGIN: bool>(
+    x: [&mut [f32]; 3],
+    v: [&mut [f32]; 3],
+    d: [&mut [f32]; 3],
+    wind_dv: Option<[&[f32]; 3]>,
+    m: &Motion,
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports the feature the function is compiled for (checked above).
@@ -1065,10 +1120,10 @@ fn advance<const END: bool, const BEGIN: bool>(sim: &mut ClothSim, m: &Motion, w
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 fn advance_avx2<const END: bool, const BEGIN: bool>(
-    x: &mut Soa,
-    v: &mut Soa,
-    d: &mut Soa,
-    wind_dv: Option<&Soa>,
+    x: [&mut [f32]; 3],
+    v: [&mut [f32]; 3],
+    d: [&mut [f32]; 3],
+    wind_dv: Option<[&[f32]; 3]>,
     m: &Motion,
 ) {
     advance_body::<END, BEGIN>(x, v, d, wind_dv, m);
@@ -1076,17 +1131,17 @@ fn advance_avx2<const END: bool, const BEGIN: bool>(
 
 #[inline(always)]
 fn advance_body<const END: bool, const BEGIN: bool>(
-    x: &mut Soa,
-    v: &mut Soa,
-    d: &mut Soa,
-    wind_dv: Option<&Soa>,
+    x: [&mut [f32]; 3],
+    v: [&mut [f32]; 3],
+    d: [&mut [f32]; 3],
+    wind_dv: Option<[&[f32]; 3]>,
     m: &Motion,
 ) {
-    let coords = [
-        (&mut x.x, &mut v.x, &mut d.x, wind_dv.map(|w| &w.x[..])),
-        (&mut x.y, &mut v.y, &mut d.y, wind_dv.map(|w| &w.y[..])),
-        (&mut x.z, &mut v.z, &mut d.z, wind_dv.map(|w| &w.z[..])),
-    ];
+    let [x0, x1, x2] = x;
+    let [v0, v1, v2] = v;
+    let [d0, d1, d2] = d;
+    let w = wind_dv.map(|w| w.map(Some)).unwrap_or([None; 3]);
+    let coords = [(x0, v0, d0, w[0]), (x1, v1, d1, w[1]), (x2, v2, d2, w[2])];
     for (c, (x, v, d, wind)) in coords.into_iter().enumerate() {
         let (g, keep, h, inv_h) = (m.gravity[c], m.keep, m.h, m.inv_h);
         // The velocity a substep starts with is only read by that start, so it is stored only
@@ -1579,7 +1634,10 @@ mod tests {
             };
             let alone = run(None);
             assert!(run(Some(&ScopedThread)) == alone, "{iterations} iterations");
-            assert!(run(Some(&Late)) == alone, "{iterations} iterations, late helper");
+            assert!(
+                run(Some(&Late)) == alone,
+                "{iterations} iterations, late helper"
+            );
         }
     }
 
