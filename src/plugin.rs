@@ -381,7 +381,8 @@ impl Spread for TaskPool {
 }
 
 /// Advances every running cloth by one step of the schedule's clock, in parallel across cloths,
-/// and a large cloth's XPBD colours on two threads where the compute pool has more than one.
+/// and a large cloth's XPBD colours on two threads where the compute pool has more threads than
+/// there are cloths.
 fn step_cloths(
     time: Res<Time>,
     colliders: Res<ColliderSnapshot>,
@@ -392,8 +393,11 @@ fn step_cloths(
     if dt <= 0.0 {
         return;
     }
+    // Threads left over after one per cloth go to large cloths' colours; with as many cloths as
+    // threads, a helper spinning through another cloth's step would only keep a cloth waiting.
+    let cloth_count = cloths.iter().count();
     let spread = ComputeTaskPool::try_get()
-        .filter(|pool| pool.thread_num() > 1)
+        .filter(|pool| pool.thread_num() > cloth_count)
         .map(|pool| -> &dyn Spread { &**pool });
     cloths.par_iter_mut().for_each(|(config, mut state)| {
         let env = Environment {
