@@ -1,14 +1,20 @@
 //! Determinism: the same scene gives bit-identical positions whether it runs alone or beside
 //! unrelated cloths and colliders, and whether its steps run on Bevy's task-pool threads (several
-//! cloths in parallel) or in a plain loop on the test's thread.
+//! cloths in parallel, or one large cloth's colours on two threads) or in a plain loop on the
+//! test's thread.
 
 use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, TaskPoolBuilder};
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::{ClothModel, ClothSim, Environment};
 
 const STEPS: u32 = 120;
 
+/// A headless app whose compute pool has three threads (every test of this file sets it up the
+/// same way, whichever runs first): several cloths step in parallel, and a single large cloth
+/// gets a second thread for its colours.
 fn app() -> App {
+    ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(3).build());
     bevy_cloth::plugin::headless_app(1.0 / 60.0)
 }
 
@@ -77,18 +83,31 @@ fn unrelated_cloths_and_colliders_change_nothing() {
 #[test]
 fn task_pool_threads_match_a_plain_loop() {
     // Four identical cloths stepped in parallel by the plugin...
+    matches_a_plain_loop(4, 16, STEPS);
+}
+
+#[test]
+fn one_large_cloth_on_two_threads_matches_a_plain_loop() {
+    // 64×64: 23,938 springs, which the plugin shares between two of the pool's threads.
+    matches_a_plain_loop(1, 64, 40);
+    assert_eq!(ComputeTaskPool::get().thread_num(), 3);
+}
+
+/// `copies` identical `n`×`n` cloths stepped `steps` times by the plugin end bit for bit where the
+/// same cloth stepped here, one step per frame, does.
+fn matches_a_plain_loop(copies: usize, n: u32, steps: u32) {
     let mut app = app();
-    let spec = GridSpec::new(16, 16, 0.05);
+    let spec = GridSpec::new(n, n, 0.8 / n as f32);
     let transform = Transform::from_xyz(0.0, 2.0, 0.0);
-    let cloths: Vec<Entity> = (0..4)
+    let cloths: Vec<Entity> = (0..copies)
         .map(|_| {
             app.world_mut()
-                .spawn((Cloth::grid(spec), ClothPins::new([0, 15]), transform))
+                .spawn((Cloth::grid(spec), ClothPins::new([0, n - 1]), transform))
                 .id()
         })
         .collect();
     app.update();
-    run(&mut app, STEPS);
+    run(&mut app, steps);
     let dt = app.world().resource::<Time<Fixed>>().delta_secs();
     // ...and the same cloth stepped here, one step per frame.
     let model = ClothModel::grid(&spec).unwrap();
@@ -96,15 +115,15 @@ fn task_pool_threads_match_a_plain_loop() {
         transform.transform_point(p)
     })
     .unwrap();
-    let pins = [0u32, 15].map(|i| (i, sim.positions()[i as usize]));
+    let pins = [0u32, n - 1].map(|i| (i, sim.positions()[i as usize]));
     sim.set_pins(pins).unwrap();
-    for _ in 0..STEPS {
+    for _ in 0..steps {
         sim.step_in(dt, &Environment::default()).unwrap();
     }
     let expected = bits(sim.positions());
     for e in cloths {
         let state = app.world().get::<ClothState>(e).unwrap();
-        assert_eq!(state.steps(), STEPS as u64);
+        assert_eq!(state.steps(), steps as u64);
         assert_eq!(bits(state.positions()), expected);
     }
 }
