@@ -160,11 +160,23 @@ fn environment(c: &mut Criterion) {
             },
         ),
     ];
+    // The contacts and the wind stay on the step's thread; the colours and the particle passes
+    // are shared with a pool thread.
+    let pool = TaskPoolBuilder::new().num_threads(1).build();
     for (name, env) in cases {
         let mut sim = hanging(n);
         group.bench_function(name, |b| {
             b.iter(|| sim.step_in(black_box(1.0 / 60.0), &env).unwrap())
         });
+        if matches!(name, "nothing" | "sphere_and_wind") {
+            let mut sim = hanging(n);
+            group.bench_function(format!("{name}_two_threads"), |b| {
+                b.iter(|| {
+                    sim.step_in_parallel(black_box(1.0 / 60.0), &env, &pool)
+                        .unwrap()
+                })
+            });
+        }
     }
     group.finish();
 }
