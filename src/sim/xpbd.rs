@@ -27,7 +27,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 const LANES: usize = 8;
 
 /// Fewest slots for which a step is shared between two threads (see
-/// [`Projections::worth_sharing`]).
+/// [`Projections::worth_sharing`]). A 64×64 grid (23,938 springs) runs 10–17% faster on two
+/// threads, a 128×128 one 30–70% (BENCHMARKS.md); smaller cloths stay on one.
 const SHARED_MIN_SLOTS: usize = 20_000;
 
 /// Longest hole (in slots) inside a run that is padded rather than ending the run: the row ends of
@@ -229,8 +230,7 @@ impl Projections {
         }
     }
 
-    /// Whether a step is worth sharing between two threads ([`Team`]): a colour's share must
-    /// outweigh the hand-over between the threads, which costs about a microsecond.
+    /// Whether a step is worth sharing between two threads ([`Team`]).
     pub(super) fn worth_sharing(&self) -> bool {
         self.a.len() >= SHARED_MIN_SLOTS
     }
@@ -840,6 +840,15 @@ unsafe impl Send for Column {}
 // SAFETY: as above.
 unsafe impl Sync for Column {}
 
+/// Marks phase `.1`'s second share finished when dropped.
+struct Finish<'a>(&'a Team, usize);
+
+impl Drop for Finish<'_> {
+    fn drop(&mut self) {
+        self.0.finished.store(self.1, Ordering::Release);
+    }
+}
+
 /// Marks a [`Team`]'s step over when dropped.
 struct Stop<'a>(&'a Team);
 
@@ -894,12 +903,14 @@ impl Team {
                 seen = q;
                 spins = 0;
                 if self.claim(q) {
+                    // Finished even if the job panics, so that the step's thread does not wait
+                    // forever (the panic reaches it when the `Spread` joins the helper).
+                    let _finish = Finish(self, q);
                     // SAFETY: the job is not written, and outlives, while this claim is
                     // unfinished (see `Team::run`).
                     if let Some(job) = unsafe { *self.job.get() } {
                         unsafe { (*job)(1) };
                     }
-                    self.finished.store(q, Ordering::Release);
                 }
             } else if self.stop.load(Ordering::Acquire) {
                 return;
