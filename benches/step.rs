@@ -1,6 +1,7 @@
 //! Time per simulated 1/60 s frame of the canonical grid cloth at 20 substeps (XPBD, one
-//! iteration), on one thread and (64×64 and larger) on two: the solver alone, without ECS overhead, with the throughput in
-//! constraint solves (springs × substeps) per second; 128×128 also at 10 substeps. The explicit
+//! iteration), on one thread and (64×64 and larger) on two: the solver alone, without ECS
+//! overhead, with the throughput in constraint solves (springs × substeps) per second; 128×128
+//! also at 10 substeps. The explicit
 //! integrators (Verlet, symplectic Euler) on the same cloths at their stable substeps. Then the same
 //! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
 //! whole App frames with one active cloth against 100 sleeping ones.

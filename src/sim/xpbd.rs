@@ -264,17 +264,26 @@ impl Projections {
     /// disjoint particles and a padding slot writes back what it read, so the order changes no
     /// result.
     fn order_runs(&mut self, first: usize) {
-        let mut runs = self.runs.split_off(first);
-        let Some(begin) = runs.first().map(|r| r.start as usize) else {
+        let mut runs: Vec<(Run, u32)> = self.runs[first..].iter().map(|&r| (r, r.len)).collect();
+        runs.sort_by_key(|(r, _)| self.a[r.start as usize]);
+        self.relay(first, runs);
+    }
+
+    /// Lays the slots of the runs from `first` on (one colour's) out again, in the order of
+    /// `runs`: each `(run, len)` names one of them as it is now and keeps its first `len` slots.
+    fn relay(&mut self, first: usize, runs: Vec<(Run, u32)>) {
+        let Some(begin) = self.runs.get(first).map(|r| r.start as usize) else {
             return;
         };
-        runs.sort_by_key(|r| self.a[r.start as usize]);
+        self.runs.truncate(first);
         let (a, b) = (self.a.split_off(begin), self.b.split_off(begin));
         let spring = self.spring.split_off(begin);
-        for r in runs {
-            let slots = r.start as usize - begin..(r.start + r.len) as usize - begin;
+        for (r, len) in runs {
+            let from = r.start as usize - begin;
+            let slots = from..from + len as usize;
             self.runs.push(Run {
                 start: self.a.len() as u32,
+                len,
                 ..r
             });
             self.a.extend_from_slice(&a[slots.clone()]);
@@ -342,7 +351,7 @@ impl Projections {
     /// they all end their runs (with every slot after them padding too); returns whether it did.
     fn drop_padding(&mut self, first: usize, shared: &[u32]) -> bool {
         let shared: std::collections::HashSet<u32> = shared.iter().copied().collect();
-        let mut lens = Vec::with_capacity(self.runs.len() - first);
+        let mut runs = Vec::with_capacity(self.runs.len() - first);
         for r in &self.runs[first..] {
             let slots = r.start as usize..(r.start + r.len) as usize;
             let real_end = slots
@@ -359,19 +368,9 @@ impl Projections {
                     len = len.min(k);
                 }
             }
-            lens.push(len - slots.start);
+            runs.push((*r, (len - slots.start) as u32));
         }
-        let begin = self.runs[first].start as usize;
-        let (a, b) = (self.a.split_off(begin), self.b.split_off(begin));
-        let spring = self.spring.split_off(begin);
-        for (r, len) in self.runs[first..].iter_mut().zip(lens) {
-            let from = r.start as usize - begin;
-            r.start = self.a.len() as u32;
-            r.len = len as u32;
-            self.a.extend_from_slice(&a[from..from + len]);
-            self.b.extend_from_slice(&b[from..from + len]);
-            self.spring.extend_from_slice(&spring[from..from + len]);
-        }
+        self.relay(first, runs);
         true
     }
 
@@ -673,7 +672,7 @@ pub(super) fn step_xpbd(sim: &mut ClothSim, dt: f32, n: u32, spread: Option<&dyn
             let team = Team::default();
             spread.join(&|| team.help(), &mut || {
                 // The helper returns once this is dropped, even if the step panics.
-                let _stop = team.stop_on_drop();
+                let _stop = Stop(&team);
                 substeps(sim, dt, n, Some(&team));
             });
         }
@@ -859,11 +858,6 @@ impl Drop for Stop<'_> {
 }
 
 impl Team {
-    /// A guard that ends the step, for the helper, when dropped.
-    fn stop_on_drop(&self) -> Stop<'_> {
-        Stop(self)
-    }
-
     /// Runs `job`'s two shares, with the helper (on the step's thread), and returns when both
     /// are done.
     fn run(&self, job: &(dyn Fn(usize) + Sync)) {
@@ -876,14 +870,21 @@ impl Team {
                 Some(std::mem::transmute::<*const (dyn Fn(usize) + Sync + '_), Job>(job));
         }
         self.phase.store(q, Ordering::Release);
-        job(0);
+        // A panic in the first share must not unwind past the job while the helper may be
+        // running it: caught, then raised again once the second share is settled.
+        let first = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(0)));
         if self.claim(q) {
-            job(1);
+            if first.is_ok() {
+                job(1);
+            }
         } else {
             let mut spins = 0;
             while self.finished.load(Ordering::Acquire) < q {
                 pause(&mut spins);
             }
+        }
+        if let Err(panic) = first {
+            std::panic::resume_unwind(panic);
         }
     }
 
