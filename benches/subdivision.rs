@@ -1,6 +1,6 @@
 //! Catmull-Clark timings (the source paper's Tables 2–3, and the subdivision issue's goals), for
 //! each vertex rule at levels 1–3, on a 16×16-vertex quad grid and on meshes with extraordinary
-//! vertices (the cube and the valence-5/6 discs of the shared test data):
+//! vertices (the cube and the valence-5/6 discs of the test data in `tests/data/subdivision`):
 //! - `subdivision_scratch`: refinement from scratch, control mesh in, refined mesh out
 //!   (`refine_positions`: topology, positions and UVs, level by level) — the paper's experiment;
 //! - `subdivision_refine`: building a `Subdivider` (topology, factorized stencil tables, render
@@ -26,7 +26,7 @@ fn grid(n: u32) -> PolyMesh {
 
 fn shape(name: &str) -> PolyMesh {
     let path = format!(
-        "{}/../shared/data/subdivision/shapes/{name}.obj",
+        "{}/tests/data/subdivision/shapes/{name}.obj",
         env!("CARGO_MANIFEST_DIR")
     );
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));

@@ -7,6 +7,7 @@
 //! cargo run --release --example cloth_cli -- analysis
 //! cargo run --release --example cloth_cli -- work-precision --quick
 //! cargo run --release --example cloth_cli -- stress --cases 10000 --seed 1
+//! cargo run --release --example cloth_cli -- state-hashes --cases 500 > hashes.txt
 //! ```
 
 use std::path::PathBuf;
@@ -102,6 +103,20 @@ enum Command {
         /// default.
         #[arg(long, value_delimiter = ',')]
         integrators: Vec<String>,
+    },
+    /// Bit-for-bit fingerprints: one line per preset scene (assets/scenes, run through the
+    /// plugin) and per stress case of every integrator, with the hash of its final positions and
+    /// velocities. Diff two builds' outputs to prove a change leaves behaviour unchanged.
+    StateHashes {
+        /// Stress cases per integrator (the first ones of the suite).
+        #[arg(long, default_value_t = 500)]
+        cases: u64,
+        /// Fixed steps per preset scene.
+        #[arg(long, default_value_t = 120)]
+        frames: u32,
+        /// Seed of the stress suite.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
     /// Run time against error of every integrator on the accuracy scenes (solver only, against an
     /// f64 reference): writes work-precision.md, .json and .png into the output folder.
@@ -209,6 +224,30 @@ fn analysis() -> Result<(), Box<dyn std::error::Error>> {
                     .collect();
                 println!("{layout:?} {rule:?} n={n}: [{}]", ratios.join(", "));
             }
+        }
+    }
+    Ok(())
+}
+
+/// Prints the `state-hashes` lines: preset scenes first (sorted by name), then `cases` stress
+/// cases per integrator.
+fn state_hashes(cases: u64, frames: u32, seed: u64) -> Result<(), Box<dyn std::error::Error>> {
+    use bevy_cloth::sim::stress::{StressLimits, draw_case, run_case};
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir("assets/scenes")?
+        .map(|e| e.map(|e| e.path()))
+        .collect::<Result<_, _>>()?;
+    scenes.retain(|p| p.extension().is_some_and(|e| e == "ron"));
+    scenes.sort();
+    for path in scenes {
+        let hash = bevy_cloth::plugin::scene_state_hash(&path, frames)?;
+        println!("scene {} {frames} {hash:016x}", path.display());
+    }
+    let limits = StressLimits::default();
+    for integrator in Integrator::CHOICES {
+        for index in 0..cases {
+            let r = run_case(&draw_case(seed, index, &[integrator], &limits), &limits);
+            let name = integrator.name().replace(' ', "-");
+            println!("stress {name} {index} {} {:016x}", r.steps_run, r.state_hash);
         }
     }
     Ok(())
@@ -381,6 +420,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 return Err("stress cases failed (listed above)".into());
             }
         }
+        Command::StateHashes {
+            cases,
+            frames,
+            seed,
+        } => state_hashes(cases, frames, seed)?,
         Command::WorkPrecision {
             quick,
             tolerance,

@@ -46,7 +46,7 @@ fn main() {
 
 fn load(name: &str) -> Result<PolyMesh, String> {
     let path = format!(
-        "{}/../shared/data/subdivision/shapes/{name}.obj",
+        "{}/tests/data/subdivision/shapes/{name}.obj",
         env!("CARGO_MANIFEST_DIR")
     );
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;

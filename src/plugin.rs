@@ -816,3 +816,25 @@ pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
     app.update();
     Ok(app)
 }
+
+/// Loads the RON scene at `path` into a [`headless_app`], runs `frames` fixed steps and returns
+/// the [`state_hash`](crate::sim::stress::state_hash) of its cloth: a bit-for-bit fingerprint of
+/// the whole plugin path (pins, colliders, wind, scheduling) for regression checks.
+pub fn scene_state_hash(path: &std::path::Path, frames: u32) -> Result<u64, ClothError> {
+    let scene = crate::scene::ClothScene::load(path)?;
+    let mut app = try_headless_app(scene.dt)?;
+    let entity = scene.spawn(app.world_mut())?;
+    for _ in 0..=frames {
+        app.update();
+    }
+    if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
+        return Err(e.clone());
+    }
+    let state = app
+        .world()
+        .get::<ClothState>(entity)
+        .ok_or_else(|| ClothError::InvalidMesh {
+            what: format!("{}: the cloth was not built", path.display()),
+        })?;
+    Ok(crate::sim::stress::state_hash(state.sim()))
+}

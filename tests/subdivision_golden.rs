@@ -1,5 +1,5 @@
 //! Golden test: `VertexRule::Original` against OpenSubdiv 3.7 uniform
-//! Catmull-Clark refinement of every shared test shape, levels 1-3, both
+//! Catmull-Clark refinement of every test shape in `tests/data/subdivision`, levels 1-3, both
 //! boundary modes. Vertex order may differ, so positions are compared as
 //! matched point sets (nearest neighbour both ways, tolerance 1e-5 of the
 //! bounding-box diagonal), then faces are compared through the matching.
@@ -14,31 +14,10 @@ const SHAPES: [&str; 8] = [
     "cube", "grid4x3", "nonquads", "pyramid", "star5", "star6", "star8", "torus",
 ];
 
-/// The shared subdivision data directory: `$CARGO_MANIFEST_DIR/../shared/...`
-/// when it exists, else `$BEVY_CLOTH_SHARED/data/subdivision`. Panics (fails
-/// the test) with a clear message when neither exists.
+/// The subdivision test data, kept in the repository (`tests/data/subdivision`): the control
+/// meshes and OpenSubdiv's refinements of them.
 fn data_dir() -> PathBuf {
-    let primary = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/subdivision");
-    if primary.is_dir() {
-        return primary;
-    }
-    match std::env::var("BEVY_CLOTH_SHARED") {
-        Ok(root) => {
-            let p = Path::new(&root).join("data/subdivision");
-            assert!(
-                p.is_dir(),
-                "subdivision test data missing: neither {} nor {} (from BEVY_CLOTH_SHARED) exists",
-                primary.display(),
-                p.display()
-            );
-            p
-        }
-        Err(_) => panic!(
-            "subdivision test data missing: {} does not exist and BEVY_CLOTH_SHARED is not set \
-             (set it to the shared/ directory)",
-            primary.display()
-        ),
-    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/subdivision")
 }
 
 fn load(path: &Path) -> PolyMesh {
@@ -155,7 +134,7 @@ fn original_matches_opensubdiv_goldens() {
 }
 
 #[test]
-fn every_shared_shape_is_covered() {
+fn every_test_shape_is_covered() {
     let dir = data_dir().join("shapes");
     let found: HashSet<String> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
@@ -168,7 +147,7 @@ fn every_shared_shape_is_covered() {
     let listed: HashSet<String> = SHAPES.iter().map(|s| s.to_string()).collect();
     assert_eq!(
         found, listed,
-        "shared shapes and the golden test list differ"
+        "test shapes and the golden test list differ"
     );
 }
 

@@ -29,6 +29,7 @@ use super::model::{ClothModel, GridSpec};
 use super::solver::{ClothSim, Environment, Integrator, SolverSettings, Stiffness};
 use super::wind::WindField;
 use crate::error::ClothError;
+use crate::hash::{GOLDEN_GAMMA, mix64};
 
 /// How deep (m) a free particle may end a step inside a collider before the case fails.
 pub const CLEARANCE_TOLERANCE: f32 = 1e-3;
@@ -132,6 +133,8 @@ pub struct StressResult {
     pub max_energy_gain: f64,
     /// Steps that ran.
     pub steps_run: u32,
+    /// [`state_hash`] of the cloth where the case ended (0 if it was never built or panicked).
+    pub state_hash: u64,
 }
 
 /// SplitMix64: a small, fast, well-mixed generator; enough for drawing cases reproducibly.
@@ -403,6 +406,18 @@ impl StressCase {
     }
 }
 
+/// A fingerprint of a cloth's state: the bits of every position and velocity, in particle order.
+/// Two runs agree bit for bit exactly when their hashes agree (up to a 2⁻⁶⁴ chance).
+pub fn state_hash(sim: &ClothSim) -> u64 {
+    let mut h = 0;
+    for v in sim.positions().iter().chain(sim.velocities()) {
+        for c in v.to_array() {
+            h = mix64(h ^ u64::from(c.to_bits())).wrapping_add(GOLDEN_GAMMA);
+        }
+    }
+    h
+}
+
 /// Runs one case, catching panics (a panic is a failure).
 pub fn run_case(case: &StressCase, limits: &StressLimits) -> StressResult {
     match catch_unwind(AssertUnwindSafe(|| run_unguarded(case, limits))) {
@@ -431,6 +446,7 @@ impl StressResult {
             max_speed: 0.0,
             max_energy_gain: 0.0,
             steps_run: 0,
+            state_hash: 0,
         }
     }
 }
@@ -445,6 +461,13 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
         }
     };
     result.case = case.clone();
+    run_steps(&mut sim, &case, &mut result);
+    result.state_hash = state_hash(&sim);
+    result
+}
+
+/// Steps a built case, checking its invariants after every step; stops at the first failure.
+fn run_steps(sim: &mut ClothSim, case: &StressCase, result: &mut StressResult) {
     result.substeps = sim.substeps_for(case.dt);
     result.h_omega = case.dt / result.substeps as f32 * sim.max_frequency();
     let past_bound = case.settings.integrator.is_explicit() && result.h_omega >= 2.0;
@@ -455,7 +478,7 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
         .collect();
     if let Err(e) = sim.set_pins(case.pins.iter().copied().zip(starts.iter().copied())) {
         result.outcome = StressOutcome::Failure(format!("pins: {e}"));
-        return result;
+        return;
     }
     let wind = (case.wind != Vec3::ZERO).then(|| WindField {
         velocity: case.wind,
@@ -524,7 +547,7 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
                 }
                 e => StressOutcome::Failure(format!("step {step}: {e}")),
             };
-            return result;
+            return;
         }
         result.steps_run += 1;
         let fail = |what: String| StressOutcome::Failure(format!("step {step}: {what}"));
@@ -533,7 +556,7 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
             result.max_pin_error = result.max_pin_error.max(error);
             if error > 1e-5 * (1.0 + target.length()) {
                 result.outcome = fail(format!("pin {p} is {error} m off its target"));
-                return result;
+                return;
             }
         }
         let pinned: Vec<u32> = sim.pinned().collect();
@@ -546,7 +569,7 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
                 result.max_penetration = result.max_penetration.max(-d);
                 if d < -CLEARANCE_TOLERANCE {
                     result.outcome = fail(format!("particle {i} is {} m inside the collider", -d));
-                    return result;
+                    return;
                 }
             }
         }
@@ -565,7 +588,7 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
                  contacts added ({contact_work:.3e} J)",
                 e.kinetic
             ));
-            return result;
+            return;
         }
         if case.isolated() {
             max_elastic = max_elastic.max(e.elastic);
@@ -577,9 +600,8 @@ fn run_unguarded(case: &StressCase, limits: &StressLimits) -> StressResult {
                     "kinetic + gravitational energy grew by {gain:.3e} J with nothing driving it \
                      (tolerance {tolerance:.1e} J)"
                 ));
-                return result;
+                return;
             }
         }
     }
-    result
 }
