@@ -16,7 +16,7 @@
 use std::time::{Duration, Instant};
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::headless_app;
+use bevy_cloth::harness::headless_app;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -185,7 +185,7 @@ fn environment(c: &mut Criterion) {
 /// A headless App with `active` hanging 64×64 cloths and `sleeping` ones at rest (weightless, so
 /// they fall asleep after `sleep_steps`), updated until every sleeper sleeps.
 fn app_with(active: u32, sleeping: u32) -> bevy::app::App {
-    let mut app = bevy_cloth::plugin::headless_app(1.0 / 60.0);
+    let mut app = bevy_cloth::harness::headless_app(1.0 / 60.0);
     let grid = GridSpec::new(64, 64, 1.0 / 63.0);
     for k in 0..active + sleeping {
         let asleep = k >= active;

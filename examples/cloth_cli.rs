@@ -14,11 +14,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::try_headless_app;
+use bevy_cloth::harness::reference::REFERENCE_TOLERANCE;
+use bevy_cloth::harness::scenes::AccuracyScene;
+use bevy_cloth::harness::try_headless_app;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
-use bevy_cloth::sim::AccuracyScene;
-use bevy_cloth::sim::reference::REFERENCE_TOLERANCE;
 use bevy_cloth::subdivision::{parse_obj, refine_positions, write_obj};
 use clap::{Parser, Subcommand};
 
@@ -232,14 +232,14 @@ fn analysis() -> Result<(), Box<dyn std::error::Error>> {
 /// Prints the `state-hashes` lines: preset scenes first (sorted by name), then `cases` stress
 /// cases per integrator.
 fn state_hashes(cases: u64, frames: u32, seed: u64) -> Result<(), Box<dyn std::error::Error>> {
-    use bevy_cloth::sim::stress::{StressLimits, draw_case, run_case};
+    use bevy_cloth::harness::stress::{StressLimits, draw_case, run_case};
     let mut scenes: Vec<PathBuf> = std::fs::read_dir("assets/scenes")?
         .map(|e| e.map(|e| e.path()))
         .collect::<Result<_, _>>()?;
     scenes.retain(|p| p.extension().is_some_and(|e| e == "ron"));
     scenes.sort();
     for path in scenes {
-        let hash = bevy_cloth::plugin::scene_state_hash(&path, frames)?;
+        let hash = bevy_cloth::harness::scene_state_hash(&path, frames)?;
         println!("scene {} {frames} {hash:016x}", path.display());
     }
     let limits = StressLimits::default();
@@ -247,7 +247,10 @@ fn state_hashes(cases: u64, frames: u32, seed: u64) -> Result<(), Box<dyn std::e
         for index in 0..cases {
             let r = run_case(&draw_case(seed, index, &[integrator], &limits), &limits);
             let name = integrator.name().replace(' ', "-");
-            println!("stress {name} {index} {} {:016x}", r.steps_run, r.state_hash);
+            println!(
+                "stress {name} {index} {} {:016x}",
+                r.steps_run, r.state_hash
+            );
         }
     }
     Ok(())

@@ -14,7 +14,7 @@ use bevy::transform::components::Transform;
 
 use crate::error::ClothError;
 pub use crate::sim::aero::AIR_DENSITY;
-use crate::sim::collision::Pose;
+use crate::sim::contact::Pose;
 use crate::sim::{
     ClothModel, ClothSim, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
 };

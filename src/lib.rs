@@ -27,10 +27,12 @@
 //! Layers (see the repository's DESIGN notes): [`sim`] is the engine-free solver (plain data, every
 //! formula); [`components`] and [`plugin`] are the thin ECS layer; [`render`](crate::ClothState)
 //! writes meshes. Feature `render` brings Bevy's renderer for the windowed examples, `egui` the
-//! inspector panel.
+//! inspector panel, `harness` the test and benchmark harness (`harness`).
 
 pub mod components;
 pub mod error;
+#[cfg(feature = "harness")]
+pub mod harness;
 mod hash;
 #[cfg(feature = "egui")]
 pub mod inspector;

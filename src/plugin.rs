@@ -20,7 +20,7 @@ use crate::components::*;
 use crate::components::{RenderSubdivision, mapped_particle};
 use crate::error::{ClothError, count_in};
 use crate::render;
-use crate::sim::collision::Pose;
+use crate::sim::contact::Pose;
 use crate::sim::{
     ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, WindField,
     compute_normals,
@@ -763,10 +763,10 @@ fn write_meshes(
     }
 }
 
-/// Shortest fixed time step accepted by [`try_headless_app`] and by scene files, s (1 µs; Bevy's
+/// Shortest fixed time step accepted by scene files and the test harness' headless app, s (1 µs; Bevy's
 /// fixed clock counts whole nanoseconds and rejects a zero step).
 pub const MIN_FIXED_STEP: f32 = 1e-6;
-/// Longest fixed time step accepted by [`try_headless_app`] and by scene files, s.
+/// Longest fixed time step accepted by scene files and the test harness' headless app, s.
 pub const MAX_FIXED_STEP: f32 = 1.0;
 
 /// Checks a fixed time step of `dt` seconds: in [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`].
@@ -780,61 +780,4 @@ pub fn validate_fixed_step(dt: f32) -> Result<(), ClothError> {
             value: dt as f64,
         })
     }
-}
-
-/// [`try_headless_app`] for a step known to be valid.
-///
-/// # Panics
-/// If `dt` is outside [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] (NaN included).
-pub fn headless_app(dt: f32) -> App {
-    try_headless_app(dt).unwrap_or_else(|e| panic!("headless_app: {e}"))
-}
-
-/// A windowless app ready for cloths: `MinimalPlugins`, transforms, assets, meshes,
-/// [`ClothPlugin`] and [`ScenePlugin`](crate::scene::ScenePlugin), with a fixed step of `dt` seconds and manual time so that every `update()` runs
-/// exactly one fixed step. It has already been updated once (Bevy's first update has zero delta).
-/// A cloth spawned now is built at the end of the next `update()` (after that update's fixed step),
-/// so it starts at rest and steps from the update after. A step outside
-/// [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] is an error (see [`validate_fixed_step`]).
-///
-/// Used by the tests, benchmarks and `cloth_cli`; servers and tools can use it too.
-pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
-    validate_fixed_step(dt)?;
-    let mut app = App::new();
-    app.add_plugins((
-        bevy::MinimalPlugins,
-        bevy::transform::TransformPlugin,
-        bevy::asset::AssetPlugin::default(),
-        bevy::mesh::MeshPlugin,
-        ClothPlugin::default(),
-        crate::scene::ScenePlugin,
-    ))
-    .insert_resource(Time::<Fixed>::from_seconds(dt as f64))
-    .insert_resource(bevy::time::TimeUpdateStrategy::FixedTimesteps(1));
-    app.finish();
-    app.cleanup();
-    app.update();
-    Ok(app)
-}
-
-/// Loads the RON scene at `path` into a [`headless_app`], runs `frames` fixed steps and returns
-/// the [`state_hash`](crate::sim::stress::state_hash) of its cloth: a bit-for-bit fingerprint of
-/// the whole plugin path (pins, colliders, wind, scheduling) for regression checks.
-pub fn scene_state_hash(path: &std::path::Path, frames: u32) -> Result<u64, ClothError> {
-    let scene = crate::scene::ClothScene::load(path)?;
-    let mut app = try_headless_app(scene.dt)?;
-    let entity = scene.spawn(app.world_mut())?;
-    for _ in 0..=frames {
-        app.update();
-    }
-    if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
-        return Err(e.clone());
-    }
-    let state = app
-        .world()
-        .get::<ClothState>(entity)
-        .ok_or_else(|| ClothError::InvalidMesh {
-            what: format!("{}: the cloth was not built", path.display()),
-        })?;
-    Ok(crate::sim::stress::state_hash(state.sim()))
 }

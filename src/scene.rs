@@ -474,7 +474,7 @@ impl ClothScene {
 
     /// Spawns the scene into a world (validated when parsed): the cloth entity, returned, its
     /// colliders, and its wind (the [`Wind`] resource, replacing any, and [`WindZone`] entities).
-    /// Moving colliders need [`ScenePlugin`] (which [`crate::plugin::headless_app`] adds).
+    /// Moving colliders need [`ScenePlugin`] (which the harness' `headless_app` adds).
     pub fn spawn(&self, world: &mut World) -> Result<Entity, ClothError> {
         for c in &self.colliders {
             world.spawn(c.bundle()?);

@@ -10,11 +10,9 @@
 //! next to the list (and in docs/accuracy.md), and is asserted against its own analytic behaviour
 //! where it has one. Thresholds are the issue's, not tuned to pass.
 
-use bevy_cloth::sim::reference::{REFERENCE_TOLERANCE, ReferenceProblem};
-use bevy_cloth::sim::{
-    AccuracyScene, ClothModel, ClothSim, GridSpec, Integrator, SolverSettings, Stiffness,
-    relative_rms_error,
-};
+use bevy_cloth::harness::reference::{REFERENCE_TOLERANCE, ReferenceProblem};
+use bevy_cloth::harness::scenes::{AccuracyScene, relative_rms_error};
+use bevy_cloth::sim::{ClothModel, ClothSim, GridSpec, Integrator, SolverSettings, Stiffness};
 use glam::{DVec3, Vec3};
 
 const DT: f32 = 1.0 / 60.0;

@@ -8,16 +8,8 @@ use bevy_cloth::ClothStepBudget;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::SpringKind;
 
-/// A headless app at 60 Hz in which every `update()` runs one fixed step.
-fn app() -> App {
-    bevy_cloth::plugin::headless_app(1.0 / 60.0)
-}
-
-fn state(app: &App, entity: Entity) -> &ClothState {
-    app.world()
-        .get::<ClothState>(entity)
-        .expect("cloth has been built")
-}
+mod common;
+use common::*;
 
 fn hanging(n: u32) -> impl Bundle {
     hanging_at(n, Vec3::new(0.0, 2.0, 0.0))
@@ -29,21 +21,6 @@ fn hanging_at(n: u32, at: Vec3) -> impl Bundle {
         ClothPins::new([0, n - 1]),
         Transform::from_translation(at),
     )
-}
-
-/// Spawns and builds a cloth; it starts at rest (the update's fixed step runs before the build).
-fn spawn(app: &mut App, bundle: impl Bundle) -> Entity {
-    let e = app.world_mut().spawn(bundle).id();
-    run(app, 1);
-    e
-}
-
-/// Runs `steps` updates of one fixed step each. (Several steps per update would be clamped by
-/// `Time<Virtual>`'s 250 ms maximum frame time.)
-fn run(app: &mut App, steps: u32) {
-    for _ in 0..steps {
-        app.update();
-    }
 }
 
 #[test]
@@ -760,7 +737,7 @@ fn the_paper_scene_preset_drapes_its_cloth_over_the_sphere() {
     assert_eq!((spec.nx, spec.ny), (n, n));
     assert_eq!(scene.pins, vec![0, n - 1, n * (n - 1), n * n - 1]);
     assert_eq!(scene.colliders.len(), 2);
-    let mut app = bevy_cloth::plugin::headless_app(scene.dt);
+    let mut app = bevy_cloth::harness::headless_app(scene.dt);
     let cloth = scene.spawn(app.world_mut()).unwrap();
     let corners: Vec<Vec3> = {
         app.update();

@@ -18,6 +18,9 @@ use bevy_cloth::subdivision::{
 };
 use glam::{Affine3A, DVec3};
 
+mod common;
+use common::*;
+
 /// Asserts that `result` failed and that its message contains every one of `words`; returns the
 /// error for further checks.
 #[track_caller]
@@ -947,23 +950,13 @@ fn wind_validation_names_the_field() {
 // The ECS: a bad cloth is reported once and skipped; the others keep running
 // ---------------------------------------------------------------------------------------------
 
-fn app() -> App {
-    bevy_cloth::plugin::headless_app(1.0 / 60.0)
-}
-
 #[test]
 fn a_headless_app_with_a_bad_step_is_an_error() {
-    use bevy_cloth::plugin::try_headless_app;
+    use bevy_cloth::harness::try_headless_app;
     for dt in [0.0, -1.0 / 60.0, f32::NAN, f32::INFINITY, 1e-12, 1e30] {
         invalid_value(try_headless_app(dt).map(drop), "dt");
     }
     assert!(try_headless_app(1.0 / 60.0).is_ok());
-}
-
-fn run(app: &mut App, updates: u32) {
-    for _ in 0..updates {
-        app.update();
-    }
 }
 
 fn steps(app: &App, e: Entity) -> u64 {

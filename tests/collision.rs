@@ -7,28 +7,8 @@ use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ConstantVelocity;
 use bevy_cloth::sim::ClothSim;
 
-const DT: f32 = 1.0 / 60.0;
-
-fn app() -> App {
-    bevy_cloth::plugin::headless_app(DT)
-}
-
-/// Spawns and builds a cloth; it starts at rest.
-fn spawn_cloth(app: &mut App, bundle: impl Bundle) -> Entity {
-    let e = app.world_mut().spawn(bundle).id();
-    app.update();
-    assert!(app.world().get::<ClothInvalid>(e).is_none());
-    e
-}
-
-fn sim(app: &App, cloth: Entity) -> &ClothSim {
-    app.world().get::<ClothState>(cloth).unwrap().sim()
-}
-
-fn centre_of_mass(app: &App, cloth: Entity) -> Vec3 {
-    let p = sim(app, cloth).positions();
-    p.iter().sum::<Vec3>() / p.len() as f32
-}
+mod common;
+use common::*;
 
 fn max_speed(app: &App, cloth: Entity) -> f32 {
     sim(app, cloth)
@@ -65,7 +45,7 @@ fn drop_onto(
 ) -> (App, Entity) {
     let mut app = app();
     app.world_mut().spawn((collider, transform));
-    let cloth = spawn_cloth(
+    let cloth = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(n, n, 0.05)),
@@ -189,7 +169,7 @@ fn a_sphere_smaller_than_the_spacing_pushed_through_a_pinned_cloth_never_passes(
         let (i, j) = (k % n, k / n);
         i == 0 || j == 0 || i == n - 1 || j == n - 1
     });
-    let cloth = spawn_cloth(
+    let cloth = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(n, n, spacing)),
@@ -252,7 +232,7 @@ fn slide_on_slope(mu: f32) -> f32 {
     app.world_mut()
         .spawn((plane, Transform::from_rotation(tilt)));
     let normal = tilt * Vec3::Y;
-    let cloth = spawn_cloth(
+    let cloth = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(12, 12, 0.05)),
@@ -301,7 +281,7 @@ fn a_moving_box_carries_the_cloth_on_it_even_as_a_child_of_a_moving_parent() {
             ConstantVelocity(Vec3::new(0.5, 0.0, 0.0)),
         ))
         .with_child((platform, Transform::IDENTITY));
-    let cloth = spawn_cloth(
+    let cloth = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(10, 10, 0.05)),
@@ -326,14 +306,14 @@ fn collision_layers_let_a_cloth_ignore_a_collider() {
         ClothCollider::half_space(Vec3::Y).with_layers(0b10),
         Transform::IDENTITY,
     ));
-    let touching = spawn_cloth(
+    let touching = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(6, 6, 0.05)),
             Transform::from_xyz(0.0, 0.1, 0.0),
         ),
     );
-    let ignoring = spawn_cloth(
+    let ignoring = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(6, 6, 0.05)),
@@ -361,7 +341,7 @@ fn removing_a_collider_releases_the_cloth() {
             Transform::IDENTITY,
         ))
         .id();
-    let cloth = spawn_cloth(
+    let cloth = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(10, 10, 0.05)),
@@ -393,7 +373,7 @@ fn far_away_colliders_are_skipped_by_the_broad_phase() {
             Transform::from_xyz(100.0 + k as f32, 0.0, 0.0),
         ));
     }
-    let cloth = spawn_cloth(&mut app, Cloth::grid(GridSpec::new(8, 8, 0.05)));
+    let cloth = spawn_valid(&mut app, Cloth::grid(GridSpec::new(8, 8, 0.05)));
     app.update();
     assert_eq!(sim(&app, cloth).active_colliders(), 0);
 }

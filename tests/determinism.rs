@@ -8,6 +8,9 @@ use bevy::tasks::{ComputeTaskPool, TaskPoolBuilder};
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::{ClothModel, ClothSim, Environment};
 
+mod common;
+use common::*;
+
 const STEPS: u32 = 120;
 
 /// A headless app whose compute pool has three threads (every test of this file sets it up the
@@ -15,13 +18,7 @@ const STEPS: u32 = 120;
 /// gets a second thread for its colours.
 fn app() -> App {
     ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(3).build());
-    bevy_cloth::plugin::headless_app(1.0 / 60.0)
-}
-
-fn run(app: &mut App, steps: u32) {
-    for _ in 0..steps {
-        app.update();
-    }
+    bevy_cloth::harness::headless_app(1.0 / 60.0)
 }
 
 fn bits(p: &[Vec3]) -> Vec<[u32; 3]> {

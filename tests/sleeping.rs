@@ -3,23 +3,9 @@
 
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::ClothSim;
 
-const DT: f32 = 1.0 / 60.0;
-
-fn app() -> App {
-    bevy_cloth::plugin::headless_app(DT)
-}
-
-fn run(app: &mut App, steps: u32) {
-    for _ in 0..steps {
-        app.update();
-    }
-}
-
-fn sim(app: &App, e: Entity) -> &ClothSim {
-    app.world().get::<ClothState>(e).unwrap().sim()
-}
+mod common;
+use common::*;
 
 /// A 12×12 cloth hanging from two corners, damped so that it settles within a few seconds.
 fn hanging(app: &mut App, solver: SolverSettings) -> Entity {

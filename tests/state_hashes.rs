@@ -5,9 +5,9 @@
 //! state_hashes` and says why in its commit. `cloth_cli state-hashes` prints the same lines for
 //! larger runs.
 
-use bevy_cloth::plugin::scene_state_hash;
+use bevy_cloth::harness::scene_state_hash;
+use bevy_cloth::harness::stress::{StressLimits, draw_case, run_case};
 use bevy_cloth::sim::Integrator;
-use bevy_cloth::sim::stress::{StressLimits, draw_case, run_case};
 
 const FRAMES: u32 = 60;
 const CASES: u64 = 40;

@@ -1,8 +1,8 @@
-//! The stress suite (see `bevy_cloth::sim::stress`) at CI size: a few hundred seeded cases over
+//! The stress suite (see `bevy_cloth::harness::stress`) at CI size: a few hundred seeded cases over
 //! every integrator, and more for the default one. `cloth_cli stress` runs as many as you like.
 
+use bevy_cloth::harness::stress::{StressLimits, StressOutcome, draw_case, run_case};
 use bevy_cloth::sim::Integrator;
-use bevy_cloth::sim::stress::{StressLimits, StressOutcome, draw_case, run_case};
 
 const SEED: u64 = 0x5EED_C10A;
 

@@ -145,10 +145,7 @@ fn every_test_shape_is_covered() {
         })
         .collect();
     let listed: HashSet<String> = SHAPES.iter().map(|s| s.to_string()).collect();
-    assert_eq!(
-        found, listed,
-        "test shapes and the golden test list differ"
-    );
+    assert_eq!(found, listed, "test shapes and the golden test list differ");
 }
 
 #[test]

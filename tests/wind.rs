@@ -8,33 +8,8 @@ use bevy::prelude::*;
 use bevy_cloth::AIR_DENSITY;
 use bevy_cloth::prelude::*;
 
-const DT: f32 = 1.0 / 60.0;
-
-fn app() -> App {
-    bevy_cloth::plugin::headless_app(DT)
-}
-
-fn spawn(app: &mut App, bundle: impl Bundle) -> Entity {
-    let e = app.world_mut().spawn(bundle).id();
-    app.update();
-    assert!(app.world().get::<ClothInvalid>(e).is_none());
-    e
-}
-
-fn run(app: &mut App, steps: u32) {
-    for _ in 0..steps {
-        app.update();
-    }
-}
-
-fn state(app: &App, e: Entity) -> &ClothState {
-    app.world().get::<ClothState>(e).unwrap()
-}
-
-fn centre_of_mass(app: &App, e: Entity) -> Vec3 {
-    let p = state(app, e).positions();
-    p.iter().sum::<Vec3>() / p.len() as f32
-}
+mod common;
+use common::*;
 
 /// A vertical `n`×`n` curtain (facing +Z before `rotation`) hanging from its top row's two corners.
 fn curtain(n: u32, solver: SolverSettings, rotation: Quat) -> impl Bundle {
@@ -54,7 +29,7 @@ fn wind_along_x_pushes_a_hanging_cloth_toward_x() {
     let mut app = app();
     // A curtain turned to face +X, then wind along +X.
     let facing_x = Quat::from_rotation_y(FRAC_PI_2);
-    let cloth = spawn(&mut app, curtain(16, SolverSettings::default(), facing_x));
+    let cloth = spawn_valid(&mut app, curtain(16, SolverSettings::default(), facing_x));
     run(&mut app, 60);
     let calm = centre_of_mass(&app, cloth);
     app.insert_resource(Wind {
@@ -76,7 +51,7 @@ fn one_step_push(speed: f32) -> Vec3 {
         velocity: Vec3::new(0.0, 0.0, -speed),
         ..default()
     });
-    let cloth = spawn(
+    let cloth = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec::new(8, 8, 0.05).with_plane(GridPlane::Vertical)),
@@ -123,7 +98,7 @@ fn a_flag_in_steady_wind_keeps_bounded_energy_for_60_seconds() {
     // A 24 × 16 flag in the XY plane, its left edge (column 0) on the pole.
     let (nx, ny) = (24, 16);
     let pins = ClothPins::new((0..ny).map(|j| j * nx));
-    let flag = spawn(
+    let flag = spawn_valid(
         &mut app,
         (
             Cloth::grid(GridSpec {
@@ -171,7 +146,7 @@ fn released_cloth_falls_at_g_and_re_pinning_holds_it() {
         damping: 0.0,
         ..default()
     };
-    let cloth = spawn(&mut app, curtain(10, solver, Quat::IDENTITY));
+    let cloth = spawn_valid(&mut app, curtain(10, solver, Quat::IDENTITY));
     run(&mut app, 120);
     // Release all pins: the centre of mass falls freely (internal forces cancel).
     let start = centre_of_mass(&app, cloth);
@@ -228,7 +203,7 @@ fn pins_are_released_by_index_and_by_region() {
 /// Centre of mass of a scene's cloth after `steps` fixed steps.
 fn scene_centre_after(text: &str, steps: u32) -> Vec3 {
     let scene = bevy_cloth::scene::ClothScene::from_ron(text).unwrap();
-    let mut app = bevy_cloth::plugin::headless_app(scene.dt);
+    let mut app = bevy_cloth::harness::headless_app(scene.dt);
     let cloth = scene.spawn(app.world_mut()).unwrap();
     app.update();
     assert!(app.world().get::<ClothInvalid>(cloth).is_none());
@@ -280,7 +255,7 @@ fn a_scene_with_wind_pushes_its_cloth_downwind() {
 fn the_flag_wind_preset_spawns_its_air_and_flies_downwind() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/flag_wind.ron");
     let scene = bevy_cloth::scene::ClothScene::load(path).unwrap();
-    let mut app = bevy_cloth::plugin::headless_app(scene.dt);
+    let mut app = bevy_cloth::harness::headless_app(scene.dt);
     let flag = scene.spawn(app.world_mut()).unwrap();
     let wind = *app.world().resource::<Wind>();
     assert_eq!(wind.velocity, Vec3::new(7.0, 0.0, -1.5));

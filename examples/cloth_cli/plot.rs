@@ -10,7 +10,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::work_precision::{Measurement, pareto_front};
-use bevy_cloth::sim::{AccuracyScene, Integrator};
+use bevy_cloth::harness::scenes::AccuracyScene;
+use bevy_cloth::sim::Integrator;
 
 /// The colour of each integrator's curve.
 pub fn color(integrator: Integrator) -> RGBColor {

@@ -1,11 +1,11 @@
-//! `cloth_cli stress`: runs the seeded stress suite of `bevy_cloth::sim::stress` with a progress
+//! `cloth_cli stress`: runs the seeded stress suite of `bevy_cloth::harness::stress` with a progress
 //! bar, then prints a Markdown table per integrator (cases, stable, stopped as unstable, failures,
 //! worst values, and the stability limits the cases found) and every failure.
 
 use std::time::Instant;
 
+use bevy_cloth::harness::stress::{StressLimits, StressOutcome, StressResult, draw_case, run_case};
 use bevy_cloth::sim::Integrator;
-use bevy_cloth::sim::stress::{StressLimits, StressOutcome, StressResult, draw_case, run_case};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Per-integrator tallies.

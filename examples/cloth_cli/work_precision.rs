@@ -11,8 +11,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use bevy_cloth::sim::reference::{ReferenceProblem, ReferenceSolution};
-use bevy_cloth::sim::{AccuracyScene, Integrator, SolverSettings, relative_rms_error};
+use bevy_cloth::harness::reference::{ReferenceProblem, ReferenceSolution};
+use bevy_cloth::harness::scenes::{AccuracyScene, relative_rms_error};
+use bevy_cloth::sim::{Integrator, SolverSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// One timed run of one configuration on one scene.

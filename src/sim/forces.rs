@@ -3,9 +3,13 @@
 //! matrix, applied matrix-free), the spring potential energy, and the per-particle stability bound.
 //!
 //! Plain slices in, plain slices out; nothing here allocates. XPBD does not use forces (it solves the
-//! same springs as compliant constraints) and lives in `solver.rs`.
+//! same springs as compliant constraints, `integrate/xpbd`).
 
 use glam::Vec3;
+
+use super::runs;
+use super::simd::{self, Build, Kernel};
+use super::soa::Soa;
 
 /// Per-spring linearisation of the spring forces at the current positions, written by
 /// [`add_spring_forces_and_jacobians`] and used by [`add_stiffness_product`].
@@ -77,107 +81,8 @@ fn spring_force(xa: Vec3, xb: Vec3, rest: f32, k: f32) -> (Vec3, f32, Vec3) {
     }
 }
 
-/// Particle positions or forces, one array per coordinate, so that kernels can read and write
-/// eight consecutive particles with whole vector loads and stores.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct Soa {
-    pub x: Vec<f32>,
-    pub y: Vec<f32>,
-    pub z: Vec<f32>,
-}
-
-impl Soa {
-    /// `n` zero vectors.
-    pub fn new(n: usize) -> Self {
-        Self {
-            x: vec![0.0; n],
-            y: vec![0.0; n],
-            z: vec![0.0; n],
-        }
-    }
-
-    /// Number of vectors.
-    pub fn len(&self) -> usize {
-        self.x.len()
-    }
-
-    /// Copies `vectors` in (as many as both hold).
-    pub fn load(&mut self, vectors: &[Vec3]) {
-        for (p, (x, y, z)) in vectors.iter().zip(self.iter_mut()) {
-            (*x, *y, *z) = (p.x, p.y, p.z);
-        }
-    }
-
-    /// [`Self::load`] in storage order `order` (`order[s]` is the vector stored at `s`; empty:
-    /// the vectors' own order).
-    pub fn load_ordered(&mut self, vectors: &[Vec3], order: &[u32]) {
-        if order.is_empty() {
-            return self.load(vectors);
-        }
-        for (&i, (x, y, z)) in order.iter().zip(self.iter_mut()) {
-            let p = vectors[i as usize];
-            (*x, *y, *z) = (p.x, p.y, p.z);
-        }
-    }
-
-    /// Copies the vectors out into `vectors` (as many as both hold).
-    pub fn write_to(&self, vectors: &mut [Vec3]) {
-        for (p, v) in vectors.iter_mut().zip(self.iter()) {
-            *p = v;
-        }
-    }
-
-    /// [`Self::write_to`] from storage order `order` (see [`Self::load_ordered`]).
-    pub fn write_ordered(&self, vectors: &mut [Vec3], order: &[u32]) {
-        if order.is_empty() {
-            return self.write_to(vectors);
-        }
-        for (&i, v) in order.iter().zip(self.iter()) {
-            vectors[i as usize] = v;
-        }
-    }
-
-    /// Copies `other`'s vectors in (both hold the same number).
-    pub fn copy_from(&mut self, other: &Soa) {
-        self.x.copy_from_slice(&other.x);
-        self.y.copy_from_slice(&other.y);
-        self.z.copy_from_slice(&other.z);
-    }
-
-    /// Vector `i`.
-    pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
-    }
-
-    /// Sets vector `i`.
-    pub fn set(&mut self, i: usize, v: Vec3) {
-        (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
-    }
-
-    /// The coordinates of each vector, in order, for writing.
-    pub fn iter_mut(&mut self) -> impl Iterator<Item = (&mut f32, &mut f32, &mut f32)> {
-        self.x
-            .iter_mut()
-            .zip(self.y.iter_mut())
-            .zip(self.z.iter_mut())
-            .map(|((x, y), z)| (x, y, z))
-    }
-
-    /// The vectors in order.
-    pub fn iter(&self) -> impl Iterator<Item = Vec3> + '_ {
-        self.x
-            .iter()
-            .zip(&self.y)
-            .zip(&self.z)
-            .map(|((x, y), z)| Vec3::new(*x, *y, *z))
-    }
-}
-
 /// Shortest run worth the vector kernel; springs in shorter stretches are evaluated one by one.
 const MIN_RUN: usize = 8;
-/// Largest gap in the first particles of a run that is filled with do-nothing slots (the ends of
-/// a grid's rows leave gaps of one or two).
-const MAX_GAP: u32 = 2;
 
 /// `len` slots from `slot` on: slot `slot + m` is a spring between particles `first + m` and
 /// `first + m + offset`.
@@ -193,7 +98,7 @@ struct ForceRun {
 ///
 /// Forces are summed, not solved, so unlike XPBD's colour runs these need no colouring: a run is
 /// any stretch of springs `(i, i + d)` with one offset `d` and consecutive `i`, gaps of up to
-/// [`MAX_GAP`] filled with slots of zero stiffness. Each run is evaluated eight springs at a time,
+/// [`MAX_GAP`](runs::MAX_GAP) filled with slots of zero stiffness. Each run is evaluated eight springs at a time,
 /// and its forces are added with whole vector loads and stores in spring order, so the sums are
 /// exact even where both ends of a spring fall within the same eight particles. A grid cloth is a
 /// handful of runs (one per spring direction); springs of irregular meshes that fall in no run are
@@ -226,42 +131,31 @@ impl ForceRuns {
             .map(|(s, (&a, &b))| (a.max(b) - a.min(b), a.min(b), s as u32))
             .collect();
         order.sort_unstable();
+        let first: Vec<u32> = order.iter().map(|o| o.1).collect();
+        let second: Vec<u32> = order.iter().map(|o| o.1 + o.0).collect();
         let mut runs = Self {
             springs: a.len(),
             ..Self::default()
         };
         let mut i = 0;
         while i < order.len() {
-            let (offset, first, _) = order[i];
-            let end = i
-                + order[i..]
-                    .windows(2)
-                    .take_while(|w| {
-                        w[1].0 == offset && w[1].1 > w[0].1 && w[1].1 - w[0].1 <= MAX_GAP + 1
-                    })
-                    .count()
-                + 1;
-            if end - i < MIN_RUN {
-                runs.singles.extend(order[i..end].iter().map(|o| o.2));
+            let (taken, slots) = runs::extent(&first, &second, i, order.len(), Some);
+            if taken < MIN_RUN {
+                runs.singles.extend(order[i..i + taken].iter().map(|o| o.2));
             } else {
-                let slot = runs.spring.len() as u32;
-                for (o, next) in order[i..end]
-                    .iter()
-                    .zip(order[i + 1..end].iter().map(Some).chain([None]))
-                {
-                    runs.spring.push(Some(o.2));
-                    let gap = next.map_or(0, |n| n.1 - o.1 - 1);
-                    runs.spring.extend((0..gap).map(|_| None));
+                let slot = runs.spring.len();
+                runs.spring.resize(slot + slots, None);
+                for o in &order[i..i + taken] {
+                    runs.spring[slot + (o.1 - first[i]) as usize] = Some(o.2);
                 }
-                let len = runs.spring.len() as u32 - slot;
                 runs.runs.push(ForceRun {
-                    first,
-                    offset,
-                    slot,
-                    len,
+                    first: first[i],
+                    offset: order[i].0,
+                    slot: slot as u32,
+                    len: slots as u32,
                 });
             }
-            i = end;
+            i += taken;
         }
         runs.kept = Soa::new(runs.runs.iter().map(|r| r.len as usize).max().unwrap_or(0));
         runs.rest = vec![0.0; runs.spring.len()];
@@ -299,30 +193,36 @@ fn spring_force_on_second(xa: [f32; 3], xb: [f32; 3], rest: f32, k: f32) -> [f32
 /// Adds the spring forces at positions `x` to `forces` (which the caller has initialised, e.g. with
 /// the particles' weights `m g`): the runs of `runs` eight springs at a time, the rest one by one.
 /// `springs` must be the springs `runs` was built from, and `runs` must hold their stiffness.
-///
-/// On x86-64 CPUs with AVX2 the kernel runs as 8-wide vectors (chosen at run time); the results
-/// are bit-identical either way.
+/// A vector kernel ([`simd`]): the builds' results are bit-identical.
 pub(crate) fn add_spring_forces(
     runs: &mut ForceRuns,
     springs: SpringSet<'_>,
     x: &Soa,
     forces: &mut Soa,
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports the feature the function is compiled for (checked above).
-        unsafe { add_spring_forces_avx2(runs, springs, x, forces) };
-        return;
-    }
-    add_spring_forces_body(runs, springs, x, forces);
+    simd::run(SpringForces {
+        runs,
+        springs,
+        x,
+        forces,
+    });
 }
 
-/// [`add_spring_forces_body`] compiled for AVX2 (8-lane vectors).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn add_spring_forces_avx2(runs: &mut ForceRuns, springs: SpringSet<'_>, x: &Soa, forces: &mut Soa) {
-    add_spring_forces_body(runs, springs, x, forces);
+/// [`add_spring_forces`]'s arguments, as a [`Kernel`].
+struct SpringForces<'a, 'b> {
+    runs: &'a mut ForceRuns,
+    springs: SpringSet<'b>,
+    x: &'a Soa,
+    forces: &'a mut Soa,
+}
+
+impl Kernel for SpringForces<'_, '_> {
+    const WIDEST: Build = Build::Avx2;
+
+    #[inline(always)]
+    fn body<const WIDE: bool>(self) {
+        add_spring_forces_body(self.runs, self.springs, self.x, self.forces);
+    }
 }
 
 #[inline(always)]
@@ -487,13 +387,61 @@ mod tests {
 
     /// The spring forces at `x` through [`ForceRuns`] and [`add_spring_forces`].
     fn forces_at(springs: SpringSet<'_>, x: &[Vec3]) -> Vec<Vec3> {
+        forces_in(None, springs, x).expect("the widest build runs")
+    }
+
+    /// The spring forces at `x` from the kernel's `build` (its widest for `None`), if the CPU has
+    /// that build.
+    fn forces_in(build: Option<Build>, springs: SpringSet<'_>, x: &[Vec3]) -> Option<Vec<Vec3>> {
         let mut runs = ForceRuns::new(springs.a, springs.b);
         runs.set_stiffness(springs.rest, springs.k);
         let mut soa = Soa::new(x.len());
         soa.load(x);
         let mut f = Soa::new(x.len());
-        add_spring_forces(&mut runs, springs, &soa, &mut f);
-        f.iter().collect()
+        let Some(build) = build else {
+            add_spring_forces(&mut runs, springs, &soa, &mut f);
+            return Some(f.iter().collect());
+        };
+        let kernel = SpringForces {
+            runs: &mut runs,
+            springs,
+            x: &soa,
+            forces: &mut f,
+        };
+        simd::run_as(build, kernel).then(|| f.iter().collect())
+    }
+
+    #[test]
+    fn every_build_of_the_force_kernel_gives_the_same_bits() {
+        // A 37×23 grid (runs with row-end gaps, and singles) at perturbed positions.
+        let model = crate::sim::ClothModel::grid(&crate::sim::GridSpec::new(37, 23, 0.1)).unwrap();
+        let s = &model.springs;
+        let k: Vec<f32> = (0..s.len()).map(|i| 100.0 + (i % 5) as f32).collect();
+        let springs = SpringSet {
+            a: &s.a,
+            b: &s.b,
+            rest: &s.rest,
+            k: &k,
+        };
+        let x: Vec<Vec3> = model
+            .rest_positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| *p + 0.01 * Vec3::new((i as f32).sin(), (i as f32 * 1.7).cos(), 0.3))
+            .collect();
+        let plain = forces_in(Some(Build::Plain), springs, &x).unwrap();
+        let bits = |f: &[Vec3]| -> Vec<[u32; 3]> {
+            f.iter().map(|v| v.to_array().map(f32::to_bits)).collect()
+        };
+        let mut compared = 0;
+        for build in [Build::Avx2, Build::Avx512] {
+            if let Some(f) = forces_in(Some(build), springs, &x) {
+                assert_eq!(bits(&f), bits(&plain), "{build:?} against the plain build");
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, usize::from(Build::Avx2.is_available()));
+        assert_eq!(bits(&forces_at(springs, &x)), bits(&plain));
     }
 
     #[test]

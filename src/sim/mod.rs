@@ -1,37 +1,58 @@
-//! The engine-free cloth solver: topology ([`ClothModel`]), particle state and time stepping
-//! ([`ClothSim`]) with four integrators behind one [`Integrator`] enum, an f64 reference integrator
-//! ([`reference`](mod@reference)), the accuracy benchmark scenes ([`scenes`]) and the stress suite
-//! ([`stress`]). Plain data in, plain data out;
-//! nothing here knows about ECS, assets or meshes, so it can be unit-tested and benchmarked on its
-//! own. Every formula of the simulation lives here.
+//! The engine-free cloth solver. Plain data in, plain data out: nothing here knows about ECS,
+//! assets or meshes, so it can be unit-tested and benchmarked on its own, and every formula of the
+//! simulation lives here. A cloth is a [`ClothModel`] (topology, built once) stepped by a
+//! [`ClothSim`] (state, settings and one stepper per integrator) among the colliders and air of an
+//! [`Environment`].
+//!
+//! # Modules, bottom up
+//! Each module uses only the ones above it in this list; nothing imports back.
+//!
+//! | module | what it holds | uses |
+//! | --- | --- | --- |
+//! | `soa`, `simd`, `runs` | storage: vectors as one array per coordinate; runtime-dispatched vector builds of a kernel; runs of springs a kernel loads as whole vectors | — |
+//! | [`model`] | topology: grids, meshes, discs, subdivided cloths; springs and their colouring | — |
+//! | [`settings`] | [`Integrator`], [`Stiffness`], [`SolverSettings`] and their validation | `model` (spring kinds) |
+//! | `forces` | the spring-force kernel, its linearisation, energy and frequency bound | `soa`, `simd`, `runs` |
+//! | `state` | particles, pins, [`Energy`] | `forces` |
+//! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout | `soa`, `simd` |
+//! | [`aero`], [`wind`] | aerodynamic forces and the wind field | — |
+//! | `integrate` | one stepper per integrator, each owning its scratch: `xpbd/` (layout, kernel, threads, driver), `explicit`, `implicit`; the [`Spread`] of threads | all of the above |
+//! | `cloth_sim` | [`ClothSim`]: chooses the integrator and substeps, runs the broad phase and wind, sleep, the runaway watchdog | all of the above |
+//!
+//! # Where a new constraint goes
+//! A constraint on particle positions (a tether, a maximum distance from a target, a
+//! self-contact) is data built once with the model or by `ClothSim` (beside the springs), plus a
+//! projection run by the position-based stepper (`integrate/xpbd`, after the spring sweeps of a
+//! substep, where contacts are resolved today) and, for the force-based steppers, the same
+//! projection after their substep (as `SoaState::resolve_contacts` does for colliders). Its data
+//! reaches the steppers through `integrate::Step`, the one struct every stepper is handed; its
+//! settings join [`SolverSettings`] and are validated there.
 
 pub mod aero;
-pub mod collision;
-mod disc;
-mod explicit;
+mod cloth_sim;
+pub mod contact;
 mod forces;
-mod implicit;
-mod model;
-mod parallel;
-pub mod reference;
-pub mod scenes;
-mod solver;
-pub mod stress;
+mod integrate;
+pub mod model;
+mod runs;
+pub mod settings;
+mod simd;
+mod soa;
+mod state;
 pub mod wind;
-mod xpbd;
 
 pub use aero::{AeroParams, Gusts};
-pub use collision::{Collider, ColliderShape, Friction, Pose};
-pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
-pub use implicit::CG_TOLERANCE;
+pub use cloth_sim::{ClothSim, Environment};
+pub use contact::{Collider, ColliderShape, Friction, Pose};
+pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
-    ClothModel, DEGENERATE_TRIANGLE_RATIO, GridPlane, GridSpec, MAX_PARTICLES, SpringKind, Springs,
-    SubdividedModel, compute_normals,
+    ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridPlane, GridSpec, MAX_DISC_RINGS,
+    MAX_DISC_SECTORS, MAX_PARTICLES, MIN_DISC_SECTORS, SpringKind, Springs, SubdividedModel,
+    compute_normals,
 };
-pub use parallel::{ScopedThread, Spread};
-pub use scenes::{AccuracyScene, relative_rms_error};
-pub use solver::{
-    AUTO_MAX_STRETCH, ClothSim, Energy, Environment, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
-    STABILITY_FRACTION, SolverSettings, Stiffness,
+pub use settings::{
+    AUTO_MAX_STRETCH, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION, SolverSettings,
+    Stiffness,
 };
+pub use state::Energy;
 pub use wind::{PlacedWindZone, WindField, WindZoneShape};

@@ -1,272 +1,30 @@
 //! Cloth topology, built once: rest positions, the spring set (coloured for deterministic
 //! Gauss-Seidel solving), the triangle list for rendering, and texture coordinates.
 //!
-//! This is where the canonical grid cloth of DESIGN.md is defined, and where a cloth is derived from an
+//! This is where the canonical grid cloth (the crate's README, "The model") is defined, and where a cloth is derived from an
 //! arbitrary triangle or quad mesh. Nothing here runs per step.
 
-use bevy::reflect::Reflect;
-use glam::{DVec3, Vec2, Vec3};
-use serde::{Deserialize, Serialize};
+use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 
 use crate::error::{ClothError, positive};
-use crate::subdivision::{BoundaryMode, PolyMesh, Subdivider, SubdivisionError, VertexRule};
 
-/// The three spring families of a Provot mass-spring cloth.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, Reflect,
-)]
-pub enum SpringKind {
-    /// Along grid rows and columns (or along mesh edges).
-    Structural = 0,
-    /// Along cell diagonals.
-    Shear = 1,
-    /// Skipping one particle (or across a shared mesh edge); resists folding.
-    Bend = 2,
-}
+mod disc;
+mod grid;
+mod springs;
+mod subdivided;
+#[cfg(test)]
+mod tests;
 
-impl SpringKind {
-    /// All kinds, in index order.
-    pub const ALL: [SpringKind; 3] = [SpringKind::Structural, SpringKind::Shear, SpringKind::Bend];
-}
-
-/// Which plane a grid cloth lies in, in the cloth's local space. The grid is centred on the origin.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
-pub enum GridPlane {
-    /// Particle `(i, j)` at `((i - (nx-1)/2) h, 0, (j - (ny-1)/2) h)`: a horizontal sheet, facing +Y.
-    #[default]
-    Horizontal,
-    /// Particle `(i, j)` at `((i - (nx-1)/2) h, -(j - (ny-1)/2) h, 0)`: a hanging curtain, row 0 on
-    /// top, facing +Z.
-    Vertical,
-}
-
-/// Largest number of particles a cloth may have (16,777,216, a 4096 × 4096 grid): far beyond
-/// real time, and small enough that building the cloth's springs fits in memory.
-pub const MAX_PARTICLES: usize = 1 << 24;
+pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
+pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
+pub use springs::{SpringKind, Springs};
+pub use subdivided::SubdividedModel;
 
 /// A triangle whose doubled area is at most this fraction of the square of its longest edge (its
 /// height is at most a millionth of that edge) counts as having zero area: [`ClothModel::from_mesh`]
 /// rejects it as degenerate.
 pub const DEGENERATE_TRIANGLE_RATIO: f64 = 1e-6;
-
-/// The canonical rectangular grid cloth of DESIGN.md.
-///
-/// Particle `(i, j)` has index `j * nx + i`. Springs: structural `(i,j)-(i+1,j)`, `(i,j)-(i,j+1)`;
-/// shear `(i,j)-(i+1,j+1)`, `(i+1,j)-(i,j+1)`; bend `(i,j)-(i+2,j)`, `(i,j)-(i,j+2)`. Rest lengths are
-/// the initial distances.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
-#[serde(deny_unknown_fields)]
-pub struct GridSpec {
-    /// Particles along the first axis (`i`), at least 2.
-    pub nx: u32,
-    /// Particles along the second axis (`j`), at least 2.
-    pub ny: u32,
-    /// Distance between neighbouring particles, in metres.
-    pub spacing: f32,
-    /// Orientation of the sheet in local space.
-    #[serde(default)]
-    pub plane: GridPlane,
-}
-
-impl GridSpec {
-    /// A horizontal `nx` × `ny` grid with the given spacing.
-    pub fn new(nx: u32, ny: u32, spacing: f32) -> Self {
-        Self {
-            nx,
-            ny,
-            spacing,
-            plane: GridPlane::Horizontal,
-        }
-    }
-
-    /// The same grid in another plane.
-    pub fn with_plane(mut self, plane: GridPlane) -> Self {
-        self.plane = plane;
-        self
-    }
-
-    /// Index of particle `(i, j)`.
-    pub fn index(&self, i: u32, j: u32) -> u32 {
-        j * self.nx + i
-    }
-
-    /// Checks the spec; the error names the bad field: `nx` and `ny` at least 2, at most
-    /// [`MAX_PARTICLES`] particles, `spacing` finite and positive and small enough that the grid's
-    /// diagonal is finite in `f32`.
-    pub fn validate(&self) -> Result<(), ClothError> {
-        if self.nx < 2 {
-            return Err(ClothError::GridTooSmall {
-                field: "nx",
-                value: self.nx,
-            });
-        }
-        if self.ny < 2 {
-            return Err(ClothError::GridTooSmall {
-                field: "ny",
-                value: self.ny,
-            });
-        }
-        if (self.nx as u64) * (self.ny as u64) > MAX_PARTICLES as u64 {
-            return Err(ClothError::GridTooLarge {
-                nx: self.nx,
-                ny: self.ny,
-            });
-        }
-        positive("spacing", self.spacing)?;
-        // Every spring is shorter than the diagonal; its length must not overflow.
-        let diagonal = Vec2::new(
-            (self.nx - 1) as f32 * self.spacing,
-            (self.ny - 1) as f32 * self.spacing,
-        )
-        .length();
-        if !diagonal.is_finite() {
-            return Err(ClothError::InvalidValue {
-                field: "spacing",
-                expected: "small enough that the grid's diagonal is finite",
-                value: self.spacing as f64,
-            });
-        }
-        Ok(())
-    }
-}
-
-/// The springs of a cloth in structure-of-arrays form, ordered by colour: within one colour no two
-/// springs share a particle, so a colour can be solved in any order (or in parallel) with the same
-/// result.
-#[derive(Debug, Clone, Default)]
-pub struct Springs {
-    /// First particle of each spring.
-    pub a: Vec<u32>,
-    /// Second particle of each spring.
-    pub b: Vec<u32>,
-    /// Rest length of each spring, in metres.
-    pub rest: Vec<f32>,
-    /// Family of each spring.
-    pub kind: Vec<SpringKind>,
-    /// Springs of colour `c` are `color_offsets[c]..color_offsets[c + 1]`.
-    pub color_offsets: Vec<u32>,
-}
-
-impl Springs {
-    /// Number of springs.
-    pub fn len(&self) -> usize {
-        self.a.len()
-    }
-
-    /// Whether there are no springs.
-    pub fn is_empty(&self) -> bool {
-        self.a.is_empty()
-    }
-
-    /// Number of colours.
-    pub fn color_count(&self) -> usize {
-        self.color_offsets.len().saturating_sub(1)
-    }
-
-    /// Number of springs of each kind, indexed by `SpringKind as usize`.
-    pub fn count_by_kind(&self) -> [usize; 3] {
-        let mut n = [0; 3];
-        for k in &self.kind {
-            n[*k as usize] += 1;
-        }
-        n
-    }
-
-    /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`,
-    /// with a greedy edge colouring. Springs of zero rest length are dropped (they cannot define a
-    /// direction).
-    fn build(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)]) -> Self {
-        let colors = greedy_edge_coloring(positions.len(), pairs.iter().map(|p| (p.0, p.1)));
-        Self::build_colored(positions, pairs, &colors)
-    }
-
-    /// [`Self::build`] with a given colour per spring (no two springs of a colour may share a
-    /// particle). Within a colour, springs are ordered by index offset `b - a` and then by `a`
-    /// (XPBD's layout re-sorts them by storage position; see `xpbd::Projections`).
-    fn build_colored(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> Self {
-        debug_assert!(is_proper_edge_coloring(positions.len(), pairs, colors));
-        let pairs: Vec<(u32, u32, SpringKind, f32, u32)> = pairs
-            .iter()
-            .zip(colors)
-            .map(|(&(a, b, k), &c)| {
-                (
-                    a.min(b),
-                    a.max(b),
-                    k,
-                    positions[a as usize].distance(positions[b as usize]),
-                    c,
-                )
-            })
-            .filter(|p| p.3 > 0.0)
-            .collect();
-        let color_count = pairs
-            .iter()
-            .map(|p| p.4)
-            .max()
-            .map_or(0, |c| c as usize + 1);
-        let mut order: Vec<usize> = (0..pairs.len()).collect();
-        order.sort_by_key(|&s| (pairs[s].4, pairs[s].1 - pairs[s].0, pairs[s].0));
-        let mut springs = Springs {
-            a: Vec::with_capacity(pairs.len()),
-            b: Vec::with_capacity(pairs.len()),
-            rest: Vec::with_capacity(pairs.len()),
-            kind: Vec::with_capacity(pairs.len()),
-            color_offsets: vec![0; color_count + 1],
-        };
-        for &s in &order {
-            let (a, b, k, r, c) = pairs[s];
-            springs.a.push(a);
-            springs.b.push(b);
-            springs.rest.push(r);
-            springs.kind.push(k);
-            springs.color_offsets[c as usize + 1] += 1;
-        }
-        for c in 0..color_count {
-            springs.color_offsets[c + 1] += springs.color_offsets[c];
-        }
-        springs
-    }
-}
-
-/// Whether no two springs of the same colour share a particle.
-fn is_proper_edge_coloring(nodes: usize, pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> bool {
-    let mut seen = std::collections::HashSet::with_capacity(2 * pairs.len().min(nodes * 16));
-    pairs.len() == colors.len()
-        && pairs
-            .iter()
-            .zip(colors)
-            .all(|(&(a, b, _), &c)| a != b && seen.insert((a, c)) && seen.insert((b, c)))
-}
-
-/// Greedy colouring of the edges of a graph: each edge gets the smallest colour not yet used at
-/// either endpoint. Uses at most `2 Δ - 1` colours for maximum degree `Δ`.
-fn greedy_edge_coloring(nodes: usize, edges: impl Iterator<Item = (u32, u32)> + Clone) -> Vec<u32> {
-    let mut degree = vec![0u32; nodes];
-    for (a, b) in edges.clone() {
-        degree[a as usize] += 1;
-        degree[b as usize] += 1;
-    }
-    let max_colors = (2 * degree.iter().copied().max().unwrap_or(0)).max(1) as usize;
-    let words = max_colors.div_ceil(64);
-    let mut used = vec![0u64; nodes * words];
-    let mut colors = Vec::new();
-    for (a, b) in edges {
-        let (ua, ub) = (a as usize * words, b as usize * words);
-        let mut color = 0;
-        for w in 0..words {
-            let free = !(used[ua + w] | used[ub + w]);
-            if free != 0 {
-                color = w * 64 + free.trailing_zeros() as usize;
-                break;
-            }
-        }
-        used[ua + color / 64] |= 1 << (color % 64);
-        used[ub + color / 64] |= 1 << (color % 64);
-        colors.push(color as u32);
-    }
-    colors
-}
 
 /// The immutable description of one cloth: rest shape, springs and render topology.
 #[derive(Debug, Clone)]
@@ -544,9 +302,13 @@ impl ClothModel {
     /// public): finite rest positions, one texture coordinate (and mass, if any) per particle,
     /// triangles and faces whose indices are in range, a face size of 3 or 4, and springs whose
     /// arrays agree, whose particles exist, whose rest lengths are finite and positive, and whose
-    /// colours partition them with no particle twice in a colour. The builders
-    /// ([`grid`](Self::grid), [`from_mesh`](Self::from_mesh), [`disc`](Self::disc)) always pass.
-    /// The error names the first problem.
+    /// colours partition them with no particle twice in a colour, and a `grid` (if any) that is
+    /// valid and has as many particles as the model. The builders ([`grid`](Self::grid),
+    /// [`from_mesh`](Self::from_mesh), [`disc`](Self::disc)) always pass. [`ClothSim::new`]
+    /// checks every model it is given; the solver's vector kernels and threads rely on it. The
+    /// error names the first problem.
+    ///
+    /// [`ClothSim::new`]: crate::sim::ClothSim::new
     pub fn validate(&self) -> Result<(), ClothError> {
         let bad = |what: String| Err(ClothError::InvalidMesh { what });
         let n = self.particle_count();
@@ -650,6 +412,16 @@ impl ClothModel {
                     }
                     last_colour[p] = c;
                 }
+            }
+        }
+        if let Some(grid) = &self.grid {
+            grid.validate()?;
+            let claimed = grid.nx as usize * grid.ny as usize;
+            if claimed != n {
+                return bad(format!(
+                    "claims a {}×{} grid ({claimed} particles) but has {n} particles",
+                    grid.nx, grid.ny
+                ));
             }
         }
         Ok(())
@@ -854,86 +626,6 @@ fn check_face(positions: &[Vec3], face: usize, corners: &[u32]) -> Result<(), Cl
     Ok(())
 }
 
-/// A cloth model refined by Catmull-Clark subdivision before simulating
-/// ([`ClothModel::subdivided`]).
-#[derive(Debug, Clone)]
-pub struct SubdividedModel {
-    /// The refined model: all-quad faces, one particle per refined vertex.
-    pub model: ClothModel,
-    /// For each particle of the original model, the particle it became (its vertex point).
-    pub particle_map: Vec<u32>,
-    /// Original particle count over refined particle count: scale a uniform particle mass by it
-    /// to keep the cloth's total mass (per-particle masses are already scaled).
-    pub mass_scale: f32,
-}
-
-impl ClothModel {
-    /// Refines the rest mesh `level` times with Catmull-Clark subdivision and builds a cloth model
-    /// from the refined quads, so that the cloth simulates at the finer resolution (about 4× the
-    /// particles per level) on the smooth limit shape rather than only rendering it.
-    ///
-    /// Springs follow [`from_mesh`](Self::from_mesh) on the refined quads with unchanged
-    /// per-spring stiffness (the membrane stiffness of a spring grid does not depend on its
-    /// spacing). Per-particle masses, if any, are interpolated with the subdivision stencils and
-    /// scaled to keep their total; a uniform mass is left to the caller, who scales it by
-    /// [`SubdividedModel::mass_scale`]. UVs follow the refined surface. Errors: the subdivision
-    /// errors of [`control_mesh`](Self::control_mesh) and
-    /// [`Subdivider::new`](crate::subdivision::Subdivider::new) (a mesh that is not
-    /// manifold and consistently oriented), and those of `from_mesh`.
-    pub fn subdivided(
-        &self,
-        level: u32,
-        rule: VertexRule,
-        boundary: BoundaryMode,
-    ) -> Result<SubdividedModel, ClothError> {
-        let control = self.control_mesh()?;
-        let sub = Subdivider::new(&control, level, rule, boundary)?;
-        let n = sub.refined_vertex_count();
-        let mut refined = vec![DVec3::ZERO; n];
-        sub.apply_f64(control.positions(), &mut refined)?;
-        let positions: Vec<Vec3> = refined.iter().map(|p| p.as_vec3()).collect();
-        let topology = sub.topology();
-        // Render vertices start with the refined vertices, each with the UV of its first corner.
-        let uvs = topology.render_mesh().uvs().map(|uvs| &uvs[..n]);
-        let faces = topology.face_indices();
-        let face_size = if topology.quad_indices().is_some() {
-            4
-        } else {
-            // Level 0 keeps the control faces.
-            self.face_size
-        };
-        let mut model = ClothModel::from_mesh(&positions, uvs, faces, face_size)?;
-        if let Some(masses) = &self.particle_masses {
-            let control_masses: Vec<DVec3> = masses
-                .iter()
-                .map(|&m| DVec3::new(f64::from(m), 0.0, 0.0))
-                .collect();
-            let mut spread = vec![DVec3::ZERO; n];
-            sub.apply_f64(&control_masses, &mut spread)?;
-            let total: f64 = masses.iter().map(|&m| f64::from(m)).sum();
-            let spread_total: f64 = spread.iter().map(|m| m.x).sum();
-            let scale = total / spread_total;
-            model = model
-                .with_particle_masses(spread.iter().map(|m| (m.x * scale) as f32).collect())?;
-        }
-        Ok(SubdividedModel {
-            model,
-            particle_map: topology.control_vertex_map().to_vec(),
-            mass_scale: (self.particle_count() as f64 / n as f64) as f32,
-        })
-    }
-
-    /// The control polygon mesh (rest positions, faces and UVs) that subdivision refines.
-    pub fn control_mesh(&self) -> Result<PolyMesh, SubdivisionError> {
-        let positions = self.rest_positions.iter().map(|p| p.as_dvec3());
-        let mesh = match self.face_size {
-            4 => PolyMesh::from_quads(positions, &self.faces)?,
-            _ => PolyMesh::from_triangles(positions, &self.faces)?,
-        };
-        mesh.with_vertex_uvs(&self.uvs)
-    }
-}
-
 /// Writes area-weighted smooth vertex normals of a triangle mesh into `normals` (same length as
 /// `positions`), without allocating. Vertices with no area around them get +Y.
 pub fn compute_normals(positions: &[Vec3], triangles: &[u32], normals: &mut [Vec3]) {
@@ -947,201 +639,5 @@ pub fn compute_normals(positions: &[Vec3], triangles: &[u32], normals: &mut [Vec
     }
     for n in normals.iter_mut() {
         *n = n.try_normalize().unwrap_or(Vec3::Y);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn grid_has_the_canonical_spring_counts() {
-        let (nx, ny) = (5u32, 4u32);
-        let m = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
-        let [s, sh, b] = m.springs.count_by_kind();
-        assert_eq!(s as u32, (nx - 1) * ny + nx * (ny - 1));
-        assert_eq!(sh as u32, 2 * (nx - 1) * (ny - 1));
-        assert_eq!(b as u32, (nx - 2) * ny + nx * (ny - 2));
-        assert_eq!(m.triangles.len() as u32, (nx - 1) * (ny - 1) * 6);
-        // particle (i, j) has index j * nx + i, spacing h along i and j.
-        let p = |i: u32, j: u32| m.rest_positions[(j * nx + i) as usize];
-        assert!((p(1, 0) - p(0, 0) - Vec3::new(0.1, 0.0, 0.0)).length() < 1e-6);
-        assert!((p(0, 1) - p(0, 0) - Vec3::new(0.0, 0.0, 0.1)).length() < 1e-6);
-    }
-
-    #[test]
-    fn a_quad_grid_mesh_gets_exactly_the_canonical_grid_springs() {
-        let g = ClothModel::grid(&GridSpec::new(6, 5, 0.1)).unwrap();
-        assert_eq!(g.face_size, 4);
-        let m = ClothModel::from_mesh(&g.rest_positions, None, &g.faces, 4).unwrap();
-        let set = |s: &Springs| {
-            let mut v: Vec<_> = (0..s.len())
-                .map(|k| (s.a[k].min(s.b[k]), s.a[k].max(s.b[k]), s.kind[k] as u8))
-                .collect();
-            v.sort_unstable();
-            v
-        };
-        assert_eq!(set(&m.springs), set(&g.springs));
-    }
-
-    #[test]
-    fn a_subdivided_grid_is_the_refined_quad_grid_with_its_mass() {
-        let (nx, ny) = (5u32, 4u32);
-        let n = (nx * ny) as usize;
-        let masses: Vec<f32> = (1..=n).map(|i| i as f32 * 0.01).collect();
-        let m = ClothModel::grid(&GridSpec::new(nx, ny, 0.1))
-            .unwrap()
-            .with_particle_masses(masses.clone())
-            .unwrap();
-        let r = m
-            .subdivided(1, VertexRule::Original, BoundaryMode::EdgeAndCorner)
-            .unwrap();
-        let (rx, ry) = (2 * nx - 1, 2 * ny - 1);
-        assert_eq!(r.model.particle_count(), (rx * ry) as usize);
-        assert_eq!(r.model.face_size, 4);
-        assert_eq!(
-            r.model.faces.len(),
-            4 * 4 * (nx - 1) as usize * (ny - 1) as usize
-        );
-        let [structural, shear, _] = r.model.springs.count_by_kind();
-        assert_eq!(structural as u32, (rx - 1) * ry + rx * (ry - 1));
-        assert_eq!(shear as u32, 2 * (rx - 1) * (ry - 1));
-        assert!((r.mass_scale - n as f32 / (rx * ry) as f32).abs() < 1e-7);
-        // A flat uniform grid with fixed corners reproduces itself: every particle keeps its
-        // rest position, now as the vertex point named by the map.
-        assert_eq!(r.particle_map.len(), n);
-        for (i, &j) in r.particle_map.iter().enumerate() {
-            let d = m.rest_positions[i].distance(r.model.rest_positions[j as usize]);
-            assert!(d < 1e-6, "particle {i} moved by {d}");
-        }
-        let refined = r
-            .model
-            .particle_masses
-            .as_ref()
-            .expect("masses carried over");
-        let (before, after) = (masses.iter().sum::<f32>(), refined.iter().sum::<f32>());
-        assert!((after / before - 1.0).abs() < 1e-5, "{before} vs {after}");
-        assert!(refined.iter().all(|&m| m > 0.0));
-        r.model.validate().unwrap();
-    }
-
-    #[test]
-    fn colours_never_share_a_particle() {
-        let m = ClothModel::grid(&GridSpec::new(9, 7, 0.1)).unwrap();
-        let s = &m.springs;
-        for c in 0..s.color_count() {
-            let mut seen = vec![false; m.particle_count()];
-            for k in s.color_offsets[c] as usize..s.color_offsets[c + 1] as usize {
-                for p in [s.a[k], s.b[k]] {
-                    assert!(!seen[p as usize], "colour {c} uses particle {p} twice");
-                    seen[p as usize] = true;
-                }
-            }
-        }
-        assert_eq!(*s.color_offsets.last().unwrap() as usize, s.len());
-        assert!(s.color_count() <= 23, "{} colours", s.color_count());
-    }
-
-    #[test]
-    fn grid_normals_face_up() {
-        let m = ClothModel::grid(&GridSpec::new(4, 4, 0.1)).unwrap();
-        let mut n = vec![Vec3::ZERO; m.particle_count()];
-        compute_normals(&m.rest_positions, &m.triangles, &mut n);
-        assert!(n.iter().all(|n| (*n - Vec3::Y).length() < 1e-6));
-        let v =
-            ClothModel::grid(&GridSpec::new(4, 4, 0.1).with_plane(GridPlane::Vertical)).unwrap();
-        compute_normals(&v.rest_positions, &v.triangles, &mut n);
-        assert!(n.iter().all(|n| (*n - Vec3::Z).length() < 1e-6));
-    }
-
-    #[test]
-    fn bad_grids_name_the_field() {
-        let e = ClothModel::grid(&GridSpec::new(1, 4, 0.1)).unwrap_err();
-        assert!(
-            e.to_string().contains("nx") && e.to_string().contains('1'),
-            "{e}"
-        );
-        let e = ClothModel::grid(&GridSpec::new(4, 0, 0.1)).unwrap_err();
-        assert!(e.to_string().contains("ny"), "{e}");
-        for h in [0.0, -1.0, f32::NAN, f32::INFINITY] {
-            let e = ClothModel::grid(&GridSpec::new(4, 4, h)).unwrap_err();
-            assert!(e.to_string().contains("spacing"), "{e}");
-        }
-    }
-
-    #[test]
-    fn mesh_cloth_from_two_triangles() {
-        let p = [Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)];
-        let m = ClothModel::from_mesh(&p, None, &[0, 2, 1, 1, 2, 3], 3).unwrap();
-        // 5 edges, one interior edge (1-2) whose opposite vertices 0 and 3 get a bend spring.
-        assert_eq!(m.springs.count_by_kind(), [5, 0, 1]);
-        assert_eq!(m.triangles, vec![0, 2, 1, 1, 2, 3]);
-    }
-
-    #[test]
-    fn bad_meshes_are_errors() {
-        let p = [Vec3::ZERO, Vec3::X, Vec3::Z];
-        assert!(matches!(
-            ClothModel::from_mesh(&p, None, &[], 3),
-            Err(ClothError::InvalidMesh { .. })
-        ));
-        assert!(matches!(
-            ClothModel::from_mesh(&[], None, &[0, 1, 2], 3),
-            Err(ClothError::InvalidMesh { .. })
-        ));
-        assert_eq!(
-            ClothModel::from_mesh(&p, None, &[0, 1, 7], 3).unwrap_err(),
-            ClothError::MeshIndexOutOfRange {
-                index: 7,
-                position: 2,
-                count: 3
-            }
-        );
-        assert!(ClothModel::from_mesh(&p, None, &[0, 1], 3).is_err());
-    }
-
-    #[test]
-    fn built_models_are_valid_and_broken_ones_are_errors() {
-        let m = ClothModel::grid(&GridSpec::new(5, 4, 0.1)).unwrap();
-        assert_eq!(m.validate(), Ok(()));
-        let mut t = m.clone();
-        t.triangles[4] = 99;
-        assert!(matches!(
-            t.validate(),
-            Err(ClothError::MeshIndexOutOfRange { index: 99, .. })
-        ));
-        let mut u = m.clone();
-        u.uvs.pop();
-        assert!(u.validate().unwrap_err().to_string().contains("texture"));
-        let mut s = m.clone();
-        s.springs.rest[3] = 0.0;
-        assert!(s.validate().unwrap_err().to_string().contains("spring 3"));
-        let mut c = m.clone();
-        let last = c.springs.color_offsets.len() - 1;
-        c.springs.color_offsets[last] += 1;
-        assert!(c.validate().unwrap_err().to_string().contains("partition"));
-        // Two springs of colour 0 that share particle 0.
-        let mut shared = m.clone();
-        shared.springs.a[1] = shared.springs.a[0];
-        let first_colour_len = shared.springs.color_offsets[1];
-        assert!(first_colour_len >= 2);
-        assert!(shared.validate().unwrap_err().to_string().contains("twice"));
-        let mut f = m;
-        f.face_size = 5;
-        assert!(f.validate().unwrap_err().to_string().contains("3 or 4"));
-    }
-
-    #[test]
-    fn particle_masses_are_checked() {
-        let m = ClothModel::grid(&GridSpec::new(2, 2, 0.1)).unwrap();
-        assert_eq!(m.mass_of(1, 0.25), 0.25);
-        assert!(m.clone().with_particle_masses(vec![1.0; 3]).is_err());
-        let e = m
-            .clone()
-            .with_particle_masses(vec![1.0, 1.0, -2.0, 1.0])
-            .unwrap_err();
-        assert!(e.to_string().contains("particle_masses"), "{e}");
-        let m = m.with_particle_masses(vec![1.0, 2.0, 3.0, 4.0]).unwrap();
-        assert_eq!(m.mass_of(2, 0.25), 3.0);
     }
 }

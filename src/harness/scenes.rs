@@ -7,8 +7,8 @@
 
 use glam::{DVec3, Vec3};
 
-use super::{ClothModel, ClothSim, GridPlane, GridSpec, SolverSettings, Stiffness};
 use crate::error::ClothError;
+use crate::sim::{ClothModel, ClothSim, GridPlane, GridSpec, SolverSettings, Stiffness};
 
 /// One of the accuracy benchmark scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -23,13 +23,12 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
 use glam::{Quat, Vec3};
 
-use super::aero::Gusts;
-use super::collision::{Collider, ColliderShape, Friction, Pose};
-use super::model::{ClothModel, GridSpec};
-use super::solver::{ClothSim, Environment, Integrator, SolverSettings, Stiffness};
-use super::wind::WindField;
 use crate::error::ClothError;
 use crate::hash::{GOLDEN_GAMMA, mix64};
+use crate::sim::{
+    ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
+    Integrator, Pose, SolverSettings, Stiffness, WindField,
+};
 
 /// How deep (m) a free particle may end a step inside a collider before the case fails.
 pub const CLEARANCE_TOLERANCE: f32 = 1e-3;

@@ -12,8 +12,8 @@
 
 use glam::DVec3;
 
-use super::ClothSim;
 use crate::error::ClothError;
+use crate::sim::ClothSim;
 
 /// The tolerance the accuracy benchmark uses for its reference solutions.
 pub const REFERENCE_TOLERANCE: f64 = 1e-10;

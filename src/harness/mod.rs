@@ -1,0 +1,74 @@
+//! The test and benchmark harness (feature `harness`; the crate's own tests, benchmarks and
+//! `cloth_cli` turn it on): a [`headless_app`] that steps one fixed step per update, the
+//! [`stress`] suite, the accuracy [`scenes`] and their f64 [`reference`] solution, and state
+//! fingerprints for bit-for-bit regression checks ([`stress::state_hash`], [`scene_state_hash`]).
+//! None of it is needed to simulate cloth in a game.
+
+pub mod reference;
+pub mod scenes;
+pub mod stress;
+
+use bevy::app::App;
+use bevy::time::{Fixed, Time};
+
+use crate::components::{ClothInvalid, ClothState};
+use crate::error::ClothError;
+use crate::plugin::validate_fixed_step;
+#[cfg(doc)]
+use crate::plugin::{MAX_FIXED_STEP, MIN_FIXED_STEP};
+
+/// [`try_headless_app`] for a step known to be valid.
+///
+/// # Panics
+/// If `dt` is outside [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] (NaN included).
+pub fn headless_app(dt: f32) -> App {
+    try_headless_app(dt).unwrap_or_else(|e| panic!("headless_app: {e}"))
+}
+
+/// A windowless app ready for cloths: `MinimalPlugins`, transforms, assets, meshes,
+/// [`ClothPlugin`](crate::ClothPlugin) and [`ScenePlugin`](crate::scene::ScenePlugin), with a fixed step of `dt` seconds and manual time so that every `update()` runs
+/// exactly one fixed step. It has already been updated once (Bevy's first update has zero delta).
+/// A cloth spawned now is built at the end of the next `update()` (after that update's fixed step),
+/// so it starts at rest and steps from the update after. A step outside
+/// [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] is an error (see [`validate_fixed_step`]).
+///
+pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
+    validate_fixed_step(dt)?;
+    let mut app = App::new();
+    app.add_plugins((
+        bevy::MinimalPlugins,
+        bevy::transform::TransformPlugin,
+        bevy::asset::AssetPlugin::default(),
+        bevy::mesh::MeshPlugin,
+        crate::ClothPlugin::default(),
+        crate::scene::ScenePlugin,
+    ))
+    .insert_resource(Time::<Fixed>::from_seconds(dt as f64))
+    .insert_resource(bevy::time::TimeUpdateStrategy::FixedTimesteps(1));
+    app.finish();
+    app.cleanup();
+    app.update();
+    Ok(app)
+}
+
+/// Loads the RON scene at `path` into a [`headless_app`], runs `frames` fixed steps and returns
+/// the [`state_hash`](crate::sim::stress::state_hash) of its cloth: a bit-for-bit fingerprint of
+/// the whole plugin path (pins, colliders, wind, scheduling) for regression checks.
+pub fn scene_state_hash(path: &std::path::Path, frames: u32) -> Result<u64, ClothError> {
+    let scene = crate::scene::ClothScene::load(path)?;
+    let mut app = try_headless_app(scene.dt)?;
+    let entity = scene.spawn(app.world_mut())?;
+    for _ in 0..=frames {
+        app.update();
+    }
+    if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
+        return Err(e.clone());
+    }
+    let state = app
+        .world()
+        .get::<ClothState>(entity)
+        .ok_or_else(|| ClothError::InvalidMesh {
+            what: format!("{}: the cloth was not built", path.display()),
+        })?;
+    Ok(stress::state_hash(state.sim()))
+}

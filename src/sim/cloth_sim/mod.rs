@@ -1,0 +1,642 @@
+//! [`ClothSim`]: a simulated cloth, its model, settings, particle state, pins and steppers,
+//! stepped among the colliders and air of an [`Environment`]; it chooses the integrator
+//! ([`Integrator::Auto`]) and the substeps, puts a quiet cloth to sleep, and stops a runaway one.
+//!
+//! Plain data in, plain data out: no ECS types, no allocation inside [`ClothSim::step`]. Every
+//! buffer a step touches is sized when the cloth is built (or when pins or settings change).
+
+use glam::Vec3;
+
+use super::contact::{Collider, Contacts, bounds};
+use super::forces::{SpringSet, max_frequency_bound};
+use super::integrate::{Spread, Step, Steppers};
+use super::model::{ClothModel, SpringKind};
+use super::settings::{
+    AUTO_MAX_STRETCH, Integrator, MAX_SUBSTEPS, STABILITY_FRACTION, SolverSettings,
+};
+use super::state::{Energy, Particles, PinState, max_length};
+use super::wind::{WindField, WindScratch};
+use crate::error::ClothError;
+
+#[cfg(test)]
+mod tests;
+
+/// A simulated cloth: its model, particle state (structure of arrays) and pins.
+///
+/// Positions are in world space. Pinned particles have inverse mass 0 and move to their target,
+/// linearly interpolated across the substeps of a step.
+#[derive(Debug, Clone)]
+pub struct ClothSim {
+    model: ClothModel,
+    settings: SolverSettings,
+    /// Positions, velocities and masses.
+    particles: Particles,
+    /// Per-spring stiffness `k` (N/m).
+    stiffness: Vec<f32>,
+    pins: Vec<PinState>,
+    /// Each integrator's stepper and scratch.
+    pub(super) steppers: Steppers,
+    /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
+    omega_max: f32,
+    /// The longest spring's rest length, m: a pin moving farther in one step makes
+    /// [`Integrator::Auto`] choose XPBD.
+    longest_spring: f32,
+    /// The integrator of the current (or last) step: the configured one, or
+    /// [`Integrator::Auto`]'s choice.
+    active: Integrator,
+    /// Colliders that passed this step's broad phase, and substep scratch for contacts.
+    contacts: Contacts,
+    /// The wind at each triangle for this step.
+    wind: WindScratch,
+    steps: u64,
+    sleep: Sleep,
+    /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).
+    contact_work: Option<f64>,
+    /// Positions at the start of the current step, for the sleep test (empty when sleeping is off).
+    step_start: Vec<Vec3>,
+    runaway: Runaway,
+}
+
+/// Steps of consecutive energy growth after which an explicit integrator past its stability limit
+/// is declared unstable.
+const RUNAWAY_STEPS: u32 = 5;
+/// Growth per step of the kinetic plus elastic energy that counts towards a runaway.
+const RUNAWAY_GROWTH: f64 = 1.5;
+
+/// Energy watch for the explicit integrators when they run past `h ω_max < 2`.
+#[derive(Debug, Clone, Copy, Default)]
+struct Runaway {
+    /// Kinetic plus elastic energy after the last step, J.
+    energy: f64,
+    /// Energy when the current streak of growth began, J.
+    streak_start: f64,
+    /// Consecutive steps in which the energy grew by at least [`RUNAWAY_GROWTH`].
+    streak: u32,
+}
+
+/// The sleeping state of a cloth (see [`SolverSettings::sleep_speed`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct Sleep {
+    /// Consecutive steps with every free particle slower than the threshold.
+    quiet_steps: u32,
+    /// Asleep: steps are skipped until something wakes the cloth.
+    asleep: bool,
+    /// Colliders in reach when the cloth fell asleep (one arriving or leaving wakes it).
+    colliders: usize,
+    /// Whether the last step was skipped.
+    skipped: bool,
+    /// The cloth's bounding box while asleep.
+    bounds: (Vec3, Vec3),
+}
+
+/// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),
+/// which of them this cloth collides with, and the air.
+#[derive(Debug, Clone, Copy)]
+pub struct Environment<'a> {
+    /// Colliders near or far; the broad phase drops the ones the cloth cannot reach.
+    pub colliders: &'a [Collider],
+    /// The cloth collides with a collider when `collider.layers & collision_mask != 0`.
+    pub collision_mask: u32,
+    /// The air; `None` means no aerodynamic forces at all (not even drag in still air).
+    pub wind: Option<&'a WindField>,
+}
+
+impl Default for Environment<'_> {
+    /// Nothing around: no colliders, every layer, no air.
+    fn default() -> Self {
+        Self {
+            colliders: &[],
+            collision_mask: u32::MAX,
+            wind: None,
+        }
+    }
+}
+
+impl ClothSim {
+    /// Creates a cloth at rest, its particles at `model.rest_positions` mapped by `to_world`.
+    pub fn new(
+        model: ClothModel,
+        settings: SolverSettings,
+        to_world: impl Fn(Vec3) -> Vec3,
+    ) -> Result<Self, ClothError> {
+        settings.validate()?;
+        // The steppers' vector kernels and threads rely on a consistent model (indices in range,
+        // a proper colouring, a truthful grid): checked here, where every model enters.
+        model.validate()?;
+        let n = model.particle_count();
+        let positions: Vec<Vec3> = model.rest_positions.iter().map(|p| to_world(*p)).collect();
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(ClothError::InvalidMesh {
+                what: format!("vertex {i} has a non-finite world position"),
+            });
+        }
+        let springs = model.springs.len();
+        let mut sim = Self {
+            particles: Particles {
+                positions,
+                velocities: vec![Vec3::ZERO; n],
+                mass: vec![0.0; n],
+                inv_mass: vec![0.0; n],
+            },
+            stiffness: vec![0.0; springs],
+            steppers: Steppers::default(),
+            omega_max: 0.0,
+            longest_spring: model.springs.rest.iter().copied().fold(0.0, f32::max),
+            active: settings.integrator,
+            contacts: Contacts::new(n, model.max_edge_length()),
+            wind: WindScratch::new(n, model.triangles.len() / 3),
+            pins: Vec::new(),
+            model,
+            settings,
+            steps: 0,
+            sleep: Sleep::default(),
+            contact_work: None,
+            step_start: Vec::with_capacity(n),
+            runaway: Runaway::default(),
+        };
+        sim.apply_settings();
+        Ok(sim)
+    }
+
+    /// The topology this cloth was built from.
+    pub fn model(&self) -> &ClothModel {
+        &self.model
+    }
+
+    /// Current particle positions (world space).
+    pub fn positions(&self) -> &[Vec3] {
+        &self.particles.positions
+    }
+
+    /// Current particle velocities.
+    pub fn velocities(&self) -> &[Vec3] {
+        &self.particles.velocities
+    }
+
+    /// Sets every particle's velocity (for tests and initial conditions).
+    pub fn set_velocities(&mut self, velocity: Vec3) {
+        self.particles.velocities.fill(velocity);
+        self.wake();
+    }
+
+    /// Wakes a sleeping cloth (see [`SolverSettings::sleep_speed`]); it steps again from the
+    /// next step and may fall asleep again after `sleep_steps` quiet steps.
+    pub fn wake(&mut self) {
+        self.sleep = Sleep::default();
+    }
+
+    /// Whether the cloth is asleep: its steps are skipped until something wakes it.
+    pub fn is_sleeping(&self) -> bool {
+        self.sleep.asleep
+    }
+
+    /// Whether the last step was skipped because the cloth was asleep (its positions did not
+    /// change).
+    pub fn slept_last_step(&self) -> bool {
+        self.sleep.skipped
+    }
+
+    /// Current settings.
+    pub fn settings(&self) -> &SolverSettings {
+        &self.settings
+    }
+
+    /// Number of steps taken so far.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Replaces the settings, after validating them. Cheap (one pass over springs and particles);
+    /// intended for runtime edits, not for calling every step.
+    pub fn set_settings(&mut self, settings: SolverSettings) -> Result<(), ClothError> {
+        settings.validate()?;
+        self.settings = settings;
+        self.apply_settings();
+        self.wake();
+        Ok(())
+    }
+
+    /// Recomputes everything derived from settings, masses and pins: per-spring stiffness and
+    /// compliance, inverse masses, the frequency bound, and (for implicit Euler) its scratch buffers.
+    /// Runs at construction and on edits, never inside a step.
+    fn apply_settings(&mut self) {
+        let s = &self.model.springs;
+        for (k, kind) in self.stiffness.iter_mut().zip(&s.kind) {
+            *k = self.settings.stiffness.of(*kind);
+        }
+        let p = &mut self.particles;
+        for (i, (m, w)) in p.mass.iter_mut().zip(&mut p.inv_mass).enumerate() {
+            *m = self.model.mass_of(i, self.settings.particle_mass);
+            *w = 1.0 / *m;
+        }
+        for pin in &self.pins {
+            p.inv_mass[pin.particle as usize] = 0.0;
+        }
+        let mut scratch = vec![0.0; self.particles.positions.len()];
+        self.omega_max =
+            max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
+        self.steppers.prepare(
+            self.settings.integrator,
+            &self.model,
+            &self.stiffness,
+            &self.particles.inv_mass,
+        );
+        self.active = self.choose_integrator(1.0 / 60.0);
+    }
+
+    /// The springs with their current stiffness, for the force kernel.
+    fn spring_set(&self) -> SpringSet<'_> {
+        let s = &self.model.springs;
+        SpringSet {
+            a: &s.a,
+            b: &s.b,
+            rest: &s.rest,
+            k: &self.stiffness,
+        }
+    }
+
+    /// An upper bound on the highest angular frequency of the cloth's springs about rest, in rad/s
+    /// (Gershgorin's bound from each free particle's springs and mass; pins count as infinite mass).
+    /// Explicit integrators need a substep `h < 2/ω_max`.
+    pub fn max_frequency(&self) -> f32 {
+        self.omega_max
+    }
+
+    /// Number of substeps a step of `dt` seconds takes: `substeps`, raised to the stability bound
+    /// for the explicit integrators when [`SolverSettings::auto_substeps`] is on, and at most
+    /// [`MAX_SUBSTEPS`].
+    pub fn substeps_for(&self, dt: f32) -> u32 {
+        let n = self.settings.substeps;
+        if !(self.settings.auto_substeps && self.settings.integrator.is_explicit()) {
+            return n;
+        }
+        n.max(self.stable_substeps(dt).min(MAX_SUBSTEPS))
+    }
+
+    /// The fewest substeps per step of `dt` seconds at which the explicit integrators are within
+    /// their stability bound, `h ≤ STABILITY_FRACTION · 2/ω_max` (see
+    /// [`max_frequency`](Self::max_frequency)); `u32::MAX` if no count is.
+    pub fn stable_substeps(&self, dt: f32) -> u32 {
+        let needed = (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil();
+        if needed.is_finite() && needed < u32::MAX as f32 {
+            (needed as u32).max(1)
+        } else {
+            u32::MAX
+        }
+    }
+
+    /// The integrator the current (or last) step used: the configured one, or the one
+    /// [`Integrator::Auto`] chose for it (before the first step, its choice for a step of 1/60 s).
+    pub fn active_integrator(&self) -> Integrator {
+        self.active
+    }
+
+    /// The method for a step of `dt`: the configured one, or [`Integrator::Auto`]'s choice.
+    fn choose_integrator(&self, dt: f32) -> Integrator {
+        let s = &self.settings;
+        if s.integrator != Integrator::Auto {
+            return s.integrator;
+        }
+        let jump = self
+            .pins
+            .iter()
+            .any(|p| p.from.distance(p.to) > self.longest_spring);
+        if self.stable_substeps(dt) <= s.substeps && !jump && !self.overstretched() {
+            Integrator::Verlet
+        } else {
+            Integrator::Xpbd
+        }
+    }
+
+    /// Whether a spring is stretched by more than [`AUTO_MAX_STRETCH`] of its rest length. A
+    /// force-based integrator would release that elastic energy as motion (a teleported pin flings
+    /// the cloth), so [`Integrator::Auto`] leaves such a state to XPBD until it has relaxed.
+    fn overstretched(&self) -> bool {
+        let s = &self.model.springs;
+        let x = &self.particles.positions;
+        s.a.iter().zip(&s.b).zip(&s.rest).any(|((&a, &b), &rest)| {
+            x[a as usize].distance_squared(x[b as usize])
+                > (rest * (1.0 + AUTO_MAX_STRETCH)).powi(2)
+        })
+    }
+
+    /// Conjugate-gradient iterations taken in the last substep of implicit Euler (0 before the first
+    /// implicit step, and for the other integrators).
+    pub fn cg_iterations(&self) -> u32 {
+        self.steppers.cg_iterations()
+    }
+
+    /// Mass of each particle, kg (pinned ones included).
+    pub fn masses(&self) -> &[f32] {
+        &self.particles.mass
+    }
+
+    /// Starts adding up the energy that contact responses put into the cloth: the increase of its
+    /// total energy (kinetic, gravitational and elastic) across each response that raises it. A
+    /// collider sweeping through a cloth stretches its springs and hands it its speed; the stress
+    /// suite allows the cloth that energy. Costs an energy evaluation (one pass over the springs)
+    /// before and after each substep's contact response.
+    #[cfg(any(test, feature = "harness"))]
+    pub(crate) fn track_contact_work(&mut self) {
+        self.contact_work.get_or_insert(0.0);
+    }
+
+    /// The energy added up since [`track_contact_work`](Self::track_contact_work), J (`None` when
+    /// not tracking).
+    #[cfg(any(test, feature = "harness"))]
+    pub(crate) fn contact_work(&self) -> Option<f64> {
+        self.contact_work
+    }
+
+    /// Kinetic, gravitational and elastic energy of the free particles (see [`Energy`]).
+    pub fn energy(&self) -> Energy {
+        self.particles
+            .energy(self.spring_set(), self.settings.gravity)
+    }
+
+    /// Indices of the pinned particles.
+    pub fn pinned(&self) -> impl Iterator<Item = u32> + '_ {
+        self.pins.iter().map(|p| p.particle)
+    }
+
+    /// Replaces the pin set. Each pin is `(particle, target)`; a particle pinned for the first time
+    /// moves to its target over the next step. Particles no longer listed are released with their
+    /// current velocity.
+    pub fn set_pins(
+        &mut self,
+        pins: impl IntoIterator<Item = (u32, Vec3)>,
+    ) -> Result<(), ClothError> {
+        let count = self.particles.positions.len();
+        let mut new = Vec::new();
+        for (particle, target) in pins {
+            if particle as usize >= count {
+                return Err(ClothError::PinOutOfRange {
+                    index: particle,
+                    count,
+                });
+            }
+            if !target.is_finite() {
+                return Err(ClothError::InvalidValue {
+                    field: "pin target",
+                    expected: "finite",
+                    value: f64::NAN,
+                });
+            }
+            let from = self.particles.positions[particle as usize];
+            new.push(PinState {
+                particle,
+                from,
+                to: target,
+            });
+        }
+        self.pins = new;
+        self.apply_settings();
+        self.wake();
+        Ok(())
+    }
+
+    /// Moves the targets of existing pins, in the order given to [`Self::set_pins`]. The pinned
+    /// particles travel from their current target to the new one across the next step.
+    pub fn move_pins(&mut self, targets: impl IntoIterator<Item = Vec3>) {
+        for (pin, target) in self.pins.iter_mut().zip(targets) {
+            if target.is_finite() {
+                pin.to = target;
+            }
+        }
+    }
+
+    /// Kinetic energy of the free particles, J.
+    pub fn kinetic_energy(&self) -> f32 {
+        self.particles
+            .velocities
+            .iter()
+            .zip(self.particles.inv_mass.iter().zip(&self.particles.mass))
+            .filter(|(_, (w, _))| **w > 0.0)
+            .map(|(v, (_, m))| 0.5 * m * v.length_squared())
+            .sum()
+    }
+
+    /// Largest relative stretch `(|d| - L) / L` over the springs of `kind`.
+    pub fn max_strain(&self, kind: SpringKind) -> f32 {
+        let s = &self.model.springs;
+        (0..s.len())
+            .filter(|&k| s.kind[k] == kind)
+            .map(|k| {
+                let d = self.particles.positions[s.a[k] as usize]
+                    .distance(self.particles.positions[s.b[k] as usize]);
+                (d - s.rest[k]) / s.rest[k]
+            })
+            .fold(0.0, f32::max)
+    }
+
+    /// Advances the cloth by `dt` seconds with nothing around it (see [`Self::step_in`]).
+    pub fn step(&mut self, dt: f32) -> Result<(), ClothError> {
+        self.step_in(dt, &Environment::default())
+    }
+
+    /// Number of colliders that passed the broad phase of the last step.
+    pub fn active_colliders(&self) -> usize {
+        self.contacts.active_count()
+    }
+
+    /// Advances the cloth by `dt` seconds among the colliders of `env`. Returns an error (and
+    /// leaves the state as it was at the failure) if a position became non-finite; the caller
+    /// should stop stepping this cloth.
+    pub fn step_in(&mut self, dt: f32, env: &Environment) -> Result<(), ClothError> {
+        self.step_spread(dt, env, None)
+    }
+
+    /// [`Self::step_in`] with another thread from `spread`: XPBD projects each colour of a large
+    /// cloth (about 20,000 springs or more) in two shares at once. The result is bit-identical to
+    /// [`Self::step_in`]'s; other integrators and smaller cloths ignore `spread`.
+    pub fn step_in_parallel(
+        &mut self,
+        dt: f32,
+        env: &Environment,
+        spread: &dyn Spread,
+    ) -> Result<(), ClothError> {
+        self.step_spread(dt, env, Some(spread))
+    }
+
+    fn step_spread(
+        &mut self,
+        dt: f32,
+        env: &Environment,
+        spread: Option<&dyn Spread>,
+    ) -> Result<(), ClothError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Ok(());
+        }
+        self.active = self.choose_integrator(dt);
+        let substeps = self.substeps_for(dt);
+        if env.colliders.is_empty() {
+            self.contacts
+                .begin_step(&[], 0, (Vec3::ONE, Vec3::ZERO), 0.0, dt);
+        } else {
+            // Asleep, the cloth has not moved since it fell asleep: its box is kept, and every
+            // particle is slower than the sleep threshold.
+            let (bounds, reach) = if self.sleep.asleep {
+                (
+                    self.sleep.bounds,
+                    self.reach_bound(dt, self.settings.sleep_speed),
+                )
+            } else {
+                let speed = max_length(&self.particles.velocities);
+                // Never below the sleep threshold, so that falling asleep does not change which
+                // colliders are in reach.
+                let speed = speed.max(self.settings.sleep_speed);
+                (
+                    bounds(&self.particles.positions),
+                    self.reach_bound(dt, speed),
+                )
+            };
+            self.contacts
+                .begin_step(env.colliders, env.collision_mask, bounds, reach, dt);
+        }
+        if self.sleeps_through(env) {
+            self.steps += 1;
+            self.sleep.skipped = true;
+            return Ok(());
+        }
+        self.sleep.skipped = false;
+        if self.settings.sleep_speed > 0.0 {
+            self.step_start.clear();
+            self.step_start.extend_from_slice(&self.particles.positions);
+        }
+        self.wind.begin_step(
+            env.wind,
+            (
+                self.settings.drag_coefficient,
+                self.settings.lift_coefficient,
+            ),
+            &self.particles.positions,
+            &self.particles.velocities,
+            (&self.particles.inv_mass, dt),
+            &self.model.triangles,
+        );
+        let mut step = Step {
+            model: &self.model,
+            settings: &self.settings,
+            stiffness: &self.stiffness,
+            pins: &self.pins,
+            wind: &self.wind,
+            particles: &mut self.particles,
+            contacts: &mut self.contacts,
+            contact_work: &mut self.contact_work,
+        };
+        // `choose_integrator` never leaves `Auto` active.
+        self.steppers
+            .step(self.active, &mut step, (dt, substeps), spread);
+        self.steps += 1;
+        for pin in &mut self.pins {
+            pin.from = pin.to;
+        }
+        if let Some(particle) = self.particles.positions.iter().position(|p| !p.is_finite()) {
+            return Err(ClothError::Diverged {
+                step: self.steps,
+                particle,
+                dt,
+                substeps,
+            });
+        }
+        self.check_runaway(dt, substeps)?;
+        self.update_sleep(env, dt);
+        Ok(())
+    }
+
+    /// For an explicit integrator run past its stability bound (`h ω_max ≥ 2`, possible with
+    /// `auto_substeps` off or at [`MAX_SUBSTEPS`]): an error once the kinetic plus elastic energy
+    /// has grown by [`RUNAWAY_GROWTH`]× in each of [`RUNAWAY_STEPS`] consecutive steps, the
+    /// signature of an unstable mode (gravity, pins or wind add energy far more slowly). Within
+    /// the bound this costs nothing.
+    fn check_runaway(&mut self, dt: f32, substeps: u32) -> Result<(), ClothError> {
+        let h = dt / substeps as f32;
+        let h_omega = h * self.omega_max;
+        if !(self.active.is_explicit() && h_omega >= 2.0) {
+            self.runaway = Runaway::default();
+            return Ok(());
+        }
+        let e = self.energy();
+        let energy = e.kinetic + e.elastic;
+        let r = &mut self.runaway;
+        if energy > RUNAWAY_GROWTH * r.energy && energy > 1e-12 {
+            if r.streak == 0 {
+                r.streak_start = r.energy.max(f64::MIN_POSITIVE);
+            }
+            r.streak += 1;
+        } else {
+            r.streak = 0;
+        }
+        r.energy = energy;
+        if r.streak >= RUNAWAY_STEPS {
+            return Err(ClothError::Unstable {
+                integrator: self.active.name(),
+                step: self.steps,
+                h,
+                omega_max: self.omega_max,
+                h_omega,
+                substeps_needed: (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil() as u32,
+                growth: energy / r.streak_start,
+                steps: r.streak,
+            });
+        }
+        Ok(())
+    }
+
+    /// Whether this step can be skipped: the cloth is asleep and nothing wakes it (no pin moves,
+    /// no wind, no collider in reach moves, arrives or leaves). Runs after the broad phase.
+    fn sleeps_through(&mut self, env: &Environment) -> bool {
+        if !self.sleep.asleep {
+            return false;
+        }
+        let disturbed = env.wind.is_some()
+            || self.pins.iter().any(|p| p.from != p.to)
+            || self.contacts.any_moving()
+            || self.contacts.active_count() != self.sleep.colliders;
+        if disturbed {
+            self.wake();
+            return false;
+        }
+        true
+    }
+
+    /// Counts quiet steps after a step that ran, and puts the cloth to sleep after enough of them.
+    fn update_sleep(&mut self, env: &Environment, dt: f32) {
+        let threshold = self.settings.sleep_speed;
+        if threshold <= 0.0 || env.wind.is_some() || self.pins.iter().any(|p| p.from != p.to) {
+            self.sleep.quiet_steps = 0;
+            return;
+        }
+        let limit = threshold * dt;
+        // Far from the origin f32 cannot hold a cloth's springs at their rest lengths, and a
+        // cloth at rest there jitters by a few of its positions' representable steps: that much
+        // movement counts as quiet too.
+        let quiet = self
+            .particles
+            .positions
+            .iter()
+            .zip(&self.step_start)
+            .zip(&self.particles.inv_mass)
+            .all(|((x, x0), w)| {
+                let jitter = 4.0 * f32::EPSILON * x0.abs().max_element();
+                *w == 0.0 || x.distance_squared(*x0) < (limit + jitter).powi(2)
+            });
+        self.sleep.quiet_steps = if quiet { self.sleep.quiet_steps + 1 } else { 0 };
+        if self.sleep.quiet_steps >= self.settings.sleep_steps {
+            self.sleep.asleep = true;
+            self.sleep.colliders = self.contacts.active_count();
+            self.sleep.bounds = bounds(&self.particles.positions);
+        }
+    }
+
+    /// A generous bound on how far any particle can move in a step of `dt` when none is faster
+    /// than `speed`: twice its free flight, plus gravity, plus the farthest pin jump.
+    fn reach_bound(&self, dt: f32, speed: f32) -> f32 {
+        let pin_jump = self
+            .pins
+            .iter()
+            .map(|p| p.from.distance(p.to))
+            .fold(0.0, f32::max);
+        2.0 * speed * dt + self.settings.gravity.length() * dt * dt + pin_jump
+    }
+}

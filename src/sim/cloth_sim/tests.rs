@@ -1,0 +1,184 @@
+
+use super::*;
+use crate::sim::GridSpec;
+use crate::sim::Stiffness;
+
+fn sim(nx: u32, settings: SolverSettings) -> ClothSim {
+    ClothSim::new(
+        ClothModel::grid(&GridSpec::new(nx, nx, 0.1)).unwrap(),
+        settings,
+        |p| p,
+    )
+    .unwrap()
+}
+
+#[test]
+fn auto_runs_verlet_within_its_stability_bound_and_xpbd_otherwise() {
+    let dt = 1.0 / 60.0;
+    let build = |integrator, substeps, structural| {
+        let settings = SolverSettings {
+            integrator,
+            substeps,
+            auto_substeps: false,
+            stiffness: Stiffness {
+                structural,
+                ..Stiffness::default()
+            },
+            ..Default::default()
+        };
+        let mut s = sim(16, settings);
+        s.set_pins([(0, s.positions()[0]), (15, s.positions()[15])])
+            .unwrap();
+        s
+    };
+    let bound = build(Integrator::Auto, 20, 5_000.0).stable_substeps(dt);
+    assert!(bound > 20 && bound < 1_000, "bound {bound}");
+    // Below the bound Auto is XPBD, from it on Verlet: the same steps, bit for bit.
+    for (substeps, method) in [(bound - 1, Integrator::Xpbd), (bound, Integrator::Verlet)] {
+        let mut auto = build(Integrator::Auto, substeps, 5_000.0);
+        let mut plain = build(method, substeps, 5_000.0);
+        for _ in 0..20 {
+            auto.step(dt).unwrap();
+            plain.step(dt).unwrap();
+            assert_eq!(auto.active_integrator(), method);
+        }
+        assert_eq!(auto.positions(), plain.positions(), "{substeps} substeps");
+        assert_eq!(auto.velocities(), plain.velocities());
+    }
+    // A pin jumping farther than the longest spring: XPBD for that step, and on while a
+    // spring is stretched by more than `AUTO_MAX_STRETCH`; then Verlet again.
+    let mut auto = build(Integrator::Auto, bound, 5_000.0);
+    auto.step(dt).unwrap();
+    assert_eq!(auto.active_integrator(), Integrator::Verlet);
+    let (a, b) = (auto.positions()[0], auto.positions()[15]);
+    auto.move_pins([a + Vec3::X, b + Vec3::X]);
+    auto.step(dt).unwrap();
+    assert_eq!(auto.active_integrator(), Integrator::Xpbd);
+    assert!(auto.overstretched(), "the jump leaves springs stretched");
+    let mut steps = 0;
+    while auto.active_integrator() == Integrator::Xpbd && steps < 600 {
+        auto.step(dt).unwrap();
+        steps += 1;
+    }
+    assert_eq!(
+        auto.active_integrator(),
+        Integrator::Verlet,
+        "{steps} steps"
+    );
+    // Too stiff for any affordable substep count: XPBD.
+    let mut stiff = build(Integrator::Auto, bound, 1e9);
+    stiff.step(dt).unwrap();
+    assert_eq!(stiff.active_integrator(), Integrator::Xpbd);
+    assert!(stiff.stable_substeps(dt) > MAX_SUBSTEPS);
+}
+
+#[test]
+fn free_fall_matches_the_parabola() {
+    let settings = SolverSettings {
+        damping: 0.0,
+        ..Default::default()
+    };
+    let mut s = sim(3, settings);
+    let v0 = Vec3::new(1.0, 2.0, 0.5);
+    s.set_velocities(v0);
+    let x0 = s.positions()[4];
+    for _ in 0..60 {
+        s.step(1.0 / 60.0).unwrap();
+    }
+    let exact = x0 + v0 + 0.5 * settings.gravity;
+    let err = s.positions()[4].distance(exact);
+    // Symplectic Euler in the substeps errs by g t h / 2.
+    let h = 1.0 / 60.0 / 20.0;
+    assert!(err <= 0.5 * 9.81 * h * 1.01 + 1e-4, "error {err}");
+    assert!(err / (0.5 * 9.81) < 1e-3);
+}
+
+#[test]
+fn pins_hold_and_move() {
+    let mut s = sim(4, SolverSettings::default());
+    let p0 = s.positions()[0];
+    s.set_pins([(0, p0), (3, s.positions()[3])]).unwrap();
+    for _ in 0..30 {
+        s.step(1.0 / 60.0).unwrap();
+    }
+    assert_eq!(s.positions()[0], p0);
+    s.move_pins([p0 + Vec3::X, s.positions()[3] + Vec3::X]);
+    s.step(1.0 / 60.0).unwrap();
+    assert!(s.positions()[0].distance(p0 + Vec3::X) < 1e-6);
+    assert!(s.set_pins([(16, Vec3::ZERO)]).is_err());
+}
+
+#[test]
+fn explicit_integrators_past_their_limit_are_stopped_with_the_limit_named() {
+    for integrator in [Integrator::SymplecticEuler, Integrator::Verlet] {
+        let mut s = sim(
+            8,
+            SolverSettings {
+                integrator,
+                substeps: 1,
+                auto_substeps: false,
+                ..Default::default()
+            },
+        );
+        let pins = [(0, s.positions()[0]), (7, s.positions()[7])];
+        s.set_pins(pins).unwrap();
+        let err = (0..200)
+            .find_map(|_| s.step(1.0 / 60.0).err())
+            .expect("the runaway is detected");
+        assert!(matches!(err, ClothError::Unstable { .. }), "{err}");
+        assert!(err.to_string().contains("past the limit 2"), "{err}");
+        assert!(s.positions().iter().all(|p| p.is_finite()));
+        // Within the bound the same cloth runs on.
+        let mut s = sim(
+            8,
+            SolverSettings {
+                integrator,
+                ..Default::default()
+            },
+        );
+        s.set_pins(pins).unwrap();
+        for _ in 0..200 {
+            s.step(1.0 / 60.0).unwrap();
+        }
+    }
+}
+
+#[test]
+fn bad_settings_are_rejected() {
+    for (bad, field) in [
+        (
+            SolverSettings {
+                substeps: 0,
+                ..Default::default()
+            },
+            "substeps",
+        ),
+        (
+            SolverSettings {
+                particle_mass: -1.0,
+                ..Default::default()
+            },
+            "particle_mass",
+        ),
+        (
+            SolverSettings {
+                stiffness: Stiffness {
+                    bend: -3.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            "stiffness.bend",
+        ),
+        (
+            SolverSettings {
+                damping: f32::NAN,
+                ..Default::default()
+            },
+            "damping",
+        ),
+    ] {
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains(field), "{e}");
+    }
+}

@@ -1,0 +1,302 @@
+//! Collisions between a cloth and kinematic colliders: spheres, capsules, cuboids and half-spaces.
+//!
+//! # Pipeline, per step and per substep
+//! 1. **Broad phase** (once per step, `Contacts::begin_step`): the cloth's bounding box, grown by
+//!    the farthest any particle can travel in the step, against each collider's box swept from its
+//!    start pose to its end pose and grown by its margin. Colliders that cannot be reached, or whose
+//!    `layers` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
+//! 2. **Narrow phase** (every substep, `Contacts::resolve_state`, on whatever layout the integrator
+//!    keeps its particles in: `ContactState`): the collider's pose is interpolated to the end of the
+//!    substep. A vector pass first skips every particle whose distance from the collider's bounding
+//!    ball (or plane), less how far it moved, exceeds the ball's radius, the margin and the
+//!    collider's travel. Each remaining free particle is taken into the collider's local frame and
+//!    tested by the shape's signed distance `d`. A particle with `d < margin` is in contact. A
+//!    particle that ends the substep outside, but whose path in the collider's frame (start to end
+//!    of the substep) passes within the margin, tunnelled: a swept test (sphere tracing along that
+//!    path, exact because every signed distance here is exact) finds the first touching point and
+//!    puts it back there.
+//!    Spheres smaller than the cloth's longest edge are also tested against every triangle, so a
+//!    small sphere cannot slip between particles.
+//! 3. **Response**, per contact: the particle is projected to the surface plus margin, along the
+//!    outward normal `n`. The relative velocity `v - v_c` (collider velocity at the contact point,
+//!    linear and angular) is split into its normal part, whose inward component is removed (the
+//!    push-out itself adds no velocity, so a contact never adds energy), and its tangential part,
+//!    which Coulomb friction acts on: the particle's tangential displacement relative to the
+//!    collider over the substep, `d_t`, is compared with the normal correction `δ`. If
+//!    `|d_t| ≤ μ_s δ` the particle sticks (its relative tangential displacement and velocity are
+//!    removed, so a moving collider drags it along); otherwise both are reduced by the fraction
+//!    `μ_k δ / |d_t|` (kinetic friction: the tangential velocity drops by `μ_k` times the normal
+//!    velocity removed). Friction only ever shrinks relative tangential motion.
+//!
+//! Because the narrow phase runs every substep on the interpolated pose, a collider moving up to
+//! `margin × substeps / dt` cannot carry its surface past a particle between two tests; faster ones
+//! are caught by the swept test.
+//!
+//! # Relation to the source paper
+//! The paper detects cloth–sphere contact with a bounding volume and, in its Eq. 3 and Figure 4, moves
+//! a penetrating particle back to radius + 0.05 along the line from the centre and splits its velocity
+//! into a normal part (reflected and damped) and a tangential part (kept, scaled by a friction
+//! factor). Here the bounding volume is the broad phase above; the push-out is the same projection
+//! with `margin` in place of 0.05 and the exact signed distance in place of the centre line (they
+//! agree for a sphere); the normal part is removed rather than reflected (a fully inelastic contact,
+//! the paper's damping taken to its limit, so contacts never add energy); and the tangential factor
+//! becomes Coulomb's law with static and kinetic coefficients, measured relative to the collider's
+//! own velocity.
+
+mod narrow;
+mod shapes;
+#[cfg(test)]
+mod tests;
+
+use glam::Vec3;
+
+use crate::sim::simd::{self, Build, Kernel};
+use crate::sim::soa::Soa;
+pub(crate) use narrow::ContactState;
+use narrow::{ActiveCollider, resolve};
+pub(crate) use shapes::Near;
+pub use shapes::{Collider, ColliderShape, Friction, Pose, bounds};
+
+/// The state as three arrays of vectors in the particles' own order.
+struct Vectors<'a> {
+    x: &'a mut [Vec3],
+    v: &'a mut [Vec3],
+    start: &'a [Vec3],
+    inv_mass: &'a [f32],
+}
+
+impl ContactState for Vectors<'_> {
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+    fn inv_mass(&self, i: usize) -> f32 {
+        self.inv_mass[i]
+    }
+    fn slot(&self, p: u32) -> usize {
+        p as usize
+    }
+    fn start(&self, i: usize) -> Vec3 {
+        self.start[i]
+    }
+    fn position(&self, i: usize) -> Vec3 {
+        self.x[i]
+    }
+    fn velocity(&self, i: usize) -> Vec3 {
+        self.v[i]
+    }
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+        (self.x[i], self.v[i]) = (x, v);
+    }
+    fn clearances(&self, near: Near, out: &mut [f32]) {
+        for ((o, x), s) in out.iter_mut().zip(&*self.x).zip(self.start) {
+            *o = near.distance(*x) - x.distance(*s);
+        }
+    }
+}
+
+/// Per-cloth collision state: the colliders that survived this step's broad phase, the particle
+/// positions at the start of the current substep (for states without their own, see
+/// [`Contacts::resolve`]) and the particles' clearances. Buffers are reused from step to step;
+/// they grow (allocate) only when a step has more active colliders than any step before.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Contacts {
+    active: Vec<ActiveCollider>,
+    /// Particle positions at the start of the current substep.
+    start: Vec<Vec3>,
+    /// Each particle's clearance from the collider being resolved (scratch).
+    clearance: Vec<f32>,
+    /// The longest edge of the cloth's triangles at rest, m: spheres smaller than this get the
+    /// particle–triangle test.
+    max_edge: f32,
+}
+
+impl Contacts {
+    /// Sized for a cloth of `particles` particles whose longest rest edge is `max_edge`.
+    pub fn new(particles: usize, max_edge: f32) -> Self {
+        Self {
+            active: Vec::new(),
+            start: vec![Vec3::ZERO; particles],
+            clearance: vec![0.0; particles],
+            max_edge,
+        }
+    }
+
+    /// Whether any collider survived the broad phase of this step.
+    pub fn is_active(&self) -> bool {
+        !self.active.is_empty()
+    }
+
+    /// Number of colliders that survived the broad phase of this step.
+    pub fn active_count(&self) -> usize {
+        self.active.len()
+    }
+
+    /// The broad phase: keeps the colliders on `mask` that the cloth can reach during a step of
+    /// `dt` seconds. `bounds` is the cloth's bounding box at the start of the step (see
+    /// [`bounds`]); `reach` bounds how far any particle can move in the step.
+    pub fn begin_step(
+        &mut self,
+        colliders: &[Collider],
+        mask: u32,
+        bounds: (Vec3, Vec3),
+        reach: f32,
+        dt: f32,
+    ) {
+        self.active.clear();
+        if colliders.is_empty() || !(bounds.0.cmple(bounds.1).all()) {
+            return;
+        }
+        let lo = bounds.0 - Vec3::splat(reach);
+        let hi = bounds.1 + Vec3::splat(reach);
+        let inv_dt = 1.0 / dt;
+        for c in colliders {
+            if c.layers & mask == 0 || c.validate().is_err() {
+                continue;
+            }
+            let m = Vec3::splat(c.margin);
+            let reachable = match (c.shape.bounds(&c.start), c.shape.bounds(&c.end)) {
+                (Some((a0, a1)), Some((b0, b1))) => {
+                    let (c0, c1) = (a0.min(b0) - m, a1.max(b1) + m);
+                    c0.cmple(hi).all() && c1.cmpge(lo).all()
+                }
+                // A half-space: is the box's lowest corner along the normal within the margin?
+                _ => [c.start, c.end].iter().any(|pose| {
+                    let (_, n) = c.shape.signed_distance(Vec3::ZERO);
+                    let n = pose.rotation * n;
+                    let centre = 0.5 * (lo + hi);
+                    let half = 0.5 * (hi - lo);
+                    (centre - pose.translation).dot(n) - half.dot(n.abs()) < c.margin
+                }),
+            };
+            if !reachable {
+                continue;
+            }
+            let spin = c.end.rotation * c.start.rotation.inverse();
+            let (axis, angle) = spin.to_axis_angle();
+            let angle = if angle > std::f32::consts::PI {
+                angle - std::f32::consts::TAU
+            } else {
+                angle
+            };
+            self.active.push(ActiveCollider {
+                collider: *c,
+                linear: (c.end.translation - c.start.translation) * inv_dt,
+                angular: axis * (angle * inv_dt),
+                triangles: matches!(c.shape, ColliderShape::Sphere(s) if s.radius < self.max_edge),
+            });
+        }
+    }
+
+    /// Whether any collider that passed this step's broad phase moves during the step.
+    pub fn any_moving(&self) -> bool {
+        self.active
+            .iter()
+            .any(|c| c.collider.start != c.collider.end)
+    }
+
+    /// Records the particle positions at the start of a substep (only when a collider is active),
+    /// for [`Self::resolve`].
+    pub fn begin_substep(&mut self, positions: &[Vec3]) {
+        if self.is_active() {
+            self.start.copy_from_slice(positions);
+        }
+    }
+
+    /// [`Self::resolve_state`] for positions `x` and velocities `v` in the particles' own order,
+    /// which started the substep where [`Self::begin_substep`] recorded.
+    #[allow(clippy::too_many_arguments)]
+    pub fn resolve(
+        &mut self,
+        t0: f32,
+        t1: f32,
+        h: f32,
+        triangles: &[u32],
+        inv_mass: &[f32],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+    ) {
+        let Self {
+            active,
+            start,
+            clearance,
+            ..
+        } = self;
+        let mut state = Vectors {
+            x,
+            v,
+            start,
+            inv_mass,
+        };
+        resolve(active, clearance, (t0, t1, h), triangles, &mut state);
+    }
+
+    /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
+    /// `h`: every free particle (inverse mass > 0) is moved out of every active collider and its
+    /// velocity corrected; then, for small spheres, every triangle.
+    pub fn resolve_state<S: ContactState>(
+        &mut self,
+        (t0, t1, h): (f32, f32, f32),
+        triangles: &[u32],
+        state: &mut S,
+    ) {
+        resolve(
+            &self.active,
+            &mut self.clearance,
+            (t0, t1, h),
+            triangles,
+            state,
+        );
+    }
+}
+
+/// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
+/// with `AHEAD` starting at `x` (and ending at `x + d`). A vector [`Kernel`] ([`simd`]).
+pub(crate) fn soa_clearances<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+    simd::run(Clearances::<AHEAD> { x, d, near, out });
+}
+
+/// [`soa_clearances`]' arguments, as a [`Kernel`].
+struct Clearances<'a, const AHEAD: bool> {
+    x: &'a Soa,
+    d: &'a Soa,
+    near: Near,
+    out: &'a mut [f32],
+}
+
+impl<const AHEAD: bool> Kernel for Clearances<'_, AHEAD> {
+    const WIDEST: Build = Build::Avx2;
+
+    #[inline(always)]
+    fn body<const WIDE: bool>(self) {
+        clearances_body::<AHEAD>(self.x, self.d, self.near, self.out);
+    }
+}
+
+#[inline(always)]
+fn clearances_body<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+    let n = out.len().min(x.len()).min(d.len());
+    let (x, y, z) = (&x.x[..n], &x.y[..n], &x.z[..n]);
+    let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);
+    let moved = |i: usize| (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+    let end = |x: &[f32], d: &[f32], i: usize| if AHEAD { x[i] + d[i] } else { x[i] };
+    match near {
+        Near::Point(c) => {
+            for (i, o) in out[..n].iter_mut().enumerate() {
+                let (ex, ey, ez) = (
+                    end(x, dx, i) - c.x,
+                    end(y, dy, i) - c.y,
+                    end(z, dz, i) - c.z,
+                );
+                *o = (ex * ex + ey * ey + ez * ez).sqrt() - moved(i);
+            }
+        }
+        Near::Plane(c, normal) => {
+            for (i, o) in out[..n].iter_mut().enumerate() {
+                let along = (end(x, dx, i) - c.x) * normal.x
+                    + (end(y, dy, i) - c.y) * normal.y
+                    + (end(z, dz, i) - c.z) * normal.z;
+                *o = along - moved(i);
+            }
+        }
+    }
+}

@@ -1,0 +1,334 @@
+//! The narrow phase and the response (steps 2 and 3 of the pipeline in the module docs of
+//! [`contact`](super)), on any particle layout a stepper keeps ([`ContactState`]).
+
+use glam::Vec3;
+
+use super::shapes::{Collider, ColliderShape, Friction, Near, Pose};
+
+/// Sphere tracing stops after this many steps along one path (a miss).
+const MAX_SWEEP_STEPS: u32 = 64;
+
+/// Passes of the particle–triangle test per substep: pushing one triangle moves vertices it shares
+/// with its neighbours, so the pass repeats (Gauss-Seidel) until nothing moves, at most this often.
+const TRIANGLE_PASSES: u32 = 4;
+
+/// A collider that passed the broad phase, with its velocity over the step.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ActiveCollider {
+    pub collider: Collider,
+    /// Velocity of the collider's origin, m/s.
+    pub linear: Vec3,
+    /// Angular velocity, rad/s.
+    pub angular: Vec3,
+    /// Whether triangles are tested too (spheres smaller than the cloth's longest edge).
+    pub triangles: bool,
+}
+
+impl ActiveCollider {
+    /// Velocity of the collider's material at world point `p`, with its origin at `origin`.
+    fn velocity_at(&self, p: Vec3, origin: Vec3) -> Vec3 {
+        self.linear + self.angular.cross(p - origin)
+    }
+}
+
+/// The particle state a contact response reads and writes, in whatever layout a step keeps it:
+/// each particle's position and velocity at the end of the substep and its position at the start.
+/// Particles are addressed by where they are stored; [`Self::slot`] maps a model particle there.
+pub(crate) trait ContactState {
+    /// Number of particles.
+    fn len(&self) -> usize;
+    /// Inverse mass of the particle stored at `i` (0: pinned, never moved by a contact).
+    fn inv_mass(&self, i: usize) -> f32;
+    /// Where model particle `p` is stored.
+    fn slot(&self, p: u32) -> usize;
+    /// Position at the start of the substep.
+    fn start(&self, i: usize) -> Vec3;
+    /// Position now.
+    fn position(&self, i: usize) -> Vec3;
+    /// Velocity now.
+    fn velocity(&self, i: usize) -> Vec3;
+    /// Moves particle `i` to `x` with velocity `v`; its start stays where it was.
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3);
+    /// For every particle, `near.distance(x) − |x − start|` into `out`: a lower bound on its
+    /// distance from `near`'s point or plane all along its path over the substep.
+    fn clearances(&self, near: Near, out: &mut [f32]);
+}
+
+/// See [`Contacts::resolve_state`]. Before the exact test, a particle whose clearance (see
+/// [`ContactState::clearances`]) from the collider's bounding ball or plane exceeds the ball's
+/// radius, the margin and the collider's travel over the substep is skipped: no point of its path
+/// comes within the margin, so the exact test would leave it alone. This bound holds for colliders
+/// that do not rotate during the substep; rotating ones get the exact test everywhere.
+pub(super) fn resolve<S: ContactState>(
+    active: &[ActiveCollider],
+    clearance: &mut Vec<f32>,
+    (t0, t1, h): (f32, f32, f32),
+    triangles: &[u32],
+    state: &mut S,
+) {
+    // Sized with the cloth (`Contacts::new`), so this allocates only for a state of another size.
+    clearance.resize(state.len(), 0.0);
+    for c in active {
+        let pose0 = c.collider.start.lerp(&c.collider.end, t0);
+        let pose1 = c.collider.start.lerp(&c.collider.end, t1);
+        let still = pose0 == pose1;
+        let bound = (pose0.rotation == pose1.rotation).then(|| c.collider.shape.near(&pose1));
+        if let Some((near, radius)) = bound {
+            let travel = pose0.translation.distance(pose1.translation);
+            // Rounding in the exact test is far below this slack (relative to the coordinates).
+            let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);
+            let skip = radius + c.collider.margin + travel + slack;
+            state.clearances(near, clearance);
+            // Sixteen clearances compared at a time (vector code), then the few close ones visited.
+            for (k, chunk) in clearance.chunks(16).enumerate() {
+                let mut close = chunk
+                    .iter()
+                    .enumerate()
+                    .fold(0u32, |m, (l, &gap)| m | (u32::from(gap <= skip) << l));
+                while close != 0 {
+                    let i = 16 * k + close.trailing_zeros() as usize;
+                    close &= close - 1;
+                    if state.inv_mass(i) > 0.0 {
+                        collide_particle(c, (&pose0, &pose1, still), h, state, i);
+                    }
+                }
+            }
+        } else {
+            for i in 0..state.len() {
+                if state.inv_mass(i) > 0.0 {
+                    collide_particle(c, (&pose0, &pose1, still), h, state, i);
+                }
+            }
+        }
+        if c.triangles {
+            for _ in 0..TRIANGLE_PASSES {
+                if !collide_triangles(c, (&pose0, &pose1, h), triangles, state) {
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// Contact of particle `i` with one collider over a substep: projection, then the velocity split
+/// and Coulomb friction described in the module docs.
+fn collide_particle<S: ContactState>(
+    c: &ActiveCollider,
+    (pose0, pose1, still): (&Pose, &Pose, bool),
+    h: f32,
+    state: &mut S,
+    i: usize,
+) {
+    let shape = &c.collider.shape;
+    let margin = c.collider.margin;
+    let (x, start) = (state.position(i), state.start(i));
+    let mut local = pose1.inverse_transform_point(x);
+    let (mut d, mut normal) = shape.signed_distance(local);
+    // The signed distance changes no faster than the point moves: a particle that ends the
+    // substep farther from a collider at rest than it travelled cannot have passed through it.
+    if d >= margin && still && d - margin > x.distance(start) {
+        return;
+    }
+    if d >= margin {
+        let local0 = pose0.inverse_transform_point(start);
+        match sweep(shape, local0, local, margin) {
+            Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
+            None => return,
+        }
+    }
+    let mut x = pose1.transform_point(local + normal * (margin - d));
+    let push = (x - state.position(i)).length();
+    let mut v = state.velocity(i);
+    let vc = c.velocity_at(x, pose1.translation);
+    respond(
+        &c.collider.friction,
+        pose1.rotation * normal,
+        push,
+        vc,
+        (h, start),
+        &mut x,
+        &mut v,
+    );
+    state.set(i, x, v);
+}
+
+/// The response of a contact just pushed out by `push` along the outward normal `n`, against a
+/// surface moving at `vc`: Coulomb friction on the tangential displacement relative to the surface
+/// over the substep (`h` long, the particle starting at `start`), and removal of the inward
+/// relative normal velocity. See the module docs.
+fn respond(
+    friction: &Friction,
+    n: Vec3,
+    push: f32,
+    vc: Vec3,
+    (h, start): (f32, Vec3),
+    x: &mut Vec3,
+    v: &mut Vec3,
+) {
+    let moved = (*x - start) - vc * h;
+    let tangential = moved - n * moved.dot(n);
+    let slide = tangential.length();
+    let stop = if slide <= friction.static_coefficient * push {
+        1.0
+    } else {
+        (friction.kinetic_coefficient * push / slide).min(1.0)
+    };
+    *x -= tangential * stop;
+    let relative = *v - vc;
+    let vn = relative.dot(n);
+    let vt = relative - n * vn;
+    *v = vc + n * vn.max(0.0) + vt * (1.0 - stop);
+}
+
+/// Sphere tracing from `from` to `to` (collider frame): the first point of the path within
+/// `margin` of the surface, with its distance and normal; `None` if the path stays clear or starts
+/// in contact (a particle leaving the surface).
+fn sweep(shape: &ColliderShape, from: Vec3, to: Vec3, margin: f32) -> Option<(Vec3, f32, Vec3)> {
+    let delta = to - from;
+    let len = delta.length();
+    if len <= margin || shape.signed_distance(from).0 < margin {
+        return None;
+    }
+    let dir = delta / len;
+    let min_step = 0.25 * margin.max(1e-4 * len);
+    let mut t = 0.0;
+    for _ in 0..MAX_SWEEP_STEPS {
+        let p = from + dir * t;
+        let (d, n) = shape.signed_distance(p);
+        if d < margin {
+            return Some((p, d, n));
+        }
+        t += (d - margin).max(min_step);
+        if t >= len {
+            return None;
+        }
+    }
+    None
+}
+
+/// Particle–triangle contact with a small sphere: each triangle closer to the centre than radius +
+/// margin is pushed away, its three vertices moved in proportion to barycentric weight and inverse
+/// mass so that the touching point moves exactly out of contact (Bridson et al. 2002's impulse
+/// distribution). The side the sphere must stay on is the one its centre was on at the start of
+/// the substep (the direction from the triangle's closest point to the centre then), so neither a
+/// fast sphere nor a triangle folding over it lets it pop through. The moved vertices get the same response as
+/// particle contacts (friction, inward velocity removed). Returns whether any triangle was moved.
+fn collide_triangles<S: ContactState>(
+    c: &ActiveCollider,
+    (pose0, pose1, h): (&Pose, &Pose, f32),
+    triangles: &[u32],
+    state: &mut S,
+) -> bool {
+    let ColliderShape::Sphere(sphere) = c.collider.shape else {
+        return false;
+    };
+    let mut moved = false;
+    let reach = sphere.radius + c.collider.margin;
+    let (centre0, centre) = (pose0.translation, pose1.translation);
+    for tri in triangles.chunks_exact(3) {
+        let ids = [tri[0], tri[1], tri[2]].map(|p| state.slot(p));
+        let [a, b, p] = ids.map(|i| state.position(i));
+        let [a0, b0, p0] = ids.map(|i| state.start(i));
+        // Swept boxes: the triangle from its start to its current place against the centre's
+        // path, so a triangle that swept past the sphere within the substep is still tested.
+        let lo = a.min(b).min(p).min(a0.min(b0).min(p0)) - Vec3::splat(reach);
+        let hi = a.max(b).max(p).max(a0.max(b0).max(p0)) + Vec3::splat(reach);
+        if centre.min(centre0).cmpgt(hi).any() || centre.max(centre0).cmplt(lo).any() {
+            continue;
+        }
+        let (closest, bary) = closest_point_on_triangle(centre, a, b, p);
+        // Direction from the triangle to the centre now, and at the start of the substep; the
+        // centre must stay on the side it started on, so if the two disagree it has crossed (or
+        // the triangle has folded over it) and the triangle is pushed back past it.
+        let (closest0, _) = closest_point_on_triangle(centre0, a0, b0, p0);
+        let side_of = |to_centre: Vec3, normal: Vec3| {
+            if to_centre.length_squared() > 1e-20 {
+                to_centre.normalize()
+            } else {
+                normal.normalize_or_zero()
+            }
+        };
+        let was = side_of(centre0 - closest0, (b0 - a0).cross(p0 - a0));
+        let to_centre = centre - closest;
+        let now = side_of(to_centre, (b - a).cross(p - a));
+        let (dir, dist) = if now.dot(was) >= 0.0 {
+            (now, to_centre.length())
+        } else {
+            (-now, -to_centre.length())
+        };
+        let depth = reach - dist;
+        if depth <= 0.0 || dir == Vec3::ZERO {
+            continue;
+        }
+        let inv_mass = ids.map(|i| state.inv_mass(i));
+        let weights = [0, 1, 2].map(|k| bary[k] * inv_mass[k]);
+        let denom: f32 = (0..3).map(|k| bary[k] * weights[k]).sum();
+        if denom <= 1e-12 {
+            continue;
+        }
+        moved = true;
+        for k in 0..3 {
+            let i = ids[k];
+            if inv_mass[k] <= 0.0 {
+                continue;
+            }
+            // With all corners free no corner moves more than 3× the depth (Σ b² ≥ 1/3). With
+            // pinned corners a free one far from the contact point would have to move depth / b,
+            // without bound as b → 0 (the sphere presses next to a pinned corner): the push is
+            // capped there, and the pinned triangle lets the sphere sink in instead of flinging
+            // the corner.
+            let push = (depth * weights[k] / denom).min(3.0 * depth);
+            let (mut x, mut v) = (state.position(i) - dir * push, state.velocity(i));
+            let vc = c.velocity_at(x, centre);
+            respond(
+                &c.collider.friction,
+                -dir,
+                push,
+                vc,
+                (h, state.start(i)),
+                &mut x,
+                &mut v,
+            );
+            state.set(i, x, v);
+        }
+    }
+    moved
+}
+
+/// The point of triangle `abc` closest to `p`, with its barycentric coordinates (Ericson,
+/// "Real-Time Collision Detection", §5.1.5: Voronoi regions of vertices, then edges, then the face).
+pub(super) fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, Vec3::X);
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, Vec3::Y);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let t = d1 / (d1 - d3);
+        return (a + ab * t, Vec3::new(1.0 - t, t, 0.0));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, Vec3::Z);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let t = d2 / (d2 - d6);
+        return (a + ac * t, Vec3::new(1.0 - t, 0.0, t));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * t, Vec3::new(0.0, 1.0 - t, t));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (s, t) = (vb * denom, vc * denom);
+    (a + ab * s + ac * t, Vec3::new(1.0 - s - t, s, t))
+}

@@ -1,0 +1,331 @@
+//! The colliders a cloth meets: their [`ColliderShape`] (exact signed distances and bounds),
+//! [`Pose`], [`Friction`] and margin ([`Collider`]).
+
+use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
+use bevy::reflect::Reflect;
+use glam::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ClothError, non_negative, positive};
+
+/// The shape of a collider, in its own frame.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub enum ColliderShape {
+    /// A ball centred on the origin.
+    Sphere(Sphere),
+    /// A capsule along the local Y axis, centred on the origin.
+    Capsule(Capsule3d),
+    /// A box centred on the origin.
+    Cuboid(Cuboid),
+    /// The solid half-space below a plane through the origin: everything with `p · normal < 0`.
+    HalfSpace(InfinitePlane3d),
+}
+
+impl ColliderShape {
+    /// Signed distance from local point `p` to the surface (negative inside) and the outward unit
+    /// normal of the nearest surface point. Exact for every shape.
+    pub fn signed_distance(&self, p: Vec3) -> (f32, Vec3) {
+        match *self {
+            ColliderShape::Sphere(s) => radial(p, s.radius),
+            ColliderShape::Capsule(c) => {
+                let axis = Vec3::new(0.0, p.y.clamp(-c.half_length, c.half_length), 0.0);
+                radial(p - axis, c.radius)
+            }
+            ColliderShape::Cuboid(b) => box_distance(p, b.half_size),
+            ColliderShape::HalfSpace(plane) => {
+                let n = Vec3::from(plane.normal);
+                (p.dot(n), n)
+            }
+        }
+    }
+
+    /// The shape with its dimensions scaled by a transform's `scale`: a cuboid per axis, a capsule's
+    /// length by `|scale.y|` and its radius by the larger of `|scale.x|`, `|scale.z|`, a sphere by the
+    /// largest `|scale|` component. A half-space is unchanged.
+    pub fn scaled(&self, scale: Vec3) -> Self {
+        let s = scale.abs();
+        match *self {
+            ColliderShape::Sphere(b) => {
+                ColliderShape::Sphere(Sphere::new(b.radius * s.max_element()))
+            }
+            ColliderShape::Capsule(c) => ColliderShape::Capsule(Capsule3d {
+                radius: c.radius * s.x.max(s.z),
+                half_length: c.half_length * s.y,
+            }),
+            ColliderShape::Cuboid(b) => ColliderShape::Cuboid(Cuboid {
+                half_size: b.half_size * s,
+            }),
+            ColliderShape::HalfSpace(p) => ColliderShape::HalfSpace(p),
+        }
+    }
+
+    /// Checks the dimensions: radii and half sizes positive and finite, capsule half length
+    /// non-negative.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        match *self {
+            ColliderShape::Sphere(s) => positive("collider.radius", s.radius),
+            ColliderShape::Capsule(c) => {
+                positive("collider.radius", c.radius)?;
+                non_negative("collider.half_length", c.half_length)
+            }
+            ColliderShape::Cuboid(b) => {
+                positive("collider.half_size.x", b.half_size.x)?;
+                positive("collider.half_size.y", b.half_size.y)?;
+                positive("collider.half_size.z", b.half_size.z)
+            }
+            ColliderShape::HalfSpace(p) => {
+                if Vec3::from(p.normal).is_finite() {
+                    Ok(())
+                } else {
+                    Err(ClothError::InvalidValue {
+                        field: "collider.normal",
+                        expected: "a finite unit vector",
+                        value: f64::NAN,
+                    })
+                }
+            }
+        }
+    }
+
+    /// What the shape at `pose` stays clear of, with a radius: the shape lies within that radius
+    /// of the returned centre (its ball), or, for a half-space, on and below the returned plane
+    /// (radius 0). A point at distance `D` from it is at least `D − radius` from the shape.
+    pub(super) fn near(&self, pose: &Pose) -> (Near, f32) {
+        let centre = pose.translation;
+        match *self {
+            ColliderShape::Sphere(s) => (Near::Point(centre), s.radius),
+            ColliderShape::Capsule(c) => (Near::Point(centre), c.half_length + c.radius),
+            ColliderShape::Cuboid(b) => (Near::Point(centre), b.half_size.length()),
+            ColliderShape::HalfSpace(plane) => (
+                Near::Plane(centre, pose.rotation * Vec3::from(plane.normal)),
+                0.0,
+            ),
+        }
+    }
+
+    /// World-space bounding box at `pose`, or `None` for the unbounded half-space.
+    pub(super) fn bounds(&self, pose: &Pose) -> Option<(Vec3, Vec3)> {
+        let half = match *self {
+            ColliderShape::Sphere(s) => {
+                return Some(around(pose.translation, Vec3::splat(s.radius)));
+            }
+            ColliderShape::Capsule(c) => {
+                let axis = (pose.rotation * Vec3::Y * c.half_length).abs();
+                return Some(around(pose.translation, axis + Vec3::splat(c.radius)));
+            }
+            ColliderShape::Cuboid(b) => b.half_size,
+            ColliderShape::HalfSpace(_) => return None,
+        };
+        let r = glam::Mat3::from_quat(pose.rotation);
+        let extent = r.x_axis.abs() * half.x + r.y_axis.abs() * half.y + r.z_axis.abs() * half.z;
+        Some(around(pose.translation, extent))
+    }
+}
+
+/// The axis-aligned bounding box `(min, max)` of `positions` (min > max when empty).
+pub fn bounds(positions: &[Vec3]) -> (Vec3, Vec3) {
+    // Eight independent running boxes, so the loop is not one long chain of dependent min/max.
+    let (chunks, rest) = positions.as_chunks::<8>();
+    let mut boxes = [(Vec3::INFINITY, Vec3::NEG_INFINITY); 8];
+    for chunk in chunks {
+        for ((lo, hi), p) in boxes.iter_mut().zip(chunk) {
+            (*lo, *hi) = (lo.min(*p), hi.max(*p));
+        }
+    }
+    boxes
+        .into_iter()
+        .chain(rest.iter().map(|p| (*p, *p)))
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
+            (lo.min(a), hi.max(b))
+        })
+}
+
+fn around(centre: Vec3, half: Vec3) -> (Vec3, Vec3) {
+    (centre - half, centre + half)
+}
+
+/// Distance to a ball of radius `r` about the origin, with the radial normal (+Y at the centre).
+fn radial(p: Vec3, r: f32) -> (f32, Vec3) {
+    let len = p.length();
+    let n = if len > 1e-12 { p / len } else { Vec3::Y };
+    (len - r, n)
+}
+
+/// Exact signed distance to an axis-aligned box of half size `h`, with the outward normal of the
+/// nearest face, edge or corner.
+fn box_distance(p: Vec3, h: Vec3) -> (f32, Vec3) {
+    let q = p.abs() - h;
+    let outside = q.max(Vec3::ZERO);
+    let out_len = outside.length();
+    if out_len > 0.0 {
+        return (out_len, (outside / out_len) * p.signum());
+    }
+    // Inside: the nearest face is the one with the largest (least negative) q.
+    let (d, axis) = if q.x >= q.y && q.x >= q.z {
+        (q.x, Vec3::X)
+    } else if q.y >= q.z {
+        (q.y, Vec3::Y)
+    } else {
+        (q.z, Vec3::Z)
+    };
+    (d, axis * p.signum())
+}
+
+/// Coulomb friction coefficients.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(deny_unknown_fields)]
+pub struct Friction {
+    /// Static coefficient `μ_s`: a contact sticks while its tangential push is at most `μ_s` times
+    /// its normal push.
+    pub static_coefficient: f32,
+    /// Kinetic coefficient `μ_k`: a sliding contact loses `μ_k` times its normal velocity change
+    /// from its tangential velocity.
+    pub kinetic_coefficient: f32,
+}
+
+impl Friction {
+    /// Frictionless contact.
+    pub const NONE: Friction = Friction {
+        static_coefficient: 0.0,
+        kinetic_coefficient: 0.0,
+    };
+
+    /// Static and kinetic coefficient both `mu`.
+    pub fn new(mu: f32) -> Self {
+        Self {
+            static_coefficient: mu,
+            kinetic_coefficient: mu,
+        }
+    }
+
+    /// Checks both coefficients are finite and non-negative.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        non_negative("friction.static_coefficient", self.static_coefficient)?;
+        non_negative("friction.kinetic_coefficient", self.kinetic_coefficient)
+    }
+}
+
+impl Default for Friction {
+    /// `μ_s = 0.5`, `μ_k = 0.4`, about cotton on wood.
+    fn default() -> Self {
+        Self {
+            static_coefficient: 0.5,
+            kinetic_coefficient: 0.4,
+        }
+    }
+}
+
+/// A rigid placement: rotation, then translation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// Orientation.
+    pub rotation: Quat,
+    /// Position, m.
+    pub translation: Vec3,
+}
+
+impl Pose {
+    /// The identity placement.
+    pub const IDENTITY: Pose = Pose {
+        rotation: Quat::IDENTITY,
+        translation: Vec3::ZERO,
+    };
+
+    /// A placement at `translation` with no rotation.
+    pub fn from_translation(translation: Vec3) -> Self {
+        Self {
+            rotation: Quat::IDENTITY,
+            translation,
+        }
+    }
+
+    /// Local point to world.
+    pub fn transform_point(&self, p: Vec3) -> Vec3 {
+        self.rotation * p + self.translation
+    }
+
+    /// World point to local.
+    pub fn inverse_transform_point(&self, p: Vec3) -> Vec3 {
+        self.rotation.inverse() * (p - self.translation)
+    }
+
+    /// The placement a fraction `t` of the way to `other` (linear in position, spherical in
+    /// rotation).
+    pub fn lerp(&self, other: &Pose, t: f32) -> Pose {
+        Pose {
+            rotation: self.rotation.slerp(other.rotation, t),
+            translation: self.translation.lerp(other.translation, t),
+        }
+    }
+}
+
+/// A collider as the solver sees it for one step: its shape, where it is at the start and at the
+/// end of the step (it moves between them linearly, rotating at constant rate), and its contact
+/// properties.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Collider {
+    /// Shape in the collider's frame (already scaled).
+    pub shape: ColliderShape,
+    /// Pose at the start of the step.
+    pub start: Pose,
+    /// Pose at the end of the step.
+    pub end: Pose,
+    /// Friction against the cloth.
+    pub friction: Friction,
+    /// Thickness kept between the surface and the cloth's particles, m.
+    pub margin: f32,
+    /// Collision layers: the collider touches a cloth whose mask shares a bit with these.
+    pub layers: u32,
+}
+
+impl Collider {
+    /// A collider that stays at `pose` during the step, on every layer.
+    pub fn fixed(shape: ColliderShape, pose: Pose, friction: Friction, margin: f32) -> Self {
+        Self {
+            shape,
+            start: pose,
+            end: pose,
+            friction,
+            margin,
+            layers: u32::MAX,
+        }
+    }
+
+    /// Checks the shape, friction and margin.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        self.shape.validate()?;
+        self.friction.validate()?;
+        non_negative("collider.margin", self.margin)?;
+        let finite = |p: &Pose| p.translation.is_finite() && p.rotation.is_finite();
+        if finite(&self.start) && finite(&self.end) {
+            Ok(())
+        } else {
+            Err(ClothError::InvalidValue {
+                field: "collider transform",
+                expected: "finite",
+                value: f64::NAN,
+            })
+        }
+    }
+}
+
+/// What a particle's clearance from a collider is measured to (see [`ContactState::clearances`]):
+/// the centre of its bounding ball, or, for a half-space, its plane.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Near {
+    /// Euclidean distance from the point.
+    Point(Vec3),
+    /// Signed distance from the plane through the point with the unit normal.
+    Plane(Vec3, Vec3),
+}
+
+impl Near {
+    /// Distance (signed for a plane) of `x`.
+    #[inline(always)]
+    pub fn distance(&self, x: Vec3) -> f32 {
+        match *self {
+            Near::Point(c) => (x - c).length(),
+            Near::Plane(c, n) => (x - c).dot(n),
+        }
+    }
+}

@@ -1,0 +1,390 @@
+
+use super::narrow::closest_point_on_triangle;
+use super::*;
+use crate::sim::simd::Build;
+use bevy::math::Dir3;
+use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
+use glam::Quat;
+
+fn shapes() -> [ColliderShape; 4] {
+    [
+        ColliderShape::Sphere(Sphere::new(0.5)),
+        ColliderShape::Capsule(Capsule3d::new(0.3, 1.0)),
+        ColliderShape::Cuboid(Cuboid::new(1.0, 0.4, 0.6)),
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Vec3::new(0.0, 1.0, 1.0))),
+    ]
+}
+
+#[test]
+fn signed_distances_are_exact_and_normals_are_gradients() {
+    // Spot values.
+    let sphere = ColliderShape::Sphere(Sphere::new(0.5));
+    assert!((sphere.signed_distance(Vec3::new(0.0, 2.0, 0.0)).0 - 1.5).abs() < 1e-6);
+    let capsule = ColliderShape::Capsule(Capsule3d::new(0.3, 1.0));
+    assert!((capsule.signed_distance(Vec3::new(1.0, 0.2, 0.0)).0 - 0.7).abs() < 1e-6);
+    assert!((capsule.signed_distance(Vec3::new(0.0, 1.5, 0.0)).0 - 0.7).abs() < 1e-6);
+    let cuboid = ColliderShape::Cuboid(Cuboid::new(2.0, 2.0, 2.0));
+    assert!((cuboid.signed_distance(Vec3::new(2.0, 2.0, 0.0)).0 - 2f32.sqrt()).abs() < 1e-6);
+    assert!((cuboid.signed_distance(Vec3::new(0.0, 0.5, 0.0)).0 + 0.5).abs() < 1e-6);
+    // The normal is the finite-difference gradient of the distance, away from creases.
+    let mut seed = 7u32;
+    let mut rand = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32 * 4.0 - 2.0
+    };
+    for shape in shapes() {
+        for _ in 0..200 {
+            let p = Vec3::new(rand(), rand(), rand());
+            let (d, n) = shape.signed_distance(p);
+            let e = 1e-3;
+            let grad = Vec3::new(
+                shape.signed_distance(p + Vec3::X * e).0 - shape.signed_distance(p - Vec3::X * e).0,
+                shape.signed_distance(p + Vec3::Y * e).0 - shape.signed_distance(p - Vec3::Y * e).0,
+                shape.signed_distance(p + Vec3::Z * e).0 - shape.signed_distance(p - Vec3::Z * e).0,
+            ) / (2.0 * e);
+            // Inside a box the distance has creases where two faces are equally near.
+            if (grad.length() - 1.0).abs() < 1e-2 {
+                assert!(grad.distance(n) < 2e-2, "{shape:?} at {p}: {n} vs {grad}");
+            }
+            // Moving along the normal by the distance reaches the surface.
+            let on = p - n * d;
+            assert!(shape.signed_distance(on).0.abs() < 1e-4, "{shape:?} at {p}");
+        }
+    }
+}
+
+#[test]
+fn bounds_contain_the_shape() {
+    let pose = Pose {
+        rotation: Quat::from_euler(glam::EulerRot::XYZ, 0.3, 1.1, -0.4),
+        translation: Vec3::new(1.0, -2.0, 0.5),
+    };
+    for shape in &shapes()[..3] {
+        let (lo, hi) = shape.bounds(&pose).unwrap();
+        for i in 0..2000 {
+            let f = i as f32;
+            let dir = Vec3::new((f * 0.37).sin(), (f * 0.91).cos(), (f * 0.13).sin()).normalize();
+            // March from the centre to the surface.
+            let mut p = Vec3::ZERO;
+            for _ in 0..50 {
+                let d = shape.signed_distance(p).0;
+                p += dir * (-d).max(0.0);
+                if d.abs() < 1e-5 {
+                    break;
+                }
+            }
+            let w = pose.transform_point(p);
+            assert!(w.cmpge(lo - 1e-4).all() && w.cmple(hi + 1e-4).all());
+        }
+    }
+}
+
+#[test]
+fn closest_point_on_triangle_matches_brute_force() {
+    let (a, b, c) = (
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.2, 0.0),
+        Vec3::new(0.3, 1.0, 0.4),
+    );
+    for i in 0..500 {
+        let f = i as f32;
+        let p = Vec3::new(
+            (f * 0.7).sin() * 2.0,
+            (f * 1.3).cos() * 2.0,
+            (f * 0.29).sin(),
+        );
+        let (q, bary) = closest_point_on_triangle(p, a, b, c);
+        assert!((a * bary.x + b * bary.y + c * bary.z).distance(q) < 1e-5);
+        assert!((bary.element_sum() - 1.0).abs() < 1e-5 && bary.min_element() >= -1e-6);
+        let mut best = f32::INFINITY;
+        for s in 0..=100 {
+            for t in 0..=(100 - s) {
+                let (s, t) = (s as f32 / 100.0, t as f32 / 100.0);
+                best = best.min(p.distance(a + (b - a) * s + (c - a) * t));
+            }
+        }
+        assert!(p.distance(q) <= best + 1e-5, "{p}");
+    }
+}
+
+fn active(collider: Collider, dt: f32, max_edge: f32) -> Contacts {
+    let mut contacts = Contacts::new(1, max_edge);
+    contacts.begin_step(&[collider], u32::MAX, (Vec3::ZERO, Vec3::ZERO), 10.0, dt);
+    contacts
+}
+
+#[test]
+fn a_particle_is_pushed_out_and_loses_only_inward_velocity() {
+    let collider = Collider::fixed(
+        ColliderShape::Sphere(Sphere::new(1.0)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.05,
+    );
+    let contacts = active(collider, 0.01, 0.1);
+    let (mut x, mut v) = ([Vec3::new(0.0, 0.99, 0.0)], [Vec3::new(2.0, -3.0, 0.0)]);
+    let mut c = contacts;
+    c.begin_substep(&[Vec3::new(-0.02, 1.02, 0.0)]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    assert!((x[0].length() - 1.05).abs() < 1e-6);
+    // Frictionless: the tangential velocity survives, the inward normal part is gone.
+    let n = x[0].normalize();
+    assert!(v[0].dot(n).abs() < 1e-5);
+    assert!((v[0] - n * v[0].dot(n)).length() > 1.9);
+    // Outward velocity is left alone.
+    let (mut x, mut v) = ([Vec3::new(0.0, 1.0, 0.0)], [Vec3::new(0.0, 4.0, 0.0)]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    assert_eq!(v[0], Vec3::new(0.0, 4.0, 0.0));
+}
+
+#[test]
+fn a_fast_particle_cannot_tunnel_through_a_thin_box() {
+    // A 2 cm slab; the particle crosses it entirely within one substep.
+    let collider = Collider::fixed(
+        ColliderShape::Cuboid(Cuboid::new(2.0, 0.02, 2.0)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.01,
+    );
+    let mut c = active(collider, 0.01, 0.1);
+    c.begin_substep(&[Vec3::new(0.1, 0.5, 0.0)]);
+    let (mut x, mut v) = ([Vec3::new(0.1, -0.5, 0.0)], [Vec3::new(0.0, -100.0, 0.0)]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    assert!(x[0].y >= 0.01 + 0.01 - 1e-5, "{}", x[0]);
+    assert!(v[0].y >= 0.0);
+}
+
+#[test]
+fn friction_sticks_below_the_cone_and_slides_above() {
+    let plane = ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y));
+    for (mu, sticks) in [(0.8, true), (0.3, false)] {
+        let collider = Collider::fixed(plane, Pose::IDENTITY, Friction::new(mu), 0.0);
+        let mut c = active(collider, 0.01, 0.1);
+        // Moved 0.5 mm sideways while sinking 1 mm: the tangent/normal ratio is 0.5.
+        c.begin_substep(&[Vec3::new(0.0, 0.0, 0.0)]);
+        let (mut x, mut v) = (
+            [Vec3::new(0.0005, -0.001, 0.0)],
+            [Vec3::new(0.05, -0.1, 0.0)],
+        );
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+        assert!(x[0].y.abs() < 1e-7);
+        if sticks {
+            assert!(x[0].x.abs() < 1e-7 && v[0].x.abs() < 1e-6);
+        } else {
+            // Kinetic: the tangential velocity loses μ times the normal velocity removed.
+            assert!((v[0].x - (0.05 - mu * 0.1)).abs() < 1e-4, "{}", v[0]);
+        }
+    }
+}
+
+#[test]
+fn a_moving_collider_drags_the_cloth_within_the_friction_cone() {
+    let plane = ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y));
+    // The particle sinks 1 mm in a 10 ms substep (normal velocity 0.1 m/s removed), μ = 1.
+    for (slide, expected) in [(0.0005, 0.05), (0.01, 0.1)] {
+        let collider = Collider {
+            end: Pose::from_translation(Vec3::new(slide, 0.0, 0.0)),
+            ..Collider::fixed(plane, Pose::IDENTITY, Friction::new(1.0), 0.0)
+        };
+        let mut c = active(collider, 0.01, 0.1);
+        c.begin_substep(&[Vec3::ZERO]);
+        let (mut x, mut v) = ([Vec3::new(0.0, -0.001, 0.0)], [Vec3::new(0.0, -0.1, 0.0)]);
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+        // Slow collider: the particle sticks and moves with it. Fast: kinetic friction gives it
+        // μ times the normal velocity removed.
+        assert!(
+            (v[0] - Vec3::new(expected, 0.0, 0.0)).length() < 1e-4,
+            "{}",
+            v[0]
+        );
+        assert!(v[0].x <= slide / 0.01 + 1e-6);
+    }
+}
+
+/// [`Vectors`] without the clearance skip: every particle gets the exact test.
+struct Exact<'a>(Vectors<'a>);
+
+impl ContactState for Exact<'_> {
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+    fn inv_mass(&self, i: usize) -> f32 {
+        self.0.inv_mass(i)
+    }
+    fn slot(&self, p: u32) -> usize {
+        self.0.slot(p)
+    }
+    fn start(&self, i: usize) -> Vec3 {
+        self.0.start(i)
+    }
+    fn position(&self, i: usize) -> Vec3 {
+        self.0.position(i)
+    }
+    fn velocity(&self, i: usize) -> Vec3 {
+        self.0.velocity(i)
+    }
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+        self.0.set(i, x, v);
+    }
+    fn clearances(&self, _: Near, out: &mut [f32]) {
+        out.fill(f32::NEG_INFINITY);
+    }
+}
+
+#[test]
+fn the_clearance_skip_changes_no_contact() {
+    // Particles scattered around each shape, some inside, some grazing it, some far, moving
+    // up to 0.6 m in the substep; colliders at rest, translating and rotating.
+    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+    let mut uniform = |lo: f32, hi: f32| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        lo + (hi - lo) * (seed >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let n = 3000;
+    let start: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(uniform(-1.1, 1.1), uniform(-1.1, 1.1), uniform(-1.1, 1.1)))
+        .collect();
+    let end: Vec<Vec3> = start
+        .iter()
+        .map(|s| *s + 0.2 * Vec3::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0), uniform(-1.0, 1.0)))
+        .collect();
+    let v0: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(uniform(-3.0, 3.0), uniform(-3.0, 3.0), uniform(-3.0, 3.0)))
+        .collect();
+    let inv_mass: Vec<f32> = (0..n)
+        .map(|i| if i % 50 == 0 { 0.0 } else { 1.0 })
+        .collect();
+    let pose = Pose {
+        rotation: Quat::from_rotation_y(0.4) * Quat::from_rotation_x(0.3),
+        translation: Vec3::new(0.1, -0.2, 0.05),
+    };
+    let motions = [
+        pose,
+        Pose {
+            translation: pose.translation + Vec3::new(1.2, 0.4, -0.8),
+            ..pose
+        },
+        Pose {
+            rotation: Quat::from_rotation_z(0.5) * pose.rotation,
+            ..pose
+        },
+    ];
+    for shape in shapes() {
+        for end_pose in motions {
+            let collider = Collider {
+                end: end_pose,
+                ..Collider::fixed(shape, pose, Friction::new(0.5), 0.02)
+            };
+            let mut contacts = active(collider, 1.0 / 60.0, 0.1);
+            let mut run = |exact: bool| {
+                let (mut x, mut v) = (end.clone(), v0.clone());
+                let state = Vectors {
+                    x: &mut x,
+                    v: &mut v,
+                    start: &start,
+                    inv_mass: &inv_mass,
+                };
+                let (active, clearance) = (&contacts.active, &mut contacts.clearance);
+                let t = (0.25, 0.5, 1.0 / 240.0);
+                if exact {
+                    resolve(active, clearance, t, &[], &mut Exact(state));
+                } else {
+                    resolve(active, clearance, t, &[], &mut { state });
+                }
+                (x, v)
+            };
+            let (skipped, exact) = (run(false), run(true));
+            assert_eq!(skipped, exact, "{shape:?} moving to {end_pose:?}");
+            let moved = (0..n).filter(|&i| exact.0[i] != end[i]).count();
+            assert!(
+                moved > 50 && moved < n - 50,
+                "{shape:?}: {moved} of {n} in contact"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_broad_phase_skips_far_and_masked_colliders() {
+    let near = Collider::fixed(
+        ColliderShape::Sphere(Sphere::new(0.5)),
+        Pose::from_translation(Vec3::new(0.0, -0.55, 0.0)),
+        Friction::NONE,
+        0.01,
+    );
+    let far = Collider {
+        start: Pose::from_translation(Vec3::new(50.0, 0.0, 0.0)),
+        end: Pose::from_translation(Vec3::new(50.0, 0.0, 0.0)),
+        ..near
+    };
+    let masked = Collider { layers: 2, ..near };
+    let below = Collider::fixed(
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y)),
+        Pose::from_translation(Vec3::new(0.0, -10.0, 0.0)),
+        Friction::NONE,
+        0.01,
+    );
+    let touching = Collider {
+        start: below.start,
+        end: Pose::from_translation(Vec3::new(0.0, -0.055, 0.0)),
+        ..below
+    };
+    let mut c = Contacts::new(2, 0.1);
+    let cloth = [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0)];
+    c.begin_step(
+        &[near, far, masked, below, touching],
+        1,
+        bounds(&cloth),
+        0.05,
+        0.01,
+    );
+    assert_eq!(c.active_count(), 2);
+    assert_eq!(c.active[0].collider, near);
+    assert_eq!(c.active[1].collider, touching);
+}
+
+/// The clearances of 103 particles (a partial last batch) from `near`, by the kernel's `build`
+/// (`AHEAD` as the kernel's), if the CPU has it.
+fn clearances_in<const AHEAD: bool>(build: Build, near: Near) -> Option<Vec<u32>> {
+    let n = 103;
+    let mut x = Soa::new(n);
+    let mut d = Soa::new(n);
+    for i in 0..n {
+        let t = i as f32;
+        x.set(i, Vec3::new(t.sin(), 0.1 * t, (0.3 * t).cos()));
+        d.set(i, 1e-2 * Vec3::new((1.3 * t).cos(), -0.5, (2.1 * t).sin()));
+    }
+    let mut out = vec![0.0; n];
+    let kernel = Clearances::<AHEAD> {
+        x: &x,
+        d: &d,
+        near,
+        out: &mut out,
+    };
+    simd::run_as(build, kernel).then(|| out.iter().map(|c| c.to_bits()).collect())
+}
+
+#[test]
+fn every_build_of_the_clearance_kernel_gives_the_same_bits() {
+    let nears = [
+        Near::Point(Vec3::new(0.2, 3.0, -0.4)),
+        Near::Plane(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.6, 0.8, 0.0)),
+    ];
+    for near in nears {
+        for build in [Build::Avx2, Build::Avx512] {
+            let plain = (
+                clearances_in::<false>(Build::Plain, near),
+                clearances_in::<true>(Build::Plain, near),
+            );
+            let wide = (
+                clearances_in::<false>(build, near),
+                clearances_in::<true>(build, near),
+            );
+            if wide.0.is_some() {
+                assert_eq!(wide, plain, "{build:?} against the plain build, {near:?}");
+            }
+        }
+    }
+}

@@ -1,0 +1,261 @@
+//! Implicit (backward) Euler after Baraff & Witkin 1998, "Large Steps in Cloth Simulation": per
+//! substep of length `h`, one Newton step of backward Euler on the linearised springs,
+//!
+//! `(M + h² K) Δv = h (f(x) - h K v)`,   `v ← e^{-c h} (v + Δv)`,   `x ← x + h v`,
+//!
+//! with `K = -∂f/∂x` the spring stiffness matrix (its geometric term clamped to keep it positive
+//! semi-definite, see `forces.rs`), solved matrix-free by Jacobi-preconditioned conjugate gradients.
+//! Pinned particles are handled by filtering, as in the paper's modified CG: their `Δv` is prescribed
+//! (the velocity that takes them to their target), their rows are removed from the residual and the
+//! search directions, and their columns enter the right-hand side.
+//!
+//! All vectors are sized when the integrator is selected; nothing here allocates.
+
+use glam::Vec3;
+
+use super::step::{Step, add_contact_work};
+use crate::sim::forces::{
+    SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
+};
+use crate::sim::state::{Particles, drive_pins, energy_of};
+
+/// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
+/// right-hand side and the substep's gravity impulse `h m g` (both as Euclidean norms).
+pub const CG_TOLERANCE: f32 = 1e-5;
+
+/// Implicit Euler's scratch: the force sums, the linearised springs and the conjugate-gradient
+/// vectors.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Implicit {
+    /// Force accumulator.
+    forces: Vec<Vec3>,
+    cg: Cg,
+}
+
+/// The linearised springs and the conjugate-gradient vectors.
+#[derive(Debug, Clone, Default)]
+struct Cg {
+    jacobians: SpringJacobians,
+    /// Right-hand side `h (f - h K v)`.
+    rhs: Vec<Vec3>,
+    /// The unknown `Δv` (kept between substeps as the next initial guess).
+    dv: Vec<Vec3>,
+    /// Residual.
+    r: Vec<Vec3>,
+    /// Preconditioned residual.
+    z: Vec<Vec3>,
+    /// Search direction.
+    p: Vec<Vec3>,
+    /// `A p`.
+    ap: Vec<Vec3>,
+    /// Inverse of the diagonal of `A`, per coordinate.
+    inv_diag: Vec<Vec3>,
+    /// CG iterations taken in the last substep.
+    last_iterations: u32,
+}
+
+impl Implicit {
+    /// Sizes the scratch for `particles` particles and `springs` springs, if it is not already.
+    pub fn prepare(&mut self, particles: usize, springs: usize) {
+        if self.fits(particles, springs) {
+            return;
+        }
+        let v = || vec![Vec3::ZERO; particles];
+        *self = Self {
+            forces: v(),
+            cg: Cg {
+                jacobians: SpringJacobians::new(springs),
+                rhs: v(),
+                dv: v(),
+                r: v(),
+                z: v(),
+                p: v(),
+                ap: v(),
+                inv_diag: v(),
+                last_iterations: 0,
+            },
+        };
+    }
+
+    /// Whether the buffers are sized for this cloth.
+    fn fits(&self, particles: usize, springs: usize) -> bool {
+        self.cg.rhs.len() == particles && self.cg.jacobians.fits(springs)
+    }
+
+    /// Conjugate-gradient iterations taken in the last substep (0 before the first).
+    pub fn last_iterations(&self) -> u32 {
+        self.cg.last_iterations
+    }
+}
+
+/// `out = M p + h² K p`, then the pinned rows zeroed (the filter `S A`).
+fn apply_system(
+    springs: SpringSet<'_>,
+    jacobians: &SpringJacobians,
+    mass: &[f32],
+    inv_mass: &[f32],
+    h2: f32,
+    p: &[Vec3],
+    out: &mut [Vec3],
+) {
+    for ((o, p), m) in out.iter_mut().zip(p).zip(mass) {
+        *o = *p * *m;
+    }
+    add_stiffness_product(springs.a, springs.b, jacobians, h2, p, out);
+    filter(out, inv_mass);
+}
+
+/// Zeroes the entries of pinned particles (inverse mass 0).
+fn filter(v: &mut [Vec3], inv_mass: &[f32]) {
+    for (v, w) in v.iter_mut().zip(inv_mass) {
+        if *w == 0.0 {
+            *v = Vec3::ZERO;
+        }
+    }
+}
+
+fn dot(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+}
+
+impl Implicit {
+    /// Implicit Euler, `n` substeps of `h = dt/n`, each one linearised Newton step solved by CG
+    /// with at most `settings.iterations` iterations.
+    pub fn step(&mut self, st: &mut Step, dt: f32, n: u32) {
+        let Step {
+            model,
+            settings,
+            stiffness,
+            pins,
+            wind,
+            particles,
+            contacts,
+            contact_work,
+            ..
+        } = st;
+        let Particles {
+            positions: x,
+            velocities: v,
+            mass,
+            inv_mass,
+        } = &mut **particles;
+        debug_assert!(
+            self.fits(x.len(), model.springs.len()),
+            "implicit Euler's scratch is sized when the integrator is chosen"
+        );
+        let springs = SpringSet {
+            a: &model.springs.a,
+            b: &model.springs.b,
+            rest: &model.springs.rest,
+            k: stiffness,
+        };
+        let (forces, s) = (&mut self.forces, &mut self.cg);
+        let h = dt / n as f32;
+        let h2 = h * h;
+        let inv_h = 1.0 / h;
+        let keep = (-settings.damping * h).exp();
+        let g = settings.gravity;
+        let max_iterations = settings.iterations;
+        // The size of the substep's gravity impulse, the floor of the CG tolerance.
+        let mut weight2 = 0.0;
+        for (m, w) in mass.iter().zip(inv_mass.iter()) {
+            if *w > 0.0 {
+                weight2 += (h * m * g).length_squared();
+            }
+        }
+        for sub in 0..n {
+            contacts.begin_substep(x);
+            let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+            // Forces and their linearisation at the start of the substep.
+            for (f, m) in forces.iter_mut().zip(mass.iter()) {
+                *f = *m * g;
+            }
+            // Wind enters explicitly (not linearised).
+            wind.add_forces(forces);
+            add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
+            // rhs = h f - h² K v.
+            for (b, f) in s.rhs.iter_mut().zip(forces.iter()) {
+                *b = *f * h;
+            }
+            add_stiffness_product(springs.a, springs.b, &s.jacobians, -h2, v, &mut s.rhs);
+            // Jacobi preconditioner: the diagonal of M + h² K.
+            for (d, m) in s.inv_diag.iter_mut().zip(mass.iter()) {
+                *d = Vec3::splat(*m);
+            }
+            for k in 0..springs.a.len() {
+                let dk = s.jacobians.diagonal(k) * h2;
+                s.inv_diag[springs.a[k] as usize] += dk;
+                s.inv_diag[springs.b[k] as usize] += dk;
+            }
+            for d in s.inv_diag.iter_mut() {
+                *d = d.recip();
+            }
+            // Prescribed Δv of the pinned particles; free ones start from the last substep's Δv.
+            for pin in pins.iter() {
+                let i = pin.particle as usize;
+                let target = pin.from.lerp(pin.to, t1);
+                s.dv[i] = (target - x[i]) * inv_h - v[i];
+            }
+            filter(&mut s.rhs, inv_mass);
+            let tolerance2 = CG_TOLERANCE * CG_TOLERANCE * dot(&s.rhs, &s.rhs).max(weight2);
+            // r = S (b - A Δv).
+            apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.dv, &mut s.r);
+            for (r, b) in s.r.iter_mut().zip(&s.rhs) {
+                *r = *b - *r;
+            }
+            // For the pinned rows, A Δv was filtered away and rhs is 0, so r is 0 there.
+            for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&s.inv_diag) {
+                *z = *r * *d;
+            }
+            s.p.copy_from_slice(&s.z);
+            let mut rz = dot(&s.r, &s.z);
+            let mut iterations = 0;
+            while iterations < max_iterations && dot(&s.r, &s.r) > tolerance2 {
+                apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.p, &mut s.ap);
+                let pap = dot(&s.p, &s.ap);
+                if pap.is_nan() || pap <= 0.0 {
+                    break;
+                }
+                let alpha = rz / pap;
+                for ((dv, r), (p, ap)) in
+                    s.dv.iter_mut()
+                        .zip(s.r.iter_mut())
+                        .zip(s.p.iter().zip(&s.ap))
+                {
+                    *dv += *p * alpha;
+                    *r -= *ap * alpha;
+                }
+                for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&s.inv_diag) {
+                    *z = *r * *d;
+                }
+                let rz_new = dot(&s.r, &s.z);
+                let beta = rz_new / rz;
+                rz = rz_new;
+                for (p, z) in s.p.iter_mut().zip(&s.z) {
+                    *p = *z + *p * beta;
+                }
+                iterations += 1;
+            }
+            s.last_iterations = iterations;
+            for ((x, v), (dv, w)) in x
+                .iter_mut()
+                .zip(v.iter_mut())
+                .zip(s.dv.iter().zip(inv_mass.iter()))
+            {
+                if *w > 0.0 {
+                    *v = (*v + *dv) * keep;
+                    *x += *v * h;
+                }
+            }
+            drive_pins(pins, t0, t1, inv_h, x, v);
+            if contacts.is_active() {
+                let energy = |x: &[Vec3], v: &[Vec3]| energy_of(springs, (mass, inv_mass), g, x, v);
+                let before = contact_work.map(|_| energy(x, v).total());
+                contacts.resolve(t0, t1, h, &model.triangles, inv_mass, x, v);
+                if let Some(before) = before {
+                    add_contact_work(contact_work, before, energy(x, v).total());
+                }
+            }
+        }
+    }
+}

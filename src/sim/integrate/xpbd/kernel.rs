@@ -1,0 +1,566 @@
+//! XPBD's spring kernel: one Gauss-Seidel sweep over a layout's runs ([`solve_springs`]), on
+//! columns that the two threads of a shared sweep use at once. The types say who may do what:
+//! a [`Read`] column is shared and only read (the substep's start positions), a [`Column`] is
+//! written by both threads, each only at the particles and slots of its own share of a colour,
+//! so its loads and stores are `unsafe` and every caller names the share that makes them
+//! exclusive ([`Projections`] keeps the shares of a colour disjoint).
+
+use std::marker::PhantomData;
+
+use super::layout::{LANES, Layout, Projections, Run, interleaved_offset};
+use crate::sim::simd::{self, Build, Kernel};
+
+/// A column of `f32` that every thread of a sweep only reads.
+#[derive(Clone, Copy)]
+pub(super) struct Read<'a>(&'a [f32]);
+
+impl<'a> Read<'a> {
+    /// The elements of `s`.
+    pub fn new(s: &'a [f32]) -> Self {
+        Self(s)
+    }
+
+    /// The first `n` elements (a panic if there are fewer).
+    #[inline(always)]
+    fn cut(self, n: usize) -> Self {
+        Self(&self.0[..n])
+    }
+
+    /// Copies `N` values starting at `i`.
+    #[inline(always)]
+    fn load<const N: usize>(self, i: usize) -> [f32; N] {
+        load(self.0, i)
+    }
+
+    /// Element `i`.
+    #[inline(always)]
+    fn get(self, i: usize) -> f32 {
+        self.0[i]
+    }
+}
+
+/// A column of `f32` (a coordinate of the displacements, or the multipliers) that the threads of
+/// a sweep write at once, each at its own elements: a pointer and a length, borrowed from a
+/// `&mut [f32]` for `'a`. Every access is `unsafe`: its caller promises that no other thread
+/// touches the same elements meanwhile. An index out of range is a panic, never an access.
+#[derive(Clone, Copy)]
+pub(super) struct Column<'a> {
+    ptr: *mut f32,
+    len: usize,
+    life: PhantomData<&'a mut [f32]>,
+}
+
+// SAFETY: a column gives access to its elements only through `unsafe` methods, whose callers
+// promise that no two threads touch the same element at once.
+unsafe impl Send for Column<'_> {}
+// SAFETY: as above.
+unsafe impl Sync for Column<'_> {}
+
+impl<'a> Column<'a> {
+    /// The elements of `s`, which the column borrows exclusively for `'a`.
+    pub fn new(s: &'a mut [f32]) -> Self {
+        Self {
+            ptr: s.as_mut_ptr(),
+            len: s.len(),
+            life: PhantomData,
+        }
+    }
+
+    /// The first `n` elements (a panic if there are fewer).
+    #[inline(always)]
+    fn cut(self, n: usize) -> Self {
+        assert!(n <= self.len, "a column cut past its end");
+        Self { len: n, ..self }
+    }
+
+    /// Panics unless `i..i + n` is in range; the same test as slicing `i..i + n`, so that one
+    /// test per batch of the kernel covers every access to it.
+    #[inline(always)]
+    fn check(self, i: usize, n: usize) {
+        let end = i + n;
+        assert!(
+            i <= end && end <= self.len,
+            "a column accessed past its end"
+        );
+    }
+
+    /// Copies `N` values starting at `i`.
+    ///
+    /// # Safety
+    /// No other thread writes elements `i..i + N` meanwhile.
+    #[inline(always)]
+    pub unsafe fn load<const N: usize>(self, i: usize) -> [f32; N] {
+        self.check(i, N);
+        // SAFETY: in bounds (checked) and within the borrow; no other thread writes there.
+        unsafe { self.ptr.add(i).cast::<[f32; N]>().read_unaligned() }
+    }
+
+    /// Writes `values` to elements `i..i + N`.
+    ///
+    /// # Safety
+    /// No other thread reads or writes elements `i..i + N` meanwhile.
+    #[inline(always)]
+    pub unsafe fn store<const N: usize>(self, i: usize, values: &[f32; N]) {
+        self.check(i, N);
+        // SAFETY: in bounds (checked) and within the borrow; no other thread touches them.
+        unsafe { self.ptr.add(i).cast::<[f32; N]>().write_unaligned(*values) }
+    }
+
+    /// Elements `range`, as a slice (a panic if out of range).
+    ///
+    /// # Safety
+    /// Nothing else reads or writes them while the slice lives.
+    pub unsafe fn slice_mut(self, range: std::ops::Range<usize>) -> &'a mut [f32] {
+        assert!(range.start <= range.end, "an inverted column range");
+        self.check(range.start, range.len());
+        // SAFETY: in bounds (checked) and within the borrow; exclusive (the caller's contract).
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+
+    /// Element `i`.
+    ///
+    /// # Safety
+    /// As [`Self::load`].
+    #[inline(always)]
+    unsafe fn get(self, i: usize) -> f32 {
+        // SAFETY: the caller's contract.
+        unsafe { self.load::<1>(i)[0] }
+    }
+
+    /// Sets element `i`.
+    ///
+    /// # Safety
+    /// As [`Self::store`].
+    #[inline(always)]
+    unsafe fn set(self, i: usize, value: f32) {
+        // SAFETY: the caller's contract.
+        unsafe { self.store::<1>(i, &[value]) }
+    }
+}
+
+/// Positions during XPBD's projection, one column per coordinate: where each particle began the
+/// substep, and its displacement since. The corrections accumulate in the small displacements
+/// rather than in the large positions, so that f32 keeps them (added to a position of about 1 m,
+/// a correction below 1e-7 m would vanish, and the velocity `Δx / h` with it).
+#[derive(Clone, Copy)]
+pub(super) struct Split<'a> {
+    pub start: [Read<'a>; 3],
+    pub delta: [Column<'a>; 3],
+}
+
+impl Split<'_> {
+    /// Every column cut to `n` elements.
+    #[inline(always)]
+    fn cut(self, n: usize) -> Self {
+        Self {
+            start: self.start.map(|c| c.cut(n)),
+            delta: self.delta.map(|c| c.cut(n)),
+        }
+    }
+}
+
+/// What one Gauss-Seidel sweep works on, for the thread or threads that run it.
+pub(super) struct Sweep<'a> {
+    pub p: &'a Projections,
+    pub x: Split<'a>,
+    pub lambda: Column<'a>,
+    pub inv_h2: f32,
+}
+
+impl Sweep<'_> {
+    /// Projects the springs of `runs` (with `accumulate`, keeping the multipliers).
+    ///
+    /// # Safety
+    /// As [`solve_springs`]: no other thread touches what `runs` touch meanwhile.
+    pub unsafe fn run(&self, runs: &[Run], accumulate: bool) {
+        let (p, x, lambda, inv_h2) = (self.p, self.x, self.lambda, self.inv_h2);
+        // SAFETY: the caller's contract.
+        unsafe {
+            if accumulate {
+                solve_springs::<true>(p, runs, x, lambda, inv_h2);
+            } else {
+                solve_springs::<false>(p, runs, x, lambda, inv_h2);
+            }
+        }
+    }
+}
+
+/// One Gauss-Seidel sweep over the springs of `runs` (every colour, or one thread's share of
+/// one), run by run: the XPBD update
+/// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
+/// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
+///
+/// Slots go in batches of [`LANES`] along the [`Run`]s: contiguous and interleaved runs are read
+/// and written with whole vector loads and stores, scattered ones gathered particle by particle;
+/// the arithmetic (square root and division included) is the same lane-wise code for all, so the
+/// layout never changes a result. With `ACCUMULATE = false` (one iteration per substep) λ is known
+/// to be 0 and is neither read nor stored.
+///
+/// A vector [`Kernel`]: on x86-64 CPUs it runs as 8-wide AVX2 vectors, or with AVX-512 as 16-wide
+/// ones where a contiguous run allows; the results are bit-identical either way.
+///
+/// # Safety
+/// While it runs, no other thread reads or writes the displacements of the particles, or the
+/// multipliers of the slots, that `runs` touch (the runs of one colour's share, see
+/// [`Projections::share`], touch none that the other share does).
+pub(super) unsafe fn solve_springs<const ACCUMULATE: bool>(
+    p: &Projections,
+    runs: &[Run],
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+) {
+    simd::run(SolveSprings::<ACCUMULATE> {
+        p,
+        runs,
+        x,
+        lambda,
+        inv_h2,
+    });
+}
+
+/// [`solve_springs`] in `build`, if the CPU has it; returns whether it ran. For the tests that
+/// compare the builds.
+///
+/// # Safety
+/// As [`solve_springs`].
+#[cfg(test)]
+pub(super) unsafe fn solve_springs_in<const ACCUMULATE: bool>(
+    build: Build,
+    p: &Projections,
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+) -> bool {
+    simd::run_as(
+        build,
+        SolveSprings::<ACCUMULATE> {
+            p,
+            runs: &p.runs,
+            x,
+            lambda,
+            inv_h2,
+        },
+    )
+}
+
+/// [`solve_springs`]'s arguments, as a [`Kernel`]. Made only by [`solve_springs`], whose caller
+/// promises the exclusive use of what `runs` touch.
+struct SolveSprings<'a, const ACCUMULATE: bool> {
+    p: &'a Projections,
+    runs: &'a [Run],
+    x: Split<'a>,
+    lambda: Column<'a>,
+    inv_h2: f32,
+}
+
+impl<const ACCUMULATE: bool> Kernel for SolveSprings<'_, ACCUMULATE> {
+    const WIDEST: Build = Build::Avx512;
+
+    #[inline(always)]
+    fn body<const WIDE: bool>(self) {
+        let Self {
+            p,
+            runs,
+            x,
+            lambda,
+            inv_h2,
+        } = self;
+        // SAFETY: the caller of `solve_springs`, which made `self`, has exclusive use of what
+        // `runs` touch.
+        unsafe { solve_springs_body::<ACCUMULATE, WIDE>(p, runs, x, lambda, inv_h2) };
+    }
+}
+
+/// The per-slot constants of the batch at slots `k..k + N`, and where its multipliers live.
+struct Batch<'a, const N: usize> {
+    rest: &'a [f32; N],
+    compliance: &'a [f32; N],
+    lambda: Column<'a>,
+    k: usize,
+}
+
+impl<'a, const N: usize> Batch<'a, N> {
+    /// Slots `k..k + N` (the runs never reach past the slots: a panic if they did).
+    #[inline(always)]
+    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: Column<'a>, k: usize) -> Self {
+        Self {
+            rest: array(&rest[k..k + N]),
+            compliance: array(&compliance[k..k + N]),
+            lambda,
+            k,
+        }
+    }
+}
+
+/// `s` as an array (its length is `N`: slices of `N` elements are passed).
+#[inline(always)]
+fn array<const N: usize>(s: &[f32]) -> &[f32; N] {
+    s.try_into().expect("a batch is N slots")
+}
+
+/// The body of [`solve_springs`], which states its safety contract.
+#[inline(always)]
+unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
+    p: &Projections,
+    runs: &[Run],
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+) {
+    let (rest, compliance) = (&p.rest, &p.compliance);
+    let inv_mass = &p.inv_mass[..];
+    // Every column cut to the particle count, so that one bounds check per batch covers them all.
+    let x = x.cut(inv_mass.len());
+    for run in runs {
+        let (start, end) = (run.start as usize, (run.start + run.len) as usize);
+        let mut k = start;
+        // Two batches at once where their 32 particles are distinct.
+        if WIDE && run.layout == Layout::Contiguous && p.b[k] - p.a[k] >= 2 * LANES as u32 {
+            while k + 2 * LANES <= end {
+                let batch = Batch::at(rest, compliance, lambda, k);
+                let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+                // SAFETY: the batch's slots and particles are among those `runs` touch.
+                unsafe {
+                    solve_contiguous::<ACCUMULATE, { 2 * LANES }>(x, inv_mass, a, b, batch, inv_h2)
+                };
+                k += 2 * LANES;
+            }
+        }
+        while k + LANES <= end {
+            let batch = Batch::at(rest, compliance, lambda, k);
+            let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+            // SAFETY: the batch's slots and particles are among those `runs` touch.
+            unsafe {
+                match run.layout {
+                    Layout::Contiguous => {
+                        solve_contiguous::<ACCUMULATE, LANES>(x, inv_mass, a, b, batch, inv_h2)
+                    }
+                    Layout::Interleaved(1) => {
+                        solve_interleaved::<ACCUMULATE, 1>(x, inv_mass, a, batch, inv_h2)
+                    }
+                    Layout::Interleaved(_) => {
+                        solve_interleaved::<ACCUMULATE, 2>(x, inv_mass, a, batch, inv_h2)
+                    }
+                    Layout::Scattered => {
+                        solve_gathered::<ACCUMULATE, LANES>(&p.a, &p.b, x, inv_mass, batch, inv_h2)
+                    }
+                }
+            }
+            k += LANES;
+        }
+        // Whatever is left of the run, one slot at a time.
+        for k in k..end {
+            let batch = Batch::<1>::at(rest, compliance, lambda, k);
+            // SAFETY: the slot and its particles are among those `runs` touch.
+            unsafe { solve_gathered::<ACCUMULATE, 1>(&p.a, &p.b, x, inv_mass, batch, inv_h2) };
+        }
+    }
+}
+
+/// The lane-wise XPBD update of `N` independent slots: `s[0..3]` are the first ends' x, y, z
+/// at the start of the substep and `s[3..6]` the second ends', `d` their displacements since,
+/// which the update moves.
+///
+/// # Safety
+/// No other thread touches the batch's multipliers while it runs.
+#[inline(always)]
+unsafe fn project<const ACCUMULATE: bool, const N: usize>(
+    s: &[[f32; N]; 6],
+    d: &mut [[f32; N]; 6],
+    wa: &[f32; N],
+    wb: &[f32; N],
+    batch: Batch<'_, N>,
+    inv_h2: f32,
+) {
+    let mut lambda = if ACCUMULATE {
+        // SAFETY: the caller's contract.
+        unsafe { batch.lambda.load::<N>(batch.k) }
+    } else {
+        [0.0; N]
+    };
+    for l in 0..N {
+        // The start vectors and the displacements are differenced separately, so that the
+        // small displacements keep their precision.
+        let dx = (s[0][l] - s[3][l]) + (d[0][l] - d[3][l]);
+        let dy = (s[1][l] - s[4][l]) + (d[1][l] - d[4][l]);
+        let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
+        let len2 = dx * dx + dy * dy + dz * dz;
+        let lam = lambda[l];
+        let alpha = batch.compliance[l] * inv_h2;
+        let rest = batch.rest[l];
+        let len = len2.sqrt();
+        let scale = (rest - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
+        // A spring of (near) zero length has no direction and is skipped, and so is a padding
+        // slot (rest length 0). A spring whose ends are both pinned (w = 0) gets a finite step
+        // (α̃ > 0) that its zero inverse masses ignore.
+        let scale = if len2 > 1e-20 && rest > 0.0 {
+            scale
+        } else {
+            0.0
+        };
+        if ACCUMULATE {
+            lambda[l] = lam + scale * len;
+        }
+        let (sa, sb) = (scale * wa[l], scale * wb[l]);
+        d[0][l] += dx * sa;
+        d[1][l] += dy * sa;
+        d[2][l] += dz * sa;
+        d[3][l] -= dx * sb;
+        d[4][l] -= dy * sb;
+        d[5][l] -= dz * sb;
+    }
+    if ACCUMULATE {
+        // SAFETY: the caller's contract.
+        unsafe { batch.lambda.store(batch.k, &lambda) };
+    }
+}
+
+/// Copies `N` values starting at `i` out of `v`.
+#[inline(always)]
+fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
+    *array(&v[i..i + N])
+}
+
+/// Slots joining particles `ia..ia + N` to `ib..ib + N`.
+///
+/// # Safety
+/// No other thread touches those particles' displacements or the batch's multipliers while it
+/// runs.
+#[inline(always)]
+unsafe fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
+    x: Split,
+    inv_mass: &[f32],
+    ia: usize,
+    ib: usize,
+    batch: Batch<'_, N>,
+    inv_h2: f32,
+) {
+    // One test covers every load and store below (the columns are cut to the particle count).
+    assert!(
+        ia.max(ib) + N <= inv_mass.len(),
+        "a batch past the particles"
+    );
+    // The x, y, z of particles `ia..ia + N`, then of `ib..ib + N`.
+    let s = ends(ia, ib, |c, i| x.start[c].load(i));
+    // SAFETY: the caller's contract.
+    let mut d = ends(ia, ib, |c, i| unsafe { x.delta[c].load(i) });
+    let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
+    // SAFETY: the caller's contract.
+    unsafe { project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2) };
+    for (c, coord) in x.delta.iter().enumerate() {
+        // SAFETY: the caller's contract.
+        unsafe {
+            coord.store(ia, &d[c]);
+            coord.store(ib, &d[c + 3]);
+        }
+    }
+}
+
+/// The x, y, z of particles `ia..ia + N`, then of `ib..ib + N`, with `load(coordinate, first)`.
+#[inline(always)]
+fn ends<const N: usize>(
+    ia: usize,
+    ib: usize,
+    load: impl Fn(usize, usize) -> [f32; N],
+) -> [[f32; N]; 6] {
+    [
+        load(0, ia),
+        load(1, ia),
+        load(2, ia),
+        load(0, ib),
+        load(1, ib),
+        load(2, ib),
+    ]
+}
+
+/// Eight slots over the 16 particles `window..window + 16` (see [`Layout::Interleaved`]).
+///
+/// # Safety
+/// As [`solve_contiguous`], for the window's particles.
+#[inline(always)]
+unsafe fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
+    x: Split,
+    inv_mass: &[f32],
+    window: usize,
+    batch: Batch<'_, LANES>,
+    inv_h2: f32,
+) {
+    // One test covers every load and store below (the columns are cut to the particle count).
+    assert!(
+        window + 2 * LANES <= inv_mass.len(),
+        "a window past the particles"
+    );
+    let (start, delta) = (x.start, x.delta);
+    // SAFETY: the caller's contract.
+    let win: [[f32; 16]; 7] = unsafe {
+        [
+            start[0].load(window),
+            start[1].load(window),
+            start[2].load(window),
+            delta[0].load(window),
+            delta[1].load(window),
+            delta[2].load(window),
+            load(inv_mass, window),
+        ]
+    };
+    let (mut s, mut d) = ([[0.0f32; LANES]; 6], [[0.0f32; LANES]; 6]);
+    let (mut wa, mut wb) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for l in 0..LANES {
+        let (a, b) = (interleaved_offset(D, l), interleaved_offset(D, l) + D);
+        for c in 0..3 {
+            (s[c][l], s[c + 3][l]) = (win[c][a], win[c][b]);
+            (d[c][l], d[c + 3][l]) = (win[c + 3][a], win[c + 3][b]);
+        }
+        (wa[l], wb[l]) = (win[6][a], win[6][b]);
+    }
+    // SAFETY: the caller's contract.
+    unsafe { project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2) };
+    for (c, coord) in delta.iter().enumerate() {
+        let mut out = [0.0f32; 16];
+        for l in 0..LANES {
+            out[interleaved_offset(D, l)] = d[c][l];
+            out[interleaved_offset(D, l) + D] = d[c + 3][l];
+        }
+        // SAFETY: the caller's contract.
+        unsafe { coord.store(window, &out) };
+    }
+}
+
+/// The batch's slots at arbitrary particles `a[k..]`, `b[k..]`: gather, project, scatter.
+///
+/// # Safety
+/// As [`solve_contiguous`], for the batch's particles.
+#[inline(always)]
+unsafe fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
+    a: &[u32],
+    b: &[u32],
+    x: Split,
+    inv_mass: &[f32],
+    batch: Batch<'_, N>,
+    inv_h2: f32,
+) {
+    let (start, delta) = (x.start, x.delta);
+    let (a, b) = (&a[batch.k..batch.k + N], &b[batch.k..batch.k + N]);
+    let (mut s, mut d) = ([[0.0f32; N]; 6], [[0.0f32; N]; 6]);
+    let (mut wa, mut wb) = ([0.0f32; N], [0.0f32; N]);
+    for l in 0..N {
+        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
+            for c in 0..3 {
+                // SAFETY: the caller's contract.
+                (s[e + c][l], d[e + c][l]) = (start[c].get(i), unsafe { delta[c].get(i) });
+            }
+        }
+        (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
+    }
+    // SAFETY: the caller's contract.
+    unsafe { project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2) };
+    for l in 0..N {
+        for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
+            for c in 0..3 {
+                // SAFETY: the caller's contract.
+                unsafe { delta[c].set(i, d[e + c][l]) };
+            }
+        }
+    }
+}

@@ -1,0 +1,441 @@
+
+use super::kernel::solve_springs;
+use super::layout::{Layout, Run, grid_order};
+use super::*;
+use crate::sim::WindField;
+use crate::sim::simd::Build;
+use crate::sim::{ClothModel, Collider, ColliderShape, Friction, GridSpec, Integrator, Pose};
+use bevy::math::primitives::Sphere;
+use glam::Vec3;
+
+/// A still sphere of radius `r` at `at`, with a 1 cm margin.
+fn ball(r: f32, at: Vec3, friction: Friction) -> Collider {
+    Collider::fixed(
+        ColliderShape::Sphere(Sphere::new(r)),
+        Pose::from_translation(at),
+        friction,
+        0.01,
+    )
+}
+
+/// Sea-level air moving at `velocity`, without gusts.
+fn air(velocity: Vec3) -> WindField {
+    WindField {
+        velocity,
+        air_density: 1.225,
+        ..Default::default()
+    }
+}
+
+/// Checks the layout and returns the number of gathered (scattered or tail) springs.
+fn gathered(model: &ClothModel) -> usize {
+    let (s, n) = (&model.springs, model.particle_count());
+    let p = Projections::new(model);
+    p.check(s, n).unwrap();
+    p.runs
+        .iter()
+        .map(|r| match r.layout {
+            Layout::Scattered => r.len as usize,
+            _ => r.len as usize % LANES,
+        })
+        .sum()
+}
+
+#[test]
+fn grid_springs_are_projected_as_vectors() {
+    let model = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap();
+    let p = Projections::new(&model);
+    // The row ends are padded, so that only the last run of a colour, whose padding would
+    // run past the last particle, can leave springs to scalar code; the padding costs a few
+    // percent.
+    let tails = gathered(&model);
+    assert!(
+        tails < LANES * model.springs.color_count(),
+        "{tails} gathered"
+    );
+    let padding = p.spring.iter().filter(|s| s.is_none()).count();
+    assert!(
+        padding * 50 < p.spring.len(),
+        "{padding} of {} slots",
+        p.spring.len()
+    );
+    // Odd sizes break the row patterns but never the layout.
+    for (nx, ny) in [(9, 7), (2, 2), (3, 17), (50, 31)] {
+        let model = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
+        gathered(&model);
+    }
+    let quad = [0, 1, 2, 3];
+    let p = [Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
+    gathered(&ClothModel::from_mesh(&p, None, &quad, 4).unwrap());
+}
+
+#[test]
+fn grid_colours_split_into_balanced_shares() {
+    for (nx, ny) in [(64, 64), (128, 128), (100, 37)] {
+        let model = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
+        let p = Projections::new(&model);
+        p.check(&model.springs, model.particle_count()).unwrap();
+        assert!(p.worth_sharing(), "{nx}×{ny}");
+        for c in 0..p.color_count() {
+            let [first, second] = [0, 1].map(|s| p.share(c, s).iter().map(|r| r.len).sum::<u32>());
+            let total = first + second;
+            assert!(
+                first.abs_diff(second) * 10 <= total,
+                "{nx}×{ny}, colour {c}: shares of {first} and {second} slots"
+            );
+        }
+    }
+}
+
+#[test]
+fn shared_sweeps_match_one_thread_bit_for_bit() {
+    use crate::sim::{ClothSim, Environment, ScopedThread, SolverSettings, Spread};
+    /// Runs the helper only after the step: the step's thread must do all the work.
+    struct Late;
+    impl Spread for Late {
+        fn join(&self, helper: &(dyn Fn() + Sync), main: &mut dyn FnMut()) {
+            main();
+            helper();
+        }
+    }
+    // A 96×48 cloth (27,000 springs, so it is shared) pinned at two corners, blown onto a
+    // sphere, with one iteration and with three (which keep multipliers).
+    let sphere = [ball(0.4, Vec3::new(0.5, -0.45, 0.3), Friction::default())];
+    let wind = air(Vec3::new(2.0, 0.0, 5.0));
+    let env = Environment {
+        colliders: &sphere,
+        wind: Some(&wind),
+        ..Default::default()
+    };
+    for iterations in [1, 3] {
+        let run = |spread: Option<&dyn Spread>| {
+            let model = ClothModel::grid(&GridSpec::new(96, 48, 0.05)).unwrap();
+            let settings = SolverSettings {
+                integrator: Integrator::Xpbd,
+                iterations,
+                ..Default::default()
+            };
+            let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+            assert!(sim.steppers.xpbd.worth_sharing());
+            sim.set_pins([(0, sim.positions()[0]), (95, sim.positions()[95])])
+                .unwrap();
+            let mut touching = 0;
+            for _ in 0..15 {
+                match spread {
+                    Some(spread) => sim.step_in_parallel(1.0 / 60.0, &env, spread),
+                    None => sim.step_in(1.0 / 60.0, &env),
+                }
+                .unwrap();
+                touching += sim.active_colliders();
+            }
+            assert!(touching > 0, "the sphere was never in reach");
+            (sim.positions().to_vec(), sim.velocities().to_vec())
+        };
+        let alone = run(None);
+        assert!(run(Some(&ScopedThread)) == alone, "{iterations} iterations");
+        assert!(
+            run(Some(&Late)) == alone,
+            "{iterations} iterations, late helper"
+        );
+    }
+}
+
+#[test]
+fn the_grid_storage_order_changes_no_result() {
+    use crate::sim::{ClothSim, Environment, SolverSettings};
+    // The same 40×12 cloth with and without its grid (which alone selects the storage
+    // order): pinned and moved, draped over a sphere, in wind. The lane arithmetic is the
+    // same in every layout, so the positions must be bit-identical.
+    let masses = (0..40 * 12).map(|i| 0.002 * (1 + i % 7) as f32).collect();
+    let grid = ClothModel::grid(&GridSpec::new(40, 12, 0.05))
+        .unwrap()
+        .with_particle_masses(masses)
+        .unwrap();
+    let mut plain = grid.clone();
+    plain.grid = None;
+    assert!(!grid_order(grid.grid.as_ref().unwrap()).is_empty());
+    let sphere = [ball(0.2, Vec3::new(0.3, -0.35, 0.05), Friction::default())];
+    let wind = air(Vec3::new(3.0, 0.0, 4.0));
+    let env = Environment {
+        colliders: &sphere,
+        wind: Some(&wind),
+        ..Default::default()
+    };
+    let run = |model: ClothModel| {
+        let settings = SolverSettings {
+            integrator: Integrator::Xpbd,
+            ..Default::default()
+        };
+        let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+        // Corners stay where they are stored; particle 22 moves to the third column block.
+        let ends = [Vec3::new(-1.0, 0.0, 0.3), Vec3::new(0.1, 0.0, 0.3)];
+        let pins = [(0, ends[0]), (22, ends[1]), (39, Vec3::new(1.0, 0.0, 0.3))];
+        sim.set_pins(pins).unwrap();
+        for frame in 0..40 {
+            let x = 0.01 * frame as f32;
+            let right = Vec3::new(1.0 - x, 0.0, 0.3);
+            sim.move_pins([ends[0] + Vec3::X * x, ends[1] + Vec3::Y * x, right]);
+            sim.step_in(1.0 / 60.0, &env).unwrap();
+        }
+        assert!(sim.active_colliders() > 0, "the sphere was never in reach");
+        (sim.positions().to_vec(), sim.velocities().to_vec())
+    };
+    let (a, b) = (run(grid), run(plain));
+    assert!(a == b, "the storage order changed the result");
+}
+
+#[test]
+fn contacts_ahead_of_the_end_pass_match_contacts_after_it() {
+    use crate::sim::{ClothSim, Environment, SolverSettings};
+    // A 40×12 cloth (stored in the grid order) blown onto spheres and pinned at two corners:
+    // contacts resolved on the state the substep ends in, then the fused end-and-start pass,
+    // against contacts on the end state after a separate end pass (a test-only path). They
+    // differ by rounding only: the end position `x + Δ` is rounded once more after a push
+    // (measured: 1.4e-6 m and 9e-5 m/s after 30 frames; keeping only the first of a
+    // particle's contact velocities in a substep gives 8e-6 m and 3e-4 m/s, leaving out the
+    // velocity write-back 3e-4 m).
+    // A second sphere overlapping the first, and a small one (smaller than the cloth's edges,
+    // so triangles are tested too): particles are pushed more than once in a substep.
+    let friction = Friction::new(0.4);
+    let sphere = [
+        ball(0.25, Vec3::new(0.9, -0.3, 0.4), friction),
+        ball(0.25, Vec3::new(1.0, -0.3, 0.4), friction),
+        ball(0.03, Vec3::new(0.5, -0.04, 0.3), friction),
+    ];
+    let wind = air(Vec3::new(0.0, 0.0, 6.0));
+    let env = Environment {
+        colliders: &sphere,
+        wind: Some(&wind),
+        ..Default::default()
+    };
+    let run = |after: bool, tracked: bool| {
+        let model = ClothModel::grid(&GridSpec::new(40, 12, 0.05)).unwrap();
+        let settings = SolverSettings {
+            integrator: Integrator::Xpbd,
+            ..Default::default()
+        };
+        let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+        sim.set_pins([(0, sim.positions()[0]), (39, sim.positions()[39])])
+            .unwrap();
+        sim.steppers.xpbd.contacts_after_end = after;
+        if tracked {
+            sim.track_contact_work();
+        }
+        let mut touching = 0;
+        for _ in 0..30 {
+            sim.step_in(1.0 / 60.0, &env).unwrap();
+            touching += sim.active_colliders();
+        }
+        assert!(
+            touching > 10,
+            "the sphere was in reach for {touching} steps"
+        );
+        (sim.positions().to_vec(), sim.velocities().to_vec())
+    };
+    let ((xa, va), (xb, vb)) = (run(false, false), run(true, false));
+    // Counting the energy contacts add (the stress suite) changes nothing.
+    assert!(
+        run(false, true) == (xa.clone(), va.clone()),
+        "tracking changed the result"
+    );
+    assert_ne!(xa, xb, "the two paths are distinct");
+    let worst = |a: &[Vec3], b: &[Vec3]| {
+        a.iter()
+            .zip(b)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, f32::max)
+    };
+    assert!(
+        worst(&xa, &xb) < 4e-6,
+        "positions differ by {}",
+        worst(&xa, &xb)
+    );
+    assert!(
+        worst(&va, &vb) < 1.8e-4,
+        "velocities differ by {}",
+        worst(&va, &vb)
+    );
+}
+
+#[test]
+fn padding_slots_change_nothing() {
+    // A contiguous run of three springs, padded to a batch of eight.
+    let n = 32;
+    let mut start = Soa::new(n);
+    for i in 0..n {
+        start.set(i, Vec3::new(i as f32 * 0.1, (i % 3) as f32, 0.0));
+    }
+    let mut delta = Soa::new(n);
+    for i in 0..n {
+        delta.set(i, Vec3::splat(1e-3 * i as f32));
+    }
+    let before = delta.clone();
+    let p = &mut Projections {
+        a: (0..8).collect(),
+        b: (16..24).collect(),
+        spring: (0..8).map(|m| (m < 3).then_some(m)).collect(),
+        runs: vec![Run {
+            layout: Layout::Contiguous,
+            start: 0,
+            len: 8,
+        }],
+        springs: 3,
+        ..Projections::default()
+    };
+    p.rest = vec![0.0; 8];
+    p.compliance = vec![0.0; 8];
+    p.inv_mass = vec![0.0; n];
+    p.set_constants(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3], &vec![1.0; n]);
+    let mut lambda = vec![0.0; 8];
+    let x = Split {
+        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
+        delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
+    };
+    // SAFETY: one thread, and the arrays are used through the columns only until the sweep
+    // returns.
+    unsafe { solve_springs::<false>(p, &p.runs, x, Column::new(&mut lambda), 3600.0) };
+    for i in 0..n {
+        let moved = delta.get(i) != before.get(i);
+        assert_eq!(moved, matches!(i, 0..3 | 16..19), "particle {i}");
+    }
+}
+
+/// The displacements and multipliers after one sweep over `model`'s springs by the kernel's
+/// `build` (with `ACCUMULATE`, from nonzero multipliers), if the CPU has it, as bits.
+fn sweep_in<const ACCUMULATE: bool>(build: Build, model: &ClothModel) -> Option<Vec<u32>> {
+    let n = model.particle_count();
+    let s = &model.springs;
+    let mut p = Projections::new(model);
+    let stiffness: Vec<f32> = (0..s.len()).map(|k| 50.0 + (k % 7) as f32 * 1e3).collect();
+    let inv_mass: Vec<f32> = (0..n)
+        .map(|i| if i % 11 == 0 { 0.0 } else { 1e3 })
+        .collect();
+    p.set_constants(&s.rest, &stiffness, &inv_mass);
+    let mut start = Soa::new(n);
+    let mut delta = Soa::new(n);
+    for i in 0..n {
+        let t = i as f32;
+        let stored = p.stored(i as u32) as usize;
+        start.set(stored, model.rest_positions[i] * 1.01);
+        delta.set(
+            stored,
+            1e-3 * Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin()),
+        );
+    }
+    let mut lambda: Vec<f32> = (0..p.slot_count()).map(|k| 1e-4 * (k % 5) as f32).collect();
+    let x = Split {
+        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
+        delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
+    };
+    // SAFETY: one thread, and the arrays are used through the columns only until the sweep
+    // returns.
+    let ran = unsafe {
+        kernel::solve_springs_in::<ACCUMULATE>(build, &p, x, Column::new(&mut lambda), 3600.0)
+    };
+    ran.then(|| {
+        let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        [
+            bits(&delta.x),
+            bits(&delta.y),
+            bits(&delta.z),
+            bits(&lambda),
+        ]
+        .concat()
+    })
+}
+
+#[test]
+fn every_build_of_the_spring_kernel_gives_the_same_bits() {
+    // Stored in grid order (contiguous runs, paired batches on AVX-512), in their own order
+    // (interleaved row runs), and a disc (scattered springs and one-at-a-time tails).
+    let models = [
+        ClothModel::grid(&GridSpec::new(40, 9, 0.05)).unwrap(),
+        ClothModel::grid(&GridSpec::new(19, 13, 0.05)).unwrap(),
+        ClothModel::disc(&crate::sim::DiscSpec::new(7, 6, 0.5)).unwrap(),
+    ];
+    let mut compared = 0;
+    for model in &models {
+        for build in [Build::Avx2, Build::Avx512] {
+            let wide = (
+                sweep_in::<false>(build, model),
+                sweep_in::<true>(build, model),
+            );
+            if wide.0.is_some() {
+                let plain = (
+                    sweep_in::<false>(Build::Plain, model),
+                    sweep_in::<true>(Build::Plain, model),
+                );
+                assert!(wide == plain, "{build:?} differs from the plain build");
+                compared += 1;
+            }
+        }
+    }
+    let available = [Build::Avx2, Build::Avx512]
+        .iter()
+        .filter(|b| b.is_available());
+    assert_eq!(compared, models.len() * available.count());
+}
+
+/// Positions, velocities and displacements after the particle pass `END`, `BEGIN` (with wind if
+/// `wind`) by the kernel's `build`, if the CPU has it, as bits.
+fn advance_in<const END: bool, const BEGIN: bool>(build: Build, wind: bool) -> Option<Vec<u32>> {
+    let n = 45;
+    let f = |i: usize, k: f32| (i as f32 * k).sin();
+    let mut x: [Vec<f32>; 3] = [0.3, 0.7, 1.1].map(|k| (0..n).map(|i| f(i, k)).collect());
+    let mut v: [Vec<f32>; 3] = [1.3, 0.2, 0.5].map(|k| (0..n).map(|i| f(i, k)).collect());
+    let mut d: [Vec<f32>; 3] = [0.9, 1.7, 0.4].map(|k| (0..n).map(|i| 1e-3 * f(i, k)).collect());
+    let w: [Vec<f32>; 3] = [2.3, 0.1, 0.6].map(|k| (0..n).map(|i| 1e-2 * f(i, k)).collect());
+    let m = Motion {
+        h: 1.0 / 1200.0,
+        inv_h: 1200.0,
+        keep: 0.9996,
+        gravity: [0.0, -9.81 / 1200.0, 0.0],
+    };
+    let [x0, x1, x2] = &mut x;
+    let [v0, v1, v2] = &mut v;
+    let [d0, d1, d2] = &mut d;
+    let kernel = Advance::<END, BEGIN> {
+        x: [x0, x1, x2].map(|a| &mut a[..]),
+        v: [v0, v1, v2].map(|a| &mut a[..]),
+        d: [d0, d1, d2].map(|a| &mut a[..]),
+        wind_dv: wind.then(|| [&w[0][..], &w[1][..], &w[2][..]]),
+        m: &m,
+    };
+    simd::run_as(build, kernel).then(|| {
+        [x, v, d]
+            .iter()
+            .flatten()
+            .flat_map(|c| c.iter().map(|f| f.to_bits()))
+            .collect()
+    })
+}
+
+#[test]
+fn every_build_of_the_particle_pass_gives_the_same_bits() {
+    for wind in [false, true] {
+        for build in [Build::Avx2, Build::Avx512] {
+            let pairs = [
+                (
+                    advance_in::<true, true>(build, wind),
+                    advance_in::<true, true>(Build::Plain, wind),
+                ),
+                (
+                    advance_in::<true, false>(build, wind),
+                    advance_in::<true, false>(Build::Plain, wind),
+                ),
+                (
+                    advance_in::<false, true>(build, wind),
+                    advance_in::<false, true>(Build::Plain, wind),
+                ),
+            ];
+            for (wide, plain) in pairs {
+                if wide.is_some() {
+                    assert!(
+                        wide == plain,
+                        "{build:?} differs from the plain build (wind {wind})"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,165 @@
+//! A cloth's springs ([`Springs`]), in families ([`SpringKind`]) and coloured so that no two
+//! springs of a colour share a particle.
+
+use bevy::reflect::Reflect;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// The three spring families of a Provot mass-spring cloth.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, Reflect,
+)]
+pub enum SpringKind {
+    /// Along grid rows and columns (or along mesh edges).
+    Structural = 0,
+    /// Along cell diagonals.
+    Shear = 1,
+    /// Skipping one particle (or across a shared mesh edge); resists folding.
+    Bend = 2,
+}
+
+impl SpringKind {
+    /// All kinds, in index order.
+    pub const ALL: [SpringKind; 3] = [SpringKind::Structural, SpringKind::Shear, SpringKind::Bend];
+}
+
+/// The springs of a cloth in structure-of-arrays form, ordered by colour: within one colour no two
+/// springs share a particle, so a colour can be solved in any order (or in parallel) with the same
+/// result.
+#[derive(Debug, Clone, Default)]
+pub struct Springs {
+    /// First particle of each spring.
+    pub a: Vec<u32>,
+    /// Second particle of each spring.
+    pub b: Vec<u32>,
+    /// Rest length of each spring, in metres.
+    pub rest: Vec<f32>,
+    /// Family of each spring.
+    pub kind: Vec<SpringKind>,
+    /// Springs of colour `c` are `color_offsets[c]..color_offsets[c + 1]`.
+    pub color_offsets: Vec<u32>,
+}
+
+impl Springs {
+    /// Number of springs.
+    pub fn len(&self) -> usize {
+        self.a.len()
+    }
+
+    /// Whether there are no springs.
+    pub fn is_empty(&self) -> bool {
+        self.a.is_empty()
+    }
+
+    /// Number of colours.
+    pub fn color_count(&self) -> usize {
+        self.color_offsets.len().saturating_sub(1)
+    }
+
+    /// Number of springs of each kind, indexed by `SpringKind as usize`.
+    pub fn count_by_kind(&self) -> [usize; 3] {
+        let mut n = [0; 3];
+        for k in &self.kind {
+            n[*k as usize] += 1;
+        }
+        n
+    }
+
+    /// Builds the coloured spring set from `(a, b, kind)` triples, rest lengths from `positions`,
+    /// with a greedy edge colouring. Springs of zero rest length are dropped (they cannot define a
+    /// direction).
+    pub(super) fn build(positions: &[Vec3], pairs: &[(u32, u32, SpringKind)]) -> Self {
+        let colors = greedy_edge_coloring(positions.len(), pairs.iter().map(|p| (p.0, p.1)));
+        Self::build_colored(positions, pairs, &colors)
+    }
+
+    /// [`Self::build`] with a given colour per spring (no two springs of a colour may share a
+    /// particle). Within a colour, springs are ordered by index offset `b - a` and then by `a`
+    /// (XPBD's layout re-sorts them by storage position; see `xpbd::Projections`).
+    pub(super) fn build_colored(
+        positions: &[Vec3],
+        pairs: &[(u32, u32, SpringKind)],
+        colors: &[u32],
+    ) -> Self {
+        debug_assert!(is_proper_edge_coloring(positions.len(), pairs, colors));
+        let pairs: Vec<(u32, u32, SpringKind, f32, u32)> = pairs
+            .iter()
+            .zip(colors)
+            .map(|(&(a, b, k), &c)| {
+                (
+                    a.min(b),
+                    a.max(b),
+                    k,
+                    positions[a as usize].distance(positions[b as usize]),
+                    c,
+                )
+            })
+            .filter(|p| p.3 > 0.0)
+            .collect();
+        let color_count = pairs
+            .iter()
+            .map(|p| p.4)
+            .max()
+            .map_or(0, |c| c as usize + 1);
+        let mut order: Vec<usize> = (0..pairs.len()).collect();
+        order.sort_by_key(|&s| (pairs[s].4, pairs[s].1 - pairs[s].0, pairs[s].0));
+        let mut springs = Springs {
+            a: Vec::with_capacity(pairs.len()),
+            b: Vec::with_capacity(pairs.len()),
+            rest: Vec::with_capacity(pairs.len()),
+            kind: Vec::with_capacity(pairs.len()),
+            color_offsets: vec![0; color_count + 1],
+        };
+        for &s in &order {
+            let (a, b, k, r, c) = pairs[s];
+            springs.a.push(a);
+            springs.b.push(b);
+            springs.rest.push(r);
+            springs.kind.push(k);
+            springs.color_offsets[c as usize + 1] += 1;
+        }
+        for c in 0..color_count {
+            springs.color_offsets[c + 1] += springs.color_offsets[c];
+        }
+        springs
+    }
+}
+
+/// Whether no two springs of the same colour share a particle.
+fn is_proper_edge_coloring(nodes: usize, pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> bool {
+    let mut seen = std::collections::HashSet::with_capacity(2 * pairs.len().min(nodes * 16));
+    pairs.len() == colors.len()
+        && pairs
+            .iter()
+            .zip(colors)
+            .all(|(&(a, b, _), &c)| a != b && seen.insert((a, c)) && seen.insert((b, c)))
+}
+
+/// Greedy colouring of the edges of a graph: each edge gets the smallest colour not yet used at
+/// either endpoint. Uses at most `2 Δ - 1` colours for maximum degree `Δ`.
+fn greedy_edge_coloring(nodes: usize, edges: impl Iterator<Item = (u32, u32)> + Clone) -> Vec<u32> {
+    let mut degree = vec![0u32; nodes];
+    for (a, b) in edges.clone() {
+        degree[a as usize] += 1;
+        degree[b as usize] += 1;
+    }
+    let max_colors = (2 * degree.iter().copied().max().unwrap_or(0)).max(1) as usize;
+    let words = max_colors.div_ceil(64);
+    let mut used = vec![0u64; nodes * words];
+    let mut colors = Vec::new();
+    for (a, b) in edges {
+        let (ua, ub) = (a as usize * words, b as usize * words);
+        let mut color = 0;
+        for w in 0..words {
+            let free = !(used[ua + w] | used[ub + w]);
+            if free != 0 {
+                color = w * 64 + free.trailing_zeros() as usize;
+                break;
+            }
+        }
+        used[ua + color / 64] |= 1 << (color % 64);
+        used[ub + color / 64] |= 1 << (color % 64);
+        colors.push(color as u32);
+    }
+    colors
+}

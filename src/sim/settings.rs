@@ -1,0 +1,233 @@
+//! Everything that controls a cloth's step apart from its topology: the [`Integrator`] choice,
+//! per-family [`Stiffness`] and the [`SolverSettings`] that hold them, with their validation.
+
+use bevy::reflect::Reflect;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::model::SpringKind;
+use crate::error::{ClothError, count_in, non_negative, positive};
+
+/// Largest number of substeps per frame accepted by [`SolverSettings::validate`].
+pub const MAX_SUBSTEPS: u32 = 1024;
+/// Largest number of constraint iterations per substep accepted by [`SolverSettings::validate`].
+pub const MAX_ITERATIONS: u32 = 256;
+
+/// Fraction of the explicit stability limit `h < 2/ω_max` that [`SolverSettings::auto_substeps`]
+/// stays within, applied to the Gershgorin bound on `ω_max` (which itself over-estimates it).
+pub const STABILITY_FRACTION: f32 = 0.9;
+
+/// [`Integrator::Auto`] runs XPBD while any spring is stretched by more than this fraction of its
+/// rest length (a hanging cloth of the default stiffness stretches by under 2%).
+pub const AUTO_MAX_STRETCH: f32 = 0.1;
+
+/// The time integration method. Every integrator solves the same canonical model (the crate's
+/// README, "The model"): the
+/// same springs, masses, gravity, pins (pinned particles follow their targets, interpolated across
+/// substeps) and damping (velocities decay as `exp(-damping t)`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
+pub enum Integrator {
+    /// Extended position-based dynamics with substeps: springs as compliant distance constraints
+    /// (compliance `α = 1/k`), solved by coloured Gauss-Seidel, `iterations` sweeps per substep.
+    /// Unconditionally stable, first order, with numerical damping that shrinks with the substep.
+    /// Robust where a force-based integrator is not: it absorbs a teleported pin (whose stretched
+    /// springs would fling a force-based cloth) and any stiffness.
+    Xpbd,
+    /// Symplectic (semi-implicit) Euler with explicit spring forces: `v += h a(x)`, then `x += h v`.
+    /// First order, symplectic (no energy drift), stable only for `h ω_max < 2`; see
+    /// [`SolverSettings::auto_substeps`].
+    SymplecticEuler,
+    /// Position (Störmer–)Verlet, drift-kick-drift: `x += h/2 v`, `v += h a(x)`, `x += h/2 v`. The
+    /// half-step positions follow the classic cloth recurrence `x⁺ = 2x - x⁻ + h² a(x)`. Second order,
+    /// symplectic, one force evaluation per substep, stable only for `h ω_max < 2`. With
+    /// [`SolverSettings::auto_substeps`] the most accurate integrator where it is stable, on every
+    /// scene of the work-precision benchmark (docs/accuracy.md).
+    Verlet,
+    /// Implicit (backward) Euler after Baraff & Witkin 1998: per substep one Newton step on the
+    /// linearised springs, `(M + h² K) Δv = h (f - h K v)`, solved by Jacobi-preconditioned conjugate
+    /// gradients (at most `iterations` iterations, stopping at a relative residual of
+    /// [`CG_TOLERANCE`](super::CG_TOLERANCE)); pins by filtering the CG. Unconditionally stable for
+    /// the clamped (positive semi-definite) `K`, first order, strongly damped at large steps.
+    ImplicitEuler,
+    /// The default: chosen afresh each step between the two integrators that the work-precision
+    /// benchmark (docs/accuracy.md) puts on the best front. [`Verlet`](Self::Verlet) errs orders of
+    /// magnitude less than XPBD at equal run time wherever it is stable; XPBD is the one that runs
+    /// below Verlet's stability bound, takes any stiffness and absorbs a teleported pin.
+    ///
+    /// Verlet runs when `substeps` are within its stability bound ([`ClothSim::stable_substeps`](super::ClothSim::stable_substeps)),
+    /// no pin jumps farther than the cloth's longest spring in the step and no spring is stretched
+    /// by more than [`AUTO_MAX_STRETCH`] (a force-based integrator would release that energy as
+    /// motion); XPBD runs otherwise, at the same `substeps`. So `substeps` is the one cost knob:
+    /// at the default 20 a cloth of the default stiffness and mass at 60 Hz runs XPBD (fast,
+    /// numerically damped); from its stability bound on it runs Verlet.
+    /// [`ClothSim::active_integrator`](super::ClothSim::active_integrator) tells which one a step used.
+    #[default]
+    Auto,
+}
+
+impl Integrator {
+    /// The four integration methods, in declaration order ([`Integrator::Auto`] chooses among
+    /// them).
+    pub const ALL: [Integrator; 4] = [
+        Integrator::Xpbd,
+        Integrator::SymplecticEuler,
+        Integrator::Verlet,
+        Integrator::ImplicitEuler,
+    ];
+
+    /// A short name for tables and logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Xpbd => "XPBD",
+            Integrator::SymplecticEuler => "symplectic Euler",
+            Integrator::Verlet => "Verlet",
+            Integrator::ImplicitEuler => "implicit Euler",
+            Integrator::Auto => "auto",
+        }
+    }
+
+    /// Every setting of the enum: [`Integrator::Auto`] first, then [`Integrator::ALL`].
+    pub const CHOICES: [Integrator; 5] = [
+        Integrator::Auto,
+        Integrator::Xpbd,
+        Integrator::SymplecticEuler,
+        Integrator::Verlet,
+        Integrator::ImplicitEuler,
+    ];
+
+    /// Whether the method is stable only below a step-size limit (`h ω_max < 2`).
+    pub fn is_explicit(self) -> bool {
+        matches!(self, Integrator::SymplecticEuler | Integrator::Verlet)
+    }
+}
+
+/// Spring stiffness per family, in N/m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(deny_unknown_fields)]
+pub struct Stiffness {
+    /// Structural springs (rows, columns, mesh edges).
+    pub structural: f32,
+    /// Shear springs (cell diagonals).
+    pub shear: f32,
+    /// Bend springs (skip-one neighbours, across mesh edges).
+    pub bend: f32,
+}
+
+impl Default for Stiffness {
+    /// Stiff enough that a hanging cloth of a few hundred 1-gram particles stretches well under 2%.
+    fn default() -> Self {
+        Self {
+            structural: 5_000.0,
+            shear: 5_000.0,
+            bend: 50.0,
+        }
+    }
+}
+
+impl Stiffness {
+    /// Stiffness of one spring family.
+    pub fn of(&self, kind: SpringKind) -> f32 {
+        match kind {
+            SpringKind::Structural => self.structural,
+            SpringKind::Shear => self.shear,
+            SpringKind::Bend => self.bend,
+        }
+    }
+
+    /// Checks all three values are finite and non-negative (0 disables a family).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        non_negative("stiffness.structural", self.structural)?;
+        non_negative("stiffness.shear", self.shear)?;
+        non_negative("stiffness.bend", self.bend)
+    }
+}
+
+/// Everything that controls one step of a cloth, apart from its topology.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverSettings {
+    /// Integration method.
+    pub integrator: Integrator,
+    /// Substeps per step (the step is the fixed time step of the schedule). With
+    /// [`auto_substeps`](Self::auto_substeps) and an explicit integrator this is the minimum, and
+    /// the stability bound usually decides (84 for the default stiffness and mass at 60 Hz).
+    pub substeps: u32,
+    /// Inner iterations per substep: Gauss-Seidel sweeps for XPBD; the cap on conjugate-gradient
+    /// iterations for implicit Euler (which usually stops earlier, at its tolerance; 20–100 is a
+    /// sensible cap); unused by the explicit integrators.
+    pub iterations: u32,
+    /// For the explicit integrators (symplectic Euler, Verlet): raise the substep count, if needed,
+    /// to what the stability bound asks for, `h ≤ STABILITY_FRACTION · 2/ω_max` with `ω_max` bounded
+    /// from each particle's springs and mass. `substeps` stays the minimum. Ignored by XPBD and
+    /// implicit Euler, which are stable at any step, and by [`Integrator::Auto`], which runs Verlet
+    /// only within the bound.
+    pub auto_substeps: bool,
+    /// Spring stiffness per family, N/m.
+    pub stiffness: Stiffness,
+    /// Mass of each particle, kg.
+    pub particle_mass: f32,
+    /// Linear velocity damping rate, 1/s: velocities decay as `exp(-damping t)` (0 = undamped).
+    pub damping: f32,
+    /// Gravitational acceleration, m/s².
+    pub gravity: Vec3,
+    /// Aerodynamic drag coefficient of the cloth's triangles (used only when there is wind).
+    pub drag_coefficient: f32,
+    /// Aerodynamic lift coefficient of the cloth's triangles (used only when there is wind).
+    pub lift_coefficient: f32,
+    /// Sleeping: a cloth whose free particles all move slower than this (m/s, measured as the
+    /// displacement over a whole step divided by the step) for [`sleep_steps`](Self::sleep_steps)
+    /// consecutive steps stops stepping until something wakes it (a moving pin or collider, a
+    /// collider arriving or leaving, wind, or an edit). 0 disables it. Measuring over the step, not
+    /// the last substep's velocity, keeps the rounding jitter of a cloth far from the origin (one
+    /// f32 step of 15 µm at 200 m) below the default threshold.
+    pub sleep_speed: f32,
+    /// Consecutive quiet steps before a cloth falls asleep.
+    pub sleep_steps: u32,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            integrator: Integrator::Auto,
+            substeps: 20,
+            iterations: 1,
+            auto_substeps: true,
+            stiffness: Stiffness::default(),
+            particle_mass: 0.001,
+            damping: 0.5,
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            drag_coefficient: 1.0,
+            lift_coefficient: 0.5,
+            sleep_speed: 0.005,
+            sleep_steps: 30,
+        }
+    }
+}
+
+impl SolverSettings {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        count_in("substeps", self.substeps, 1, MAX_SUBSTEPS)?;
+        count_in("iterations", self.iterations, 1, MAX_ITERATIONS)?;
+        self.stiffness.validate()?;
+        positive("particle_mass", self.particle_mass)?;
+        non_negative("damping", self.damping)?;
+        non_negative("drag_coefficient", self.drag_coefficient)?;
+        non_negative("lift_coefficient", self.lift_coefficient)?;
+        non_negative("sleep_speed", self.sleep_speed)?;
+        for (field, v) in [
+            ("gravity.x", self.gravity.x),
+            ("gravity.y", self.gravity.y),
+            ("gravity.z", self.gravity.z),
+        ] {
+            if !v.is_finite() {
+                return Err(ClothError::InvalidValue {
+                    field,
+                    expected: "finite",
+                    value: v as f64,
+                });
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,127 @@
+//! A cloth's particle state: positions, velocities and masses ([`Particles`]), its pins
+//! ([`PinState`]) and its [`Energy`].
+
+use glam::Vec3;
+
+use super::forces::{SpringSet, spring_energy};
+
+/// Positions, velocities and masses of a cloth's particles, in the particles' own order.
+#[derive(Debug, Clone)]
+pub(crate) struct Particles {
+    /// Positions (world space), m.
+    pub positions: Vec<Vec3>,
+    /// Velocities, m/s.
+    pub velocities: Vec<Vec3>,
+    /// Masses, kg (whether pinned or not).
+    pub mass: Vec<f32>,
+    /// Inverse masses, 1/kg (0 for pinned particles).
+    pub inv_mass: Vec<f32>,
+}
+
+impl Particles {
+    /// The energy of the free particles, with the springs `springs` and gravity `gravity`.
+    pub fn energy(&self, springs: SpringSet<'_>, gravity: Vec3) -> Energy {
+        energy_of(
+            springs,
+            (&self.mass, &self.inv_mass),
+            gravity,
+            &self.positions,
+            &self.velocities,
+        )
+    }
+}
+
+/// A pinned particle and where it must be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PinState {
+    pub particle: u32,
+    /// Target at the start of the current step.
+    pub from: Vec3,
+    /// Target at the end of the current step.
+    pub to: Vec3,
+}
+
+/// Moves every pinned particle to its target at fraction `t1` of the step, with the velocity that
+/// takes it there from its target at fraction `t0` in one substep (`inv_h = 1/h`). Pinned particles
+/// have inverse mass 0, so no integrator moves them otherwise.
+pub(crate) fn drive_pins(
+    pins: &[PinState],
+    t0: f32,
+    t1: f32,
+    inv_h: f32,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+) {
+    for pin in pins {
+        let i = pin.particle as usize;
+        (x[i], v[i]) = pin_motion(pin, t0, t1, inv_h);
+    }
+}
+
+/// The largest length among `vectors` (0 for none).
+pub(crate) fn max_length(vectors: &[Vec3]) -> f32 {
+    // Eight independent running maxima, so the loop is not one long chain of dependent maxima.
+    let (chunks, rest) = vectors.as_chunks::<8>();
+    let mut max = [0.0f32; 8];
+    for chunk in chunks {
+        for (m, v) in max.iter_mut().zip(chunk) {
+            *m = m.max(v.length_squared());
+        }
+    }
+    rest.iter()
+        .map(|v| v.length_squared())
+        .chain(max)
+        .fold(0.0, f32::max)
+        .sqrt()
+}
+
+/// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length
+/// `1/inv_h`, and the velocity of its motion over the substep.
+pub(crate) fn pin_motion(pin: &PinState, t0: f32, t1: f32, inv_h: f32) -> (Vec3, Vec3) {
+    let target = pin.from.lerp(pin.to, t1);
+    // `from` is where the particle was when the step began (pins start where their particle is).
+    (target, (target - pin.from.lerp(pin.to, t0)) * inv_h)
+}
+
+/// The energy of the free particles (inverse mass > 0), with `(mass, inverse mass)` per
+/// particle, at positions `x` and velocities `v` (see [`Energy`]).
+pub(crate) fn energy_of(
+    springs: SpringSet<'_>,
+    (mass, inv_mass): (&[f32], &[f32]),
+    gravity: Vec3,
+    x: &[Vec3],
+    v: &[Vec3],
+) -> Energy {
+    let g = gravity.as_dvec3();
+    let mut e = Energy {
+        elastic: spring_energy(springs, x),
+        ..Default::default()
+    };
+    for i in 0..x.len() {
+        if inv_mass[i] > 0.0 {
+            let m = mass[i] as f64;
+            e.kinetic += 0.5 * m * v[i].as_dvec3().length_squared();
+            e.gravitational -= m * g.dot(x[i].as_dvec3());
+        }
+    }
+    e
+}
+
+/// The energy of a cloth's free particles (pinned ones are driven, not part of the system), in
+/// joules, accumulated in f64.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Energy {
+    /// `Σ ½ m |v|²` over free particles.
+    pub kinetic: f64,
+    /// `-Σ m g·x` over free particles (zero at the world origin).
+    pub gravitational: f64,
+    /// `Σ ½ k (|d| - L)²` over all springs.
+    pub elastic: f64,
+}
+
+impl Energy {
+    /// Kinetic plus gravitational plus elastic energy.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.gravitational + self.elastic
+    }
+}
