@@ -10,8 +10,8 @@ use bevy_cloth::ClothError;
 use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
 use bevy_cloth::sim::{
-    ClothModel, ClothSim, Collider, MAX_ITERATIONS, MAX_PARTICLES, MAX_SUBSTEPS, PlacedWindZone,
-    Pose, SpringKind, WindField,
+    ClothModel, ClothSim, Collider, Environment, MAX_ITERATIONS, MAX_PARTICLES, MAX_SUBSTEPS,
+    PlacedWindZone, Pose, ScopedThread, SpringKind, WindField,
 };
 use bevy_cloth::subdivision::{
     BoundaryMode, PolyMesh, Subdivider, SubdivisionError, VertexRule, parse_obj,
@@ -450,6 +450,68 @@ fn spring_models_reject_bad_springs() {
         ClothModel::from_springs(&[Vec3::ZERO, Vec3::NAN], &[]),
         &["vertex 1", "non-finite"],
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hand-made models given to the solver: the invariants its vector kernels and threads rely on
+// ---------------------------------------------------------------------------------------------
+
+/// `ClothSim::new` on `model` (a 64×64 grid, large enough that XPBD shares its colours between two
+/// threads), which must fail naming every one of `words`.
+#[track_caller]
+fn solver_rejects(model: ClothModel, words: &[&str]) {
+    let settings = SolverSettings {
+        integrator: Integrator::Xpbd,
+        ..Default::default()
+    };
+    let built = ClothSim::new(model, settings, |p| p);
+    err_naming(built.map(drop), words);
+}
+
+fn grid64() -> ClothModel {
+    ClothModel::grid(&GridSpec::new(64, 64, 0.02)).unwrap()
+}
+
+#[test]
+fn a_model_whose_colouring_shares_a_particle_is_an_error_not_a_data_race() {
+    let good = grid64();
+    let mut sim = ClothSim::new(good.clone(), SolverSettings::default(), |p| p).unwrap();
+    sim.step_in_parallel(1.0 / 60.0, &Environment::default(), &ScopedThread)
+        .unwrap();
+    // Two springs of colour 0 made to share a particle: the two threads (or two lanes of one
+    // batch) would write it at once.
+    let mut bad = good.clone();
+    bad.springs.b[1] = bad.springs.a[0];
+    solver_rejects(bad, &["colour 0", "twice"]);
+    // The colouring's offsets no longer partition the springs.
+    let mut bad = good;
+    bad.springs.color_offsets.pop();
+    solver_rejects(bad, &["partition"]);
+}
+
+#[test]
+fn a_model_whose_grid_does_not_match_its_particles_is_an_error() {
+    for (nx, ny) in [(65, 64), (64, 63), (4096, 4096)] {
+        let mut bad = grid64();
+        bad.grid = Some(GridSpec::new(nx, ny, 0.02));
+        solver_rejects(bad, &["grid", "4096 particles"]);
+    }
+    let mut bad = grid64();
+    bad.grid = Some(GridSpec::new(1, 4096, 0.02));
+    solver_rejects(bad, &["nx"]);
+}
+
+#[test]
+fn a_model_with_out_of_range_indices_is_an_error() {
+    let mut bad = grid64();
+    bad.springs.b[7] = 1_000_000;
+    solver_rejects(bad, &["1000000"]);
+    let mut bad = grid64();
+    bad.triangles[5] = 4096;
+    solver_rejects(bad, &["4096"]);
+    let mut bad = grid64();
+    bad.springs.rest.pop();
+    solver_rejects(bad, &["rest lengths"]);
 }
 
 // ---------------------------------------------------------------------------------------------

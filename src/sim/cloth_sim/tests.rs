@@ -1,4 +1,3 @@
-
 use super::*;
 use crate::sim::GridSpec;
 use crate::sim::Stiffness;

@@ -1,4 +1,3 @@
-
 use super::narrow::closest_point_on_triangle;
 use super::*;
 use crate::sim::simd::Build;

@@ -1,4 +1,3 @@
-
 use super::kernel::solve_springs;
 use super::layout::{Layout, Run, grid_order};
 use super::*;
