@@ -10,7 +10,7 @@ use bevy::math::Vec3;
 use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
 use bevy::mesh::Mesh;
 use bevy::reflect::prelude::*;
-use bevy::transform::components::Transform;
+use bevy::transform::components::{GlobalTransform, Transform};
 
 use crate::error::ClothError;
 pub use crate::sim::aero::AIR_DENSITY;
@@ -389,6 +389,23 @@ pub enum PinAnchor {
         /// Offset in the entity's local space.
         offset: Vec3,
     },
+}
+
+impl PinAnchor {
+    /// Where the anchor holds its particle, in world space: `rest` gives the particle's rest
+    /// position under the cloth's transform, `pose` an anchor entity's current transform. `None`
+    /// where either has none.
+    pub(crate) fn target(
+        &self,
+        rest: impl FnOnce() -> Option<Vec3>,
+        pose: impl FnOnce(Entity) -> Option<GlobalTransform>,
+    ) -> Option<Vec3> {
+        match *self {
+            PinAnchor::Rest => rest(),
+            PinAnchor::World(p) => Some(p),
+            PinAnchor::Entity { entity, offset } => pose(entity).map(|g| g.transform_point(offset)),
+        }
+    }
 }
 
 /// One pinned particle.

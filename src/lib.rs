@@ -24,7 +24,12 @@
 //! app.update();
 //! ```
 //!
-//! Layers (see the repository's DESIGN notes): [`sim`] is the engine-free solver (plain data, every
+//! The project grew out of a paper, *Cloth Simulation Using an Enhanced Catmull-Clark Subdivision
+//! Scheme and Collision Detection in a Virtual Environment* (a mass-spring cloth, sphere
+//! collision by bounding volume, wind, releasable pins and an "enhanced" Catmull-Clark rule); the
+//! docs call it "the source paper".
+//!
+//! Layers: [`sim`] is the engine-free solver (plain data, every
 //! formula); [`components`] and [`plugin`] are the thin ECS layer; [`render`](crate::ClothState)
 //! writes meshes. Feature `render` brings Bevy's renderer for the windowed examples, `egui` the
 //! inspector panel, `harness` the test and benchmark harness (`harness`).

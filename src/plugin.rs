@@ -351,14 +351,13 @@ fn resolve_pin_targets(
         let rest = &state.sim.model().rest_positions;
         let map = state.particle_map.as_deref();
         for (pin, target) in pins.pins.iter().zip(state.pin_targets.iter_mut()) {
-            let resolved = match pin.anchor {
-                PinAnchor::Rest => mapped_particle(map, rest.len(), pin.particle)
-                    .map(|i| transform.transform_point(rest[i])),
-                PinAnchor::World(p) => Some(p),
-                PinAnchor::Entity { entity, offset } => {
-                    current_global(entity, &helper, &anchors).map(|g| g.transform_point(offset))
-                }
-            };
+            let resolved = pin.anchor.target(
+                || {
+                    mapped_particle(map, rest.len(), pin.particle)
+                        .map(|i| transform.transform_point(rest[i]))
+                },
+                |entity| current_global(entity, &helper, &anchors),
+            );
             // A vanished anchor entity leaves the pin where it was.
             if let Some(p) = resolved {
                 *target = p;
@@ -714,12 +713,12 @@ fn apply_pins(
                     .map_or(state.sim.positions().len(), Vec::len),
             });
         };
-        let target = match pin.anchor {
-            PinAnchor::Rest => transform.transform_point(state.sim.model().rest_positions[index]),
-            PinAnchor::World(p) => p,
-            // Resolved in `Prepare`; until then the particle stays where it is.
-            PinAnchor::Entity { .. } => state.sim.positions()[index],
-        };
+        let rest = state.sim.model().rest_positions[index];
+        // An entity's anchor is resolved in `Prepare`; until then the particle stays where it is.
+        let target = pin
+            .anchor
+            .target(|| Some(transform.transform_point(rest)), |_| None)
+            .unwrap_or(state.sim.positions()[index]);
         state.pin_targets.push(target);
         targets.push((index as u32, target));
     }

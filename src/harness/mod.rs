@@ -1,6 +1,6 @@
 //! The test and benchmark harness (feature `harness`; the crate's own tests, benchmarks and
 //! `cloth_cli` turn it on): a [`headless_app`] that steps one fixed step per update, the
-//! [`stress`] suite, the accuracy [`scenes`] and their f64 [`reference`] solution, and state
+//! [`stress`] suite, the accuracy [`scenes`] and their f64 [`reference`](mod@reference) solution, and state
 //! fingerprints for bit-for-bit regression checks ([`stress::state_hash`], [`scene_state_hash`]).
 //! None of it is needed to simulate cloth in a game.
 
@@ -52,7 +52,7 @@ pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
 }
 
 /// Loads the RON scene at `path` into a [`headless_app`], runs `frames` fixed steps and returns
-/// the [`state_hash`](crate::sim::stress::state_hash) of its cloth: a bit-for-bit fingerprint of
+/// the [`state_hash`](stress::state_hash) of its cloth: a bit-for-bit fingerprint of
 /// the whole plugin path (pins, colliders, wind, scheduling) for regression checks.
 pub fn scene_state_hash(path: &std::path::Path, frames: u32) -> Result<u64, ClothError> {
     let scene = crate::scene::ClothScene::load(path)?;

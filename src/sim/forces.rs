@@ -7,6 +7,7 @@
 
 use glam::Vec3;
 
+use super::model::Springs;
 use super::runs;
 use super::simd::{self, Build, Kernel};
 use super::soa::Soa;
@@ -63,6 +64,18 @@ pub(crate) struct SpringSet<'a> {
     pub rest: &'a [f32],
     /// Stiffness of each spring, N/m.
     pub k: &'a [f32],
+}
+
+impl<'a> SpringSet<'a> {
+    /// The model's springs `springs` with stiffnesses `k`.
+    pub fn new(springs: &'a Springs, k: &'a [f32]) -> Self {
+        Self {
+            a: &springs.a,
+            b: &springs.b,
+            rest: &springs.rest,
+            k,
+        }
+    }
 }
 
 /// The Hookean force of one spring: with `d = x_a - x_b`, returns the unit direction `u = d/|d|`,

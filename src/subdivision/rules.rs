@@ -62,12 +62,12 @@ pub enum BoundaryMode {
 pub enum VertexRule {
     /// Standard Catmull-Clark (the OpenSubdiv rule):
     /// `v' = (F̄ + 2R̄ + (n−3) S) / n`, i.e. `w_F = 1/n`, `w_R = 2/n`,
-    /// `w_S = (n−3)/n`. In one-ring form this is the paper's Eq. 1 (with its
+    /// `w_S = (n−3)/n`. In one-ring form this is the source paper's Eq. 1 (with its
     /// denominator typo fixed): `α = 1/(4n)`, `β = 3/(2n)`, `γ = 1 − 7/(4n)`,
     /// so `α : β = 1 : 6`.
     #[default]
     Original,
-    /// The paper's "enhanced" rule (Eq. 2), used at interior vertices of
+    /// The source paper's "enhanced" rule (Eq. 2; the paper is named in the crate docs), used at interior vertices of
     /// valence `n > 4` only (Original elsewhere), exactly as published:
     ///
     /// `v' = Q/n + 6R/n + S(n−7)/n`.

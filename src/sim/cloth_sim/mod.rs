@@ -246,13 +246,7 @@ impl ClothSim {
 
     /// The springs with their current stiffness, for the force kernel.
     fn spring_set(&self) -> SpringSet<'_> {
-        let s = &self.model.springs;
-        SpringSet {
-            a: &s.a,
-            b: &s.b,
-            rest: &s.rest,
-            k: &self.stiffness,
-        }
+        SpringSet::new(&self.model.springs, &self.stiffness)
     }
 
     /// An upper bound on the highest angular frequency of the cloth's springs about rest, in rad/s

@@ -33,7 +33,7 @@
 //! are caught by the swept test.
 //!
 //! # Relation to the source paper
-//! The paper detects cloth–sphere contact with a bounding volume and, in its Eq. 3 and Figure 4, moves
+//! The source paper (named in the crate docs) detects cloth–sphere contact with a bounding volume and, in its Eq. 3 and Figure 4, moves
 //! a penetrating particle back to radius + 0.05 along the line from the centre and splits its velocity
 //! into a normal part (reflected and damped) and a tangential part (kept, scaled by a friction
 //! factor). Here the bounding volume is the broad phase above; the push-out is the same projection

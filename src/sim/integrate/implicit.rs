@@ -143,12 +143,7 @@ impl Implicit {
             self.fits(x.len(), model.springs.len()),
             "implicit Euler's scratch is sized when the integrator is chosen"
         );
-        let springs = SpringSet {
-            a: &model.springs.a,
-            b: &model.springs.b,
-            rest: &model.springs.rest,
-            k: stiffness,
-        };
+        let springs = SpringSet::new(&model.springs, stiffness);
         let (forces, s) = (&mut self.forces, &mut self.cg);
         let h = dt / n as f32;
         let h2 = h * h;

@@ -36,13 +36,7 @@ pub(crate) struct Step<'a> {
 impl Step<'_> {
     /// The springs with their stiffness, for the force kernels.
     pub fn springs(&self) -> SpringSet<'_> {
-        let s = &self.model.springs;
-        SpringSet {
-            a: &s.a,
-            b: &s.b,
-            rest: &s.rest,
-            k: self.stiffness,
-        }
+        SpringSet::new(&self.model.springs, self.stiffness)
     }
 
     /// The energy of the free particles (see [`Energy`]).

@@ -210,7 +210,7 @@ impl Projections {
         }
     }
 
-    /// Whether a step is worth sharing between two threads ([`Team`]).
+    /// Whether a step is worth sharing between two threads (see `team.rs`).
     pub(super) fn worth_sharing(&self) -> bool {
         self.a.len() >= SHARED_MIN_SLOTS
     }

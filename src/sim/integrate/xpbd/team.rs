@@ -30,7 +30,7 @@ impl Spread for ScopedThread {
 }
 
 /// Two threads sharing a step's work, as phases of two shares each: a colour of a sweep (its
-/// shares touch disjoint particles, [`Projections::cut`]), or a particle pass (the two halves of
+/// shares touch disjoint particles, [`Projections::cut`](super::layout::Projections::cut)), or a particle pass (the two halves of
 /// the particles). The step's thread publishes a phase, does its first share and then claims the
 /// second, unless the helper has claimed it already; then it waits for the helper to finish it.
 /// The helper only ever claims second shares, so that each thread keeps to its own half of the
@@ -167,7 +167,7 @@ impl Team {
                     // forever (the panic reaches it when the `Spread` joins the helper).
                     let _finish = Finish(self, q);
                     // SAFETY: the job is not written, and outlives, while this claim is
-                    // unfinished (see `Team::run`).
+                    // unfinished (see `Lead::run`).
                     if let Some(job) = unsafe { *self.job.get() } {
                         unsafe { (*job)(1) };
                     }
