@@ -165,6 +165,16 @@ fn inspector_window(
     Ok(())
 }
 
+/// A slider over `range` that shows a value outside it as it is, and clamps only what the user
+/// drags or types (egui's default clamps the value as soon as the slider is drawn, which would
+/// rewrite, say, a stiffness above the slider's top to the top).
+fn slider<Num: egui::emath::Numeric>(
+    value: &mut Num,
+    range: std::ops::RangeInclusive<Num>,
+) -> egui::Slider<'_> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
+}
+
 fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f64) {
     ui.horizontal(|ui| {
         ui.label(label);
@@ -184,12 +194,12 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
             }
         });
     ui.add(
-        egui::Slider::new(&mut s.substeps, 1..=MAX_SUBSTEPS)
+        slider(&mut s.substeps, 1..=MAX_SUBSTEPS)
             .logarithmic(true)
             .text("substeps"),
     );
     ui.add(
-        egui::Slider::new(&mut s.iterations, 1..=MAX_ITERATIONS)
+        slider(&mut s.iterations, 1..=MAX_ITERATIONS)
             .logarithmic(true)
             .text("iterations"),
     );
@@ -199,23 +209,19 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
         (&mut s.stiffness.shear, "shear k, N/m"),
         (&mut s.stiffness.bend, "bend k, N/m"),
     ] {
-        ui.add(
-            egui::Slider::new(value, 0.0..=1e6)
-                .logarithmic(true)
-                .text(label),
-        );
+        ui.add(slider(value, 0.0..=1e6).logarithmic(true).text(label));
     }
     ui.add(
-        egui::Slider::new(&mut s.particle_mass, 1e-5..=1.0)
+        slider(&mut s.particle_mass, 1e-5..=1.0)
             .logarithmic(true)
             .text("particle mass, kg"),
     );
-    ui.add(egui::Slider::new(&mut s.damping, 0.0..=10.0).text("damping, 1/s"));
+    ui.add(slider(&mut s.damping, 0.0..=10.0).text("damping, 1/s"));
     vec3_ui(ui, "gravity", &mut s.gravity, 0.1);
-    ui.add(egui::Slider::new(&mut s.drag_coefficient, 0.0..=3.0).text("drag coefficient"));
-    ui.add(egui::Slider::new(&mut s.lift_coefficient, 0.0..=3.0).text("lift coefficient"));
-    ui.add(egui::Slider::new(&mut s.sleep_speed, 0.0..=0.1).text("sleep below, m/s (0 = never)"));
-    ui.add(egui::Slider::new(&mut s.sleep_steps, 1..=600).text("sleep after steps"));
+    ui.add(slider(&mut s.drag_coefficient, 0.0..=3.0).text("drag coefficient"));
+    ui.add(slider(&mut s.lift_coefficient, 0.0..=3.0).text("lift coefficient"));
+    ui.add(slider(&mut s.sleep_speed, 0.0..=0.1).text("sleep below, m/s (0 = never)"));
+    ui.add(slider(&mut s.sleep_steps, 1..=600).text("sleep after steps"));
     ui.checkbox(&mut c.interpolate, "interpolate display");
     ui.horizontal(|ui| {
         ui.label("collision mask");
@@ -224,9 +230,7 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
 }
 
 fn subdivision_ui(ui: &mut egui::Ui, s: &mut ClothSubdivision) {
-    ui.add(
-        egui::Slider::new(&mut s.level, 0..=MAX_CLOTH_SUBDIVISION_LEVEL).text("subdivision level"),
-    );
+    ui.add(slider(&mut s.level, 0..=MAX_CLOTH_SUBDIVISION_LEVEL).text("subdivision level"));
     egui::ComboBox::from_label("vertex rule")
         .selected_text(format!("{:?}", s.rule))
         .show_ui(ui, |ui| {
@@ -257,11 +261,57 @@ fn wind_ui(ui: &mut egui::Ui, w: &mut Wind) {
     ui.checkbox(&mut gusty, "gusts");
     match (gusty, &mut w.gusts) {
         (true, Some(g)) => {
-            ui.add(egui::Slider::new(&mut g.strength, 0.0..=1.0).text("gust strength"));
-            ui.add(egui::Slider::new(&mut g.frequency, 0.05..=5.0).text("gust frequency, Hz"));
+            ui.add(slider(&mut g.strength, 0.0..=1.0).text("gust strength"));
+            ui.add(slider(&mut g.frequency, 0.05..=5.0).text("gust frequency, Hz"));
         }
         (true, None) => w.gusts = Some(Default::default()),
         (false, _) => w.gusts = None,
     }
-    ui.add(egui::Slider::new(&mut w.air_density, 0.0..=5.0).text("air density, kg/m³"));
+    ui.add(slider(&mut w.air_density, 0.0..=5.0).text("air density, kg/m³"));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Draws the panel's widgets for `config`, `subdivision` and `wind` once, with no input.
+    fn draw(config: &mut ClothConfig, subdivision: &mut ClothSubdivision, wind: &mut Wind) {
+        let ctx = egui::Context::default();
+        let mut output = ctx.run_ui(egui::RawInput::default(), |ui| {
+            config_ui(ui, config);
+            subdivision_ui(ui, subdivision);
+            wind_ui(ui, wind);
+        });
+        // Nothing renders the font textures egui built.
+        output.textures_delta.clear();
+    }
+
+    #[test]
+    fn drawing_the_panel_keeps_values_outside_the_sliders_ranges() {
+        let mut config = ClothConfig::default();
+        let s = &mut config.solver;
+        s.stiffness.structural = 1e7;
+        s.stiffness.shear = 3e6;
+        s.particle_mass = 5.0;
+        s.damping = 40.0;
+        s.drag_coefficient = 4.5;
+        s.lift_coefficient = 3.5;
+        s.sleep_speed = 0.5;
+        s.sleep_steps = 1000;
+        let mut subdivision = ClothSubdivision::default();
+        let mut wind = Wind {
+            air_density: 12.0,
+            gusts: Some(crate::sim::Gusts {
+                strength: 2.0,
+                frequency: 9.0,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let (config0, subdivision0, wind0) = (config, subdivision, wind);
+        draw(&mut config, &mut subdivision, &mut wind);
+        assert_eq!(config, config0);
+        assert_eq!(subdivision, subdivision0);
+        assert_eq!(wind, wind0);
+    }
 }
