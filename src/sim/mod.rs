@@ -5,17 +5,18 @@
 //! [`Environment`].
 //!
 //! # Modules, bottom up
-//! Each module uses only the ones above it in this list; nothing imports back.
+//! Each module uses only the ones above it in this list; nothing imports back (`tests/house.rs`
+//! reads the source and checks it against the same order).
 //!
 //! | module | what it holds | uses |
 //! | --- | --- | --- |
 //! | `soa`, `simd`, `runs` | storage: vectors as one array per coordinate; runtime-dispatched vector builds of a kernel; runs of springs a kernel loads as whole vectors | — |
 //! | [`model`] | topology: grids, meshes, discs, subdivided cloths; springs and their colouring | — |
 //! | [`settings`] | [`Integrator`], [`Stiffness`], [`SolverSettings`] and their validation | `model` (spring kinds) |
-//! | `forces` | the spring-force kernel, its linearisation, energy and frequency bound | `soa`, `simd`, `runs` |
+//! | `forces` | the spring-force kernel, its linearisation, energy and frequency bound | `soa`, `simd`, `runs`, `model` |
 //! | `state` | particles, pins, [`Energy`] | `forces` |
 //! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout | `soa`, `simd` |
-//! | [`aero`], [`wind`] | aerodynamic forces and the wind field | — |
+//! | [`aero`], [`wind`] | aerodynamic forces; the wind field (`wind` uses `aero`) | — |
 //! | `integrate` | one stepper per integrator, each owning its scratch: `xpbd/` (layout, kernel, threads, driver), `explicit`, `implicit`; the [`Spread`] of threads | all of the above |
 //! | `cloth_sim` | [`ClothSim`]: chooses the integrator and substeps, runs the broad phase and wind, sleep, the runaway watchdog | all of the above |
 //!

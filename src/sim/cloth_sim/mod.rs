@@ -216,9 +216,10 @@ impl ClothSim {
         Ok(())
     }
 
-    /// Recomputes everything derived from settings, masses and pins: per-spring stiffness and
-    /// compliance, inverse masses, the frequency bound, and (for implicit Euler) its scratch buffers.
-    /// Runs at construction and on edits, never inside a step.
+    /// Recomputes everything derived from settings, masses and pins: per-spring stiffness,
+    /// inverse masses, the frequency bound, and the steppers the integrator may run (their
+    /// layouts, constants and scratch, [`Steppers::prepare`]). Runs at construction and on edits,
+    /// never inside a step.
     fn apply_settings(&mut self) {
         let s = &self.model.springs;
         for (k, kind) in self.stiffness.iter_mut().zip(&s.kind) {

@@ -181,3 +181,23 @@ fn bad_settings_are_rejected() {
         assert!(e.contains(field), "{e}");
     }
 }
+
+#[test]
+fn a_cloth_without_springs_falls_freely_with_every_integrator() {
+    let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    for integrator in Integrator::CHOICES {
+        let model = ClothModel::from_springs(&positions, &[]).unwrap();
+        let settings = SolverSettings {
+            integrator,
+            damping: 0.0,
+            ..Default::default()
+        };
+        let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+        sim.step(0.1).unwrap();
+        let fall = sim.positions()[0].y;
+        assert!(
+            (fall + 0.5 * 9.81 * 0.01).abs() < 0.01,
+            "{integrator:?}: fell to {fall}"
+        );
+    }
+}

@@ -1,6 +1,6 @@
 //! The explicit force-based integrators: symplectic (semi-implicit) Euler and position Verlet, on the
 //! shared spring-force kernel. Both are symplectic (energy oscillates instead of drifting) and stable
-//! only for substeps `h < 2/ω_max`; [`SolverSettings::auto_substeps`](super::SolverSettings) keeps
+//! only for substeps `h < 2/ω_max`; [`SolverSettings::auto_substeps`](crate::sim::SolverSettings::auto_substeps) keeps
 //! them there.
 //!
 //! Same model and semantics as every integrator: Hookean springs, per-particle mass, gravity, pinned
@@ -20,9 +20,6 @@ pub(crate) struct Explicit {
     forces: Soa,
     state: SoaState,
 }
-
-/// The explicit integrators keep the particles' own order.
-static OWN_ORDER: Order = Order::EMPTY;
 
 impl Explicit {
     /// Sizes the scratch for `model` (if it is not already) and copies in the springs' stiffness.
@@ -61,7 +58,7 @@ impl Explicit {
     /// The contact response at the end of substep `sub` of `n` (length `h`).
     fn resolve_contacts(&mut self, s: &mut Step, sub: u32, n: u32, h: f32) {
         self.state
-            .resolve_contacts(s, (&OWN_ORDER, None), (sub, n, h), true);
+            .resolve_contacts(s, (&Order::default(), None), (sub, n, h), true);
     }
 
     /// Symplectic Euler, `n` substeps of `h = dt/n`: `v ← e^{-c h} (v + h f(x)/m)`, then
@@ -70,16 +67,17 @@ impl Explicit {
         let h = dt / n as f32;
         let inv_h = 1.0 / h;
         let keep = (-s.settings.damping * h).exp();
-        self.state.load(s.particles, &OWN_ORDER);
+        self.state.load(s.particles, &Order::default());
         for sub in 0..n {
             self.state.begin_substep(s.contacts);
             self.compute_forces(s);
             self.kick_drift_all(&s.particles.inv_mass, h, keep, h);
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-            self.state.drive_pins(s.pins, &OWN_ORDER, (t0, t1), inv_h);
+            self.state
+                .drive_pins(s.pins, &Order::default(), (t0, t1), inv_h);
             self.resolve_contacts(s, sub, n, h);
         }
-        self.state.store(s.particles, &OWN_ORDER);
+        self.state.store(s.particles, &Order::default());
     }
 
     /// Position Verlet (drift-kick-drift), `n` substeps of `h = dt/n`: `x ← x + h/2 v`,
@@ -91,7 +89,7 @@ impl Explicit {
         let half = 0.5 * h;
         let inv_h = 1.0 / h;
         let keep = (-s.settings.damping * h).exp();
-        self.state.load(s.particles, &OWN_ORDER);
+        self.state.load(s.particles, &Order::default());
         let (x, v, w) = (&mut self.state.x, &self.state.v, &s.particles.inv_mass);
         for (coord, vel) in [(&mut x.x, &v.x), (&mut x.y, &v.y), (&mut x.z, &v.z)] {
             for ((x, v), w) in coord.iter_mut().zip(vel).zip(w) {
@@ -112,11 +110,12 @@ impl Explicit {
             self.kick_drift_all(&s.particles.inv_mass, h, keep, if last { half } else { h });
             if last {
                 let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-                self.state.drive_pins(s.pins, &OWN_ORDER, (t0, t1), inv_h);
+                self.state
+                    .drive_pins(s.pins, &Order::default(), (t0, t1), inv_h);
             }
             self.resolve_contacts(s, sub, n, h);
         }
-        self.state.store(s.particles, &OWN_ORDER);
+        self.state.store(s.particles, &Order::default());
     }
 }
 

@@ -68,12 +68,6 @@ pub(crate) struct Order {
 }
 
 impl Order {
-    /// The particles' own order.
-    pub const EMPTY: Order = Order {
-        order: Vec::new(),
-        slot: Vec::new(),
-    };
-
     /// The order `order`, a permutation of the particles (empty: their own order).
     pub fn new(order: Vec<u32>) -> Self {
         let mut slot = vec![0; order.len()];

@@ -185,9 +185,12 @@ impl Projections {
         self.a.len()
     }
 
-    /// Whether this layout was built for a set of `springs` springs.
-    pub(super) fn fits(&self, springs: usize) -> bool {
-        self.springs == springs && self.rest.len() == self.a.len()
+    /// Whether this layout was built for `springs` springs among `particles` particles (a
+    /// default, unbuilt layout fits none: every model has a particle).
+    pub(super) fn fits(&self, springs: usize, particles: usize) -> bool {
+        self.springs == springs
+            && self.rest.len() == self.a.len()
+            && self.inv_mass.len() == particles
     }
 
     /// Sets each slot's rest length and compliance `1/k` from the springs' (a zero stiffness

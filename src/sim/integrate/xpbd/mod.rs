@@ -53,7 +53,7 @@ impl Xpbd {
     /// compliances `1/k` and the particles' inverse masses.
     pub fn prepare(&mut self, model: &ClothModel, stiffness: &[f32], inv_mass: &[f32]) {
         let (s, n) = (&model.springs, model.particle_count());
-        if !self.layout.fits(s.len()) {
+        if !self.layout.fits(s.len(), n) {
             self.layout = Projections::new(model);
             self.state = SoaState::new(n);
             self.wind_dv = Soa::new(n);
@@ -177,7 +177,9 @@ impl Xpbd {
                 Some(lead) => {
                     for c in 0..sweep.p.color_count() {
                         // SAFETY: the two shares of a colour touch disjoint particles and slots
-                        // (`Projections`), and the team runs each share on one thread.
+                        // (`Projections::cut` makes them so from a proper colouring, which
+                        // `ClothSim::new` validates; `Projections::check` proves it in tests and
+                        // debug builds), and the team runs each share on one thread.
                         lead.run(&|k| unsafe { sweep.run(sweep.p.share(c, k), accumulate) });
                     }
                 }
@@ -201,7 +203,6 @@ impl Xpbd {
     fn resolve_contacts_ahead(&mut self, s: &mut Step, t: (f32, f32, f32)) {
         let before = s.contact_work.map(|_| self.energy_ahead(s, 1.0 / t.2));
         let (touched, entry) = &mut self.contact_velocities;
-        entry.resize(self.state.x.len(), 0);
         let mut state = AheadOfEnd {
             x: &self.state.x,
             d: &mut self.state.d,

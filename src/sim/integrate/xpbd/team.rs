@@ -10,7 +10,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 pub trait Spread: Sync {
     /// Runs `helper` on another thread if one is free and `main` on this one, and returns once
     /// both have returned. `helper` may also run after `main` has returned, or not at all: `main`
-    /// finishes the work alone, and a late `helper` finds nothing left and returns at once.
+    /// finishes the work alone, and a late `helper` finds nothing left and returns at once. It
+    /// must not run on this thread before `main`: it returns only once `main` has finished.
     fn join(&self, helper: &(dyn Fn() + Sync), main: &mut dyn FnMut());
 }
 
