@@ -103,6 +103,9 @@ enum Command {
         /// default.
         #[arg(long, value_delimiter = ',')]
         integrators: Vec<String>,
+        /// Print every step's energies and fastest particle (for rerunning one case).
+        #[arg(long)]
+        trace: bool,
     },
     /// Bit-for-bit fingerprints: one line per preset scene (assets/scenes, run through the
     /// plugin) and per stress case of every integrator, with the hash of its final positions and
@@ -407,6 +410,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             seed,
             from,
             integrators,
+            trace,
         } => {
             let mut chosen = Vec::new();
             for name in &integrators {
@@ -419,7 +423,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => return Err(format!("unknown integrator {other:?}").into()),
                 });
             }
-            if !stress::run(from..from + cases, seed, &chosen) {
+            if !stress::run(from..from + cases, seed, &chosen, trace) {
                 return Err("stress cases failed (listed above)".into());
             }
         }

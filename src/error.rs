@@ -152,7 +152,7 @@ pub enum ClothError {
     Diverged {
         /// Fixed step counter at which the divergence was detected.
         step: u64,
-        /// First particle found with a non-finite position.
+        /// First particle found with a non-finite position (or, if none, velocity).
         particle: usize,
         /// The frame time step in seconds.
         dt: f32,

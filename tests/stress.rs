@@ -1,8 +1,9 @@
 //! The stress suite (see `bevy_cloth::harness::stress`) at CI size: a few hundred seeded cases over
-//! every integrator, and more for the default one. `cloth_cli stress` runs as many as you like.
+//! every integrator, more for the default one, and every case that once failed. `cloth_cli stress`
+//! runs as many as you like.
 
 use bevy_cloth::harness::stress::{StressLimits, StressOutcome, draw_case, run_case};
-use bevy_cloth::sim::Integrator;
+use bevy_cloth::sim::Integrator::{self, ImplicitEuler};
 
 const SEED: u64 = 0x5EED_C10A;
 
@@ -43,4 +44,34 @@ fn every_integrator_survives_200_stress_cases() {
 #[test]
 fn the_default_integrator_survives_200_more() {
     run(&[Integrator::default()], 1000..1200);
+}
+
+/// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
+/// the integrator it failed with, at the limits it was drawn with.
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 2] = [
+    (
+        45762,
+        13,
+        ImplicitEuler,
+        "CG stopped early from a stale start gained energy",
+    ),
+    (
+        45762,
+        111,
+        ImplicitEuler,
+        "CG stopped early from a stale start gained energy",
+    ),
+];
+
+#[test]
+fn cases_that_once_failed_pass() {
+    let limits = StressLimits::default();
+    let mut failures = Vec::new();
+    for (seed, index, integrator, found) in ONCE_FAILED {
+        let case = draw_case(seed, index, &[integrator], &limits);
+        if let StressOutcome::Failure(why) = run_case(&case, &limits).outcome {
+            failures.push(format!("seed {seed} case {index} ({found}): {why}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

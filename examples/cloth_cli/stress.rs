@@ -4,7 +4,9 @@
 
 use std::time::Instant;
 
-use bevy_cloth::harness::stress::{StressLimits, StressOutcome, StressResult, draw_case, run_case};
+use bevy_cloth::harness::stress::{
+    StressLimits, StressOutcome, StressResult, draw_case, trace_case, trace_line,
+};
 use bevy_cloth::sim::Integrator;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -27,7 +29,13 @@ struct Tally {
 }
 
 /// Runs cases `cases` of suite `seed` over `integrators`; returns whether all passed.
-pub fn run(cases: std::ops::Range<u64>, seed: u64, integrators: &[Integrator]) -> bool {
+/// With `trace`, prints every step of every case.
+pub fn run(
+    cases: std::ops::Range<u64>,
+    seed: u64,
+    integrators: &[Integrator],
+    trace: bool,
+) -> bool {
     let limits = StressLimits::default();
     let bar = ProgressBar::new(cases.end - cases.start);
     bar.set_style(
@@ -42,7 +50,11 @@ pub fn run(cases: std::ops::Range<u64>, seed: u64, integrators: &[Integrator]) -
     let mut failures: Vec<StressResult> = Vec::new();
     for index in cases.clone() {
         let case = draw_case(seed, index, integrators, &limits);
-        let r = run_case(&case, &limits);
+        let r = trace_case(&case, &limits, |step, sim| {
+            if trace {
+                bar.suspend(|| println!("case {index} step {step}: {}", trace_line(sim)));
+            }
+        });
         let Some((_, t)) = tallies
             .iter_mut()
             .find(|(i, _)| *i == r.case.settings.integrator)

@@ -526,7 +526,9 @@ impl ClothSim {
         for pin in &mut self.pins {
             pin.from = pin.to;
         }
-        if let Some(particle) = self.particles.positions.iter().position(|p| !p.is_finite()) {
+        let p = &self.particles;
+        let not_finite = |v: &[Vec3]| v.iter().position(|x| !x.is_finite());
+        if let Some(particle) = not_finite(&p.positions).or_else(|| not_finite(&p.velocities)) {
             return Err(ClothError::Diverged {
                 step: self.steps,
                 particle,
