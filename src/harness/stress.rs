@@ -8,12 +8,14 @@
 //! the cloth at up to half its thickness per substep (the tunnelling limit of the swept test is a
 //! whole thickness), and wind of up to 50 m/s with gusts.
 //!
-//! A case fails if stepping panics, a value becomes non-finite without a typed error, a free
-//! particle ends a step inside a collider by more than [`CLEARANCE_TOLERANCE`], a pinned particle
+//! A case fails if stepping panics, a position or velocity becomes non-finite without a typed
+//! error, a free particle ends a step inside a collider by more than [`CLEARANCE_TOLERANCE`]
+//! (measured with the suite's own distance functions, not the solver's), a pinned particle
 //! is off its target, the energy grows without an outside source, or (with an outside source) the
-//! kinetic energy exceeds the whole cloth moving at eight times every driving speed added up
-//! (times a symplectic integrator's kinetic-energy inflation) plus the energy the contact responses
-//! measurably added (a runaway check). An explicit integrator that reports
+//! kinetic energy exceeds the whole cloth moving at eight times every driving speed added up plus
+//! the energy the contact responses measurably added, both times a symplectic integrator's
+//! kinetic-energy inflation (a runaway check). Every check applies to every step that returns `Ok`, past
+//! an explicit integrator's stability bound too. An explicit integrator that reports
 //! [`ClothError::Unstable`] or [`ClothError::Diverged`] past its stability bound `h ω_max ≥ 2` is
 //! not a failure: that is the detection working, and the case records where the limit lies.
 
