@@ -14,8 +14,8 @@
 //! is off its target, the energy grows without an outside source, or (with an outside source) the
 //! kinetic energy exceeds the whole cloth moving at eight times every driving speed added up plus
 //! the energy the contact responses measurably added, both times a symplectic integrator's
-//! kinetic-energy inflation (a runaway check). Every check applies to every step that returns `Ok`, past
-//! an explicit integrator's stability bound too. An explicit integrator that reports
+//! kinetic-energy inflation (a runaway check). Every check applies to every step that returns
+//! `Ok`, past an explicit integrator's stability bound too. An explicit integrator that reports
 //! [`ClothError::Unstable`] or [`ClothError::Diverged`] past its stability bound `h ω_max ≥ 2` is
 //! not a failure: that is the detection working, and the case records where the limit lies.
 

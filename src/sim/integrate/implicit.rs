@@ -219,14 +219,13 @@ impl Implicit {
                 }
             }
             if phi > 0.0 {
-                for (dv, w) in s.dv.iter_mut().zip(inv_mass.iter()) {
+                // From zero on the free rows the residual is b - c (b and c are 0 on pinned rows).
+                for (i, (dv, w)) in s.dv.iter_mut().zip(inv_mass.iter()).enumerate() {
                     if *w > 0.0 {
                         *dv = Vec3::ZERO;
                     }
-                }
-                apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.dv, &mut s.r);
-                for (r, b) in s.r.iter_mut().zip(&s.rhs) {
-                    *r = *b - *r;
+                    let c = if pinned_part { s.ap[i] } else { Vec3::ZERO };
+                    s.r[i] = s.rhs[i] - c;
                 }
             }
             // For the pinned rows, A Δv was filtered away and rhs is 0, so r is 0 there.
