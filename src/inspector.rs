@@ -222,6 +222,14 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
     ui.add(slider(&mut s.lift_coefficient, 0.0..=3.0).text("lift coefficient"));
     ui.add(slider(&mut s.sleep_speed, 0.0..=0.1).text("sleep below, m/s (0 = never)"));
     ui.add(slider(&mut s.sleep_steps, 1..=600).text("sleep after steps"));
+    let sc = &mut s.self_collision;
+    ui.checkbox(&mut sc.enabled, "self-collision");
+    ui.add(
+        slider(&mut sc.thickness, 1e-4..=0.05)
+            .logarithmic(true)
+            .text("thickness, m"),
+    );
+    ui.add(slider(&mut sc.friction, 0.0..=1.0).text("friction between layers"));
     ui.checkbox(&mut c.interpolate, "interpolate display");
     ui.horizontal(|ui| {
         ui.label("collision mask");
@@ -298,6 +306,8 @@ mod tests {
         s.lift_coefficient = 3.5;
         s.sleep_speed = 0.5;
         s.sleep_steps = 1000;
+        s.self_collision.thickness = 0.2;
+        s.self_collision.friction = 1.5;
         let mut subdivision = ClothSubdivision::default();
         let mut wind = Wind {
             air_density: 12.0,

@@ -60,8 +60,8 @@ pub mod prelude {
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{
-        ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Integrator, SolverSettings,
-        Stiffness, WindZoneShape,
+        ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Integrator, SelfCollision,
+        SolverSettings, Stiffness, WindZoneShape,
     };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
 }

@@ -52,8 +52,8 @@ pub use model::{
     compute_normals,
 };
 pub use settings::{
-    AUTO_MAX_STRETCH, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION, SolverSettings,
-    Stiffness,
+    AUTO_MAX_STRETCH, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION, SelfCollision,
+    SolverSettings, Stiffness,
 };
 pub use state::Energy;
 pub use wind::{PlacedWindZone, WindField, WindZoneShape};

@@ -183,6 +183,8 @@ pub struct SolverSettings {
     pub sleep_speed: f32,
     /// Consecutive quiet steps before a cloth falls asleep.
     pub sleep_steps: u32,
+    /// Collisions of the cloth with itself (off by default).
+    pub self_collision: SelfCollision,
 }
 
 impl Default for SolverSettings {
@@ -200,6 +202,7 @@ impl Default for SolverSettings {
             lift_coefficient: 0.5,
             sleep_speed: 0.005,
             sleep_steps: 30,
+            self_collision: SelfCollision::default(),
         }
     }
 }
@@ -215,6 +218,7 @@ impl SolverSettings {
         non_negative("drag_coefficient", self.drag_coefficient)?;
         non_negative("lift_coefficient", self.lift_coefficient)?;
         non_negative("sleep_speed", self.sleep_speed)?;
+        self.self_collision.validate()?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -229,5 +233,40 @@ impl SolverSettings {
             }
         }
         Ok(())
+    }
+}
+
+/// Self-collision: the cloth keeps its layers at least `thickness` apart, so a fold or a pile never
+/// passes through itself (see the `contact` module's self-contact section). Pairs of the cloth's
+/// elements that are closer than the thickness at rest (neighbours along the mesh) are exempt.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct SelfCollision {
+    /// Whether the cloth collides with itself.
+    pub enabled: bool,
+    /// Distance the cloth keeps between its own layers, m (positive). Keeping it below half the
+    /// cloth's particle spacing leaves the mesh's own neighbours out of it.
+    pub thickness: f32,
+    /// Coulomb friction between layers (0 = frictionless).
+    pub friction: f32,
+}
+
+impl Default for SelfCollision {
+    /// Off, 5 mm thick, friction 0.3.
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            thickness: 0.005,
+            friction: 0.3,
+        }
+    }
+}
+
+impl SelfCollision {
+    /// Checks the thickness is finite and positive and the friction finite and non-negative
+    /// (whether or not self-collision is enabled, so that enabling it later cannot fail).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        positive("self_collision.thickness", self.thickness)?;
+        non_negative("self_collision.friction", self.friction)
     }
 }

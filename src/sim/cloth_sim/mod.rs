@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::contact::{Collider, Contacts, bounds};
+use super::contact::{Collider, Contacts, SelfContacts, bounds};
 use super::forces::{SpringSet, max_frequency_bound};
 use super::integrate::{Spread, Step, Steppers};
 use super::model::{ClothModel, SpringKind};
@@ -236,6 +236,7 @@ impl ClothSim {
         let mut scratch = vec![0.0; self.particles.positions.len()];
         self.omega_max =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
+        self.prepare_self_contacts();
         self.steppers.prepare(
             self.settings.integrator,
             &self.model,
@@ -243,6 +244,25 @@ impl ClothSim {
             &self.particles.inv_mass,
         );
         self.active = self.choose_integrator(1.0 / 60.0);
+    }
+
+    /// Builds the self-contacts' topology and exempt pairs when self-collision is turned on or its
+    /// thickness changes, and drops them when it is turned off.
+    fn prepare_self_contacts(&mut self) {
+        let c = self.settings.self_collision;
+        if !c.enabled {
+            self.contacts.set_self_contacts(None);
+            return;
+        }
+        if self.contacts.self_contacts().map(|s| s.settings()) == Some((c.thickness, c.friction)) {
+            return;
+        }
+        self.contacts.set_self_contacts(Some(SelfContacts::new(
+            &self.model.triangles,
+            &self.model.rest_positions,
+            c.thickness,
+            c.friction,
+        )));
     }
 
     /// The springs with their current stiffness, for the force kernel.
@@ -429,6 +449,15 @@ impl ClothSim {
         self.step_in(dt, &Environment::default())
     }
 
+    /// Candidate pairs of the cloth's self-contacts in the last step that found them:
+    /// vertex–triangle and edge–edge pairs close enough to meet within the step (`(0, 0)` with
+    /// self-collision off).
+    pub fn self_contact_candidates(&self) -> (usize, usize) {
+        self.contacts
+            .self_contacts()
+            .map_or((0, 0), SelfContacts::candidate_count)
+    }
+
     /// Number of colliders that passed the broad phase of the last step.
     pub fn active_colliders(&self) -> usize {
         self.contacts.active_count()
@@ -464,6 +493,10 @@ impl ClothSim {
         }
         self.active = self.choose_integrator(dt);
         let substeps = self.substeps_for(dt);
+        if self.settings.self_collision.enabled {
+            let speed = max_length(&self.particles.velocities);
+            self.contacts.begin_self_step(self.reach_bound(dt, speed));
+        }
         if env.colliders.is_empty() {
             self.contacts
                 .begin_step(&[], 0, (Vec3::ONE, Vec3::ZERO), 0.0, dt);

@@ -44,6 +44,7 @@
 //! own velocity.
 
 mod narrow;
+mod self_contact;
 mod shapes;
 #[cfg(test)]
 mod tests;
@@ -54,6 +55,7 @@ use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 pub(crate) use narrow::ContactState;
 use narrow::{ActiveCollider, resolve};
+pub(crate) use self_contact::SelfContacts;
 pub(crate) use shapes::Near;
 pub use shapes::{Collider, ColliderShape, Friction, Pose, bounds};
 
@@ -108,6 +110,8 @@ pub(crate) struct Contacts {
     /// The longest edge of the cloth's triangles at rest, m: spheres smaller than this get the
     /// particle–triangle test.
     max_edge: f32,
+    /// The cloth's contacts with itself, when enabled.
+    self_contacts: Option<SelfContacts>,
 }
 
 impl Contacts {
@@ -118,12 +122,32 @@ impl Contacts {
             start: vec![Vec3::ZERO; particles],
             clearance: vec![0.0; particles],
             max_edge,
+            self_contacts: None,
         }
     }
 
-    /// Whether any collider survived the broad phase of this step.
+    /// Turns self-contacts on (with their topology and exempt pairs) or off.
+    pub fn set_self_contacts(&mut self, self_contacts: Option<SelfContacts>) {
+        self.self_contacts = self_contacts;
+    }
+
+    /// The cloth's self-contacts, when enabled.
+    pub fn self_contacts(&self) -> Option<&SelfContacts> {
+        self.self_contacts.as_ref()
+    }
+
+    /// Starts a step for the self-contacts, in which no particle is expected to move farther than
+    /// `reach`, m (see [`SelfContacts::begin_step`]).
+    pub fn begin_self_step(&mut self, reach: f32) {
+        if let Some(s) = &mut self.self_contacts {
+            s.begin_step(reach);
+        }
+    }
+
+    /// Whether any contact is resolved this step: a collider survived the broad phase, or the
+    /// cloth collides with itself.
     pub fn is_active(&self) -> bool {
-        !self.active.is_empty()
+        !self.active.is_empty() || self.self_contacts.is_some()
     }
 
     /// Number of colliders that survived the broad phase of this step.
@@ -219,6 +243,7 @@ impl Contacts {
             active,
             start,
             clearance,
+            self_contacts,
             ..
         } = self;
         let mut state = Vectors {
@@ -228,11 +253,15 @@ impl Contacts {
             inv_mass,
         };
         resolve(active, clearance, (t0, t1, h), triangles, &mut state);
+        if let Some(s) = self_contacts {
+            s.resolve(h, &mut state);
+        }
     }
 
     /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
     /// `h`: every free particle (inverse mass > 0) is moved out of every active collider and its
-    /// velocity corrected; then, for small spheres, every triangle.
+    /// velocity corrected; then, for small spheres, every triangle; then the cloth's layers are
+    /// kept apart (with self-contacts on).
     pub fn resolve_state<S: ContactState>(
         &mut self,
         (t0, t1, h): (f32, f32, f32),
@@ -246,6 +275,9 @@ impl Contacts {
             triangles,
             state,
         );
+        if let Some(s) = &mut self.self_contacts {
+            s.resolve(h, state);
+        }
     }
 }
 

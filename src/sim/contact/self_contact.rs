@@ -1,0 +1,765 @@
+//! Self-contact: the cloth's own vertices, edges and triangles kept at least a thickness apart.
+//!
+//! # Pipeline
+//! 1. **Topology, once** ([`SelfContacts::new`]): the triangles, their unique edges, and the
+//!    vertex–triangle and edge–edge pairs that share no vertex but are closer than the thickness
+//!    at rest (neighbours along the mesh of a fine cloth). Those are exempt for good.
+//! 2. **Broad phase, once per step** (and again within a step only if some particle moves farther
+//!    than the step's reach, [`SelfContacts::begin_step`]): every triangle's bounding box, grown by
+//!    the thickness and twice the reach, goes into a spatial hash whose cells are as large as the
+//!    largest box. A vertex inside a triangle's box makes a vertex–triangle candidate; an edge whose
+//!    box meets a triangle's makes edge–edge candidates with that triangle's edges. Two elements
+//!    farther apart than the thickness plus twice the reach cannot come within the thickness
+//!    while no particle moves more than the reach, so the candidates hold every pair that can
+//!    touch until then; each substep checks that no particle has gone farther.
+//! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
+//!    particles in ([`ContactState`]): for each candidate, the signed distance at the end of the
+//!    substep along the pair's normal (the triangle's, for a vertex over a triangle's interior; the
+//!    line between the closest points, for two edges), with its sign taken from the start of the
+//!    substep. A pair closer than the thickness, or on the other side of each other than at the
+//!    start (it passed through within the substep), is pushed apart to the thickness on its
+//!    starting side, each particle moved in proportion to its inverse mass and its weight in the
+//!    pair (momentum is kept). Then the relative velocity's approaching normal part is removed
+//!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
+//!    change (the velocity removed plus the push-out over the substep). Passes repeat
+//!    (Gauss-Seidel) until nothing moves, at most [`PASSES`] times.
+//!
+//! Deciding the side from the start of each substep is what keeps a pile from passing through
+//! itself: a proximity test alone pushes a particle that has already crossed further through.
+
+use glam::Vec3;
+
+use super::narrow::ContactState;
+
+/// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
+const PASSES: u32 = 4;
+
+/// A vertex counts as over a triangle's interior when none of its barycentric coordinates is
+/// below this (a vertex just past an edge is caught by the edge–edge pairs of that edge).
+const INSIDE: f32 = -1e-3;
+
+/// A cloth's self-contacts: its topology and exempt pairs (built once), this step's candidate
+/// pairs and the scratch of the broad phase. Nothing allocates once the candidate lists have
+/// grown to the largest step's size.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct SelfContacts {
+    /// Distance kept between layers, m.
+    thickness: f32,
+    /// Coulomb friction between layers.
+    friction: f32,
+    /// Triangles, by model particle.
+    tris: Vec<[u32; 3]>,
+    /// The unique edges, by model particle.
+    edges: Vec<[u32; 2]>,
+    /// Each triangle's three edges (indices into `edges`).
+    tri_edges: Vec<[u32; 3]>,
+    /// Vertex–triangle pairs exempt (closer than the thickness at rest), as `vertex << 32 |
+    /// triangle`, sorted.
+    exempt_vt: Vec<u64>,
+    /// Edge–edge pairs exempt, as `low << 32 | high` edge index, sorted.
+    exempt_ee: Vec<u64>,
+    /// The spatial hash of the triangles' grown boxes.
+    hash: Hash,
+    /// This step's vertex–triangle candidates: (vertex, triangle).
+    vt: Vec<(u32, u32)>,
+    /// This step's edge–edge candidates: (edge, edge).
+    ee: Vec<(u32, u32)>,
+    /// Where each model particle is stored in the state being resolved.
+    slot: Vec<u32>,
+    /// Positions (by model particle) when the candidates were found.
+    found_at: Vec<Vec3>,
+    /// How far a particle may move from `found_at` before the candidates must be found again, m.
+    reach: f32,
+    /// The reach the step was begun with.
+    step_reach: f32,
+    /// Whether the candidates must be found again before the next resolution (a new step).
+    stale: bool,
+}
+
+impl SelfContacts {
+    /// Self-contacts of a cloth with triangles `triangles` (three model particles each) whose
+    /// particles rest at `rest`, `thickness` apart with `friction` between layers.
+    pub fn new(triangles: &[u32], rest: &[Vec3], thickness: f32, friction: f32) -> Self {
+        let tris: Vec<[u32; 3]> = triangles
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect();
+        let mut keyed: Vec<(u64, usize)> = Vec::with_capacity(tris.len() * 3);
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                keyed.push((pair_key(a.min(b), a.max(b)), 3 * t + k));
+            }
+        }
+        keyed.sort_unstable();
+        let mut edges: Vec<[u32; 2]> = Vec::new();
+        let mut tri_edges = vec![[0u32; 3]; tris.len()];
+        for (i, &(key, at)) in keyed.iter().enumerate() {
+            if i == 0 || keyed[i - 1].0 != key {
+                edges.push([(key >> 32) as u32, key as u32]);
+            }
+            tri_edges[at / 3][at % 3] = (edges.len() - 1) as u32;
+        }
+        let mut contacts = Self {
+            thickness,
+            friction,
+            tris,
+            edges,
+            tri_edges,
+            stale: true,
+            ..Self::default()
+        };
+        // The pairs within the thickness at rest are exactly the candidates of a broad phase on
+        // the rest positions with no motion.
+        contacts.find_candidates(rest, thickness);
+        contacts.exempt_vt = contacts.vt.iter().map(|&(p, t)| pair_key(p, t)).collect();
+        contacts.exempt_ee = contacts.ee.iter().map(|&(e, f)| pair_key(e, f)).collect();
+        contacts.exempt_vt.sort_unstable();
+        contacts.exempt_ee.sort_unstable();
+        contacts.vt.clear();
+        contacts.ee.clear();
+        contacts
+    }
+
+    /// The thickness and friction these contacts were built with.
+    pub fn settings(&self) -> (f32, f32) {
+        (self.thickness, self.friction)
+    }
+
+    /// Number of vertex–triangle and edge–edge pairs exempt because they are closer than the
+    /// thickness at rest.
+    #[cfg(test)]
+    pub fn exempt_count(&self) -> usize {
+        self.exempt_vt.len() + self.exempt_ee.len()
+    }
+
+    /// Number of candidate pairs (vertex–triangle, edge–edge) the last broad phase found.
+    pub fn candidate_count(&self) -> (usize, usize) {
+        (self.vt.len(), self.ee.len())
+    }
+
+    /// Starts a step in which no particle is expected to move farther than `reach` (m): the
+    /// candidates are found afresh at the step's first resolution.
+    pub fn begin_step(&mut self, reach: f32) {
+        self.step_reach = if reach.is_finite() {
+            reach.max(0.0)
+        } else {
+            0.0
+        };
+        self.stale = true;
+    }
+
+    /// The narrow phase and response at the end of a substep of length `h` (see the module docs).
+    pub fn resolve<S: ContactState>(&mut self, h: f32, state: &mut S) {
+        if self.tris.is_empty() {
+            return;
+        }
+        self.refresh_candidates(state);
+        let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
+        for _ in 0..PASSES {
+            let mut moved = false;
+            for k in 0..self.vt.len() {
+                let (p, t) = self.vt[k];
+                let [a, b, c] = self.tris[t as usize];
+                let slots = [p, a, b, c].map(|i| self.slot[i as usize] as usize);
+                moved |= self.vertex_triangle(state, slots, inv_h);
+            }
+            for k in 0..self.ee.len() {
+                let (e, f) = self.ee[k];
+                let [a, b] = self.edges[e as usize];
+                let [c, d] = self.edges[f as usize];
+                let slots = [a, b, c, d].map(|i| self.slot[i as usize] as usize);
+                moved |= self.edge_edge(state, slots, inv_h);
+            }
+            if !moved {
+                break;
+            }
+        }
+    }
+
+    /// Finds the candidates at the step's first resolution, or again when a particle has moved
+    /// farther than the reach since they were found.
+    fn refresh_candidates<S: ContactState>(&mut self, state: &S) {
+        let n = state.len();
+        if !self.stale && self.found_at.len() == n {
+            let limit = self.reach * self.reach;
+            let far = (0..n).any(|p| {
+                let s = self.slot[p] as usize;
+                state.position(s).distance_squared(self.found_at[p]) > limit
+            });
+            if !far {
+                return;
+            }
+        }
+        self.slot.clear();
+        self.slot
+            .extend((0..n as u32).map(|p| state.slot(p) as u32));
+        self.found_at.clear();
+        self.found_at
+            .extend(self.slot.iter().map(|&s| state.start(s as usize)));
+        // Found at the substep's start, the candidates must also cover where it ends.
+        let moved = self
+            .slot
+            .iter()
+            .zip(&self.found_at)
+            .map(|(&s, x)| state.position(s as usize).distance(*x))
+            .fold(0.0, f32::max);
+        self.reach = self.step_reach.max(moved);
+        let positions = std::mem::take(&mut self.found_at);
+        self.find_candidates(&positions, self.thickness + 2.0 * self.reach);
+        self.found_at = positions;
+        self.stale = false;
+    }
+
+    /// The broad phase on `x` (by model particle): every vertex–triangle and edge–edge pair that
+    /// shares no vertex, is not exempt, and is closer than `margin`.
+    fn find_candidates(&mut self, x: &[Vec3], margin: f32) {
+        self.vt.clear();
+        self.ee.clear();
+        let grow = Vec3::splat(margin);
+        self.hash.boxes.clear();
+        self.hash.boxes.extend(self.tris.iter().map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
+        }));
+        if !self.hash.build() {
+            return;
+        }
+        let hash = &self.hash;
+        for (p, &at) in x.iter().enumerate() {
+            let p = p as u32;
+            hash.visit(at, at, |t, _| {
+                let tri = self.tris[t as usize];
+                if tri.contains(&p) || is_exempt(&self.exempt_vt, pair_key(p, t)) {
+                    return;
+                }
+                let [a, b, c] = tri.map(|i| x[i as usize]);
+                if point_triangle_distance(at, a, b, c) < margin {
+                    self.vt.push((p, t));
+                }
+            });
+        }
+        for (e, &[a, b]) in self.edges.iter().enumerate() {
+            let e = e as u32;
+            let (lo, hi) = (
+                x[a as usize].min(x[b as usize]),
+                x[a as usize].max(x[b as usize]),
+            );
+            hash.visit(lo, hi, |t, _| {
+                for &f in &self.tri_edges[t as usize] {
+                    if f <= e {
+                        continue;
+                    }
+                    let [c, d] = self.edges[f as usize];
+                    if c == a || c == b || d == a || d == b {
+                        continue;
+                    }
+                    let [pa, pb, pc, pd] = [a, b, c, d].map(|i| x[i as usize]);
+                    let (flo, fhi) = (pc.min(pd), pc.max(pd));
+                    let boxes_meet = (flo - grow).cmple(hi).all() && (fhi + grow).cmpge(lo).all();
+                    if !boxes_meet || is_exempt(&self.exempt_ee, pair_key(e, f)) {
+                        continue;
+                    }
+                    let (s, t) = closest_on_segments(pa, pb, pc, pd);
+                    if pa.lerp(pb, s).distance(pc.lerp(pd, t)) < margin {
+                        self.ee.push((e, f));
+                    }
+                }
+            });
+        }
+        // An edge pair is met through each triangle of the second edge (two inside the mesh).
+        self.ee.sort_unstable();
+        self.ee.dedup();
+    }
+
+    /// Keeps vertex `s[0]` at least the thickness from triangle `s[1..]` on the side it started
+    /// the substep on, when it is over the triangle's interior. Returns whether anything moved.
+    fn vertex_triangle<S: ContactState>(&self, state: &mut S, s: [usize; 4], inv_h: f32) -> bool {
+        let w = s.map(|i| state.inv_mass(i));
+        if w == [0.0; 4] {
+            return false;
+        }
+        let [p, a, b, c] = s.map(|i| state.position(i));
+        let Some(n) = unit_normal(a, b, c) else {
+            return false;
+        };
+        let dist = (p - a).dot(n);
+        let Some([u, v, t]) = barycentric(p - dist * n, a, b, c) else {
+            return false;
+        };
+        if u < INSIDE || v < INSIDE || t < INSIDE {
+            return false;
+        }
+        let [p0, a0, b0, c0] = s.map(|i| state.start(i));
+        let side = match unit_normal(a0, b0, c0) {
+            Some(n0) => {
+                if (p0 - (u * a0 + v * b0 + t * c0)).dot(n0) >= 0.0 {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+            None => dist.signum(),
+        };
+        let weights = [1.0, -u, -v, -t];
+        self.separate(state, s, w, weights, side * n, side * dist, inv_h)
+    }
+
+    /// Keeps edge `s[0..2]` at least the thickness from edge `s[2..]` on the side it started the
+    /// substep on. Returns whether anything moved.
+    fn edge_edge<S: ContactState>(&self, state: &mut S, s: [usize; 4], inv_h: f32) -> bool {
+        let w = s.map(|i| state.inv_mass(i));
+        if w == [0.0; 4] {
+            return false;
+        }
+        let [a, b, c, d] = s.map(|i| state.position(i));
+        let (u, t) = closest_on_segments(a, b, c, d);
+        let gap = a.lerp(b, u) - c.lerp(d, t);
+        let [a0, b0, c0, d0] = s.map(|i| state.start(i));
+        let gap0 = a0.lerp(b0, u) - c0.lerp(d0, t);
+        let length = gap.length();
+        if length >= self.thickness && gap.dot(gap0) >= 0.0 {
+            return false;
+        }
+        // The direction apart: the gap's, turned to the starting side; the start's if the gap
+        // has closed to nothing.
+        let (n, dist) = if length > 1e-9 {
+            let side = if gap.dot(gap0) >= 0.0 { 1.0 } else { -1.0 };
+            (gap * (side / length), side * length)
+        } else {
+            match gap0.try_normalize() {
+                Some(n0) => (n0, gap.dot(n0)),
+                None => return false,
+            }
+        };
+        let weights = [1.0 - u, u, t - 1.0, -t];
+        self.separate(state, s, w, weights, n, dist, inv_h)
+    }
+
+    /// The response to one pair: the combination `Σ weights[k] x[s[k]]` is `dist` along `n`;
+    /// pushes it out to the thickness, then removes its approaching velocity along `n` and applies
+    /// friction to its tangential velocity. `w` are the particles' inverse masses.
+    #[allow(clippy::too_many_arguments)]
+    fn separate<S: ContactState>(
+        &self,
+        state: &mut S,
+        s: [usize; 4],
+        w: [f32; 4],
+        weights: [f32; 4],
+        n: Vec3,
+        dist: f32,
+        inv_h: f32,
+    ) -> bool {
+        let depth = self.thickness - dist;
+        if !(depth > 0.0) {
+            return false;
+        }
+        let effective: f32 = (0..4).map(|k| weights[k] * weights[k] * w[k]).sum();
+        if !(effective > 1e-12) {
+            return false;
+        }
+        let push = depth / effective;
+        let v = s.map(|i| state.velocity(i));
+        let relative: Vec3 = (0..4).map(|k| weights[k] * v[k]).sum();
+        let normal = relative.dot(n);
+        // The normal change in velocity units: the approach removed plus the push-out per substep.
+        let removed = (-normal).max(0.0);
+        let normal_change = removed + depth * inv_h;
+        let tangential = relative - normal * n;
+        let slide = tangential.length();
+        let stop = if slide > 0.0 {
+            (self.friction * normal_change).min(slide) / slide
+        } else {
+            0.0
+        };
+        // Velocity change of the pair's combination, spread like the push.
+        let dv = removed * n - stop * tangential;
+        let x = s.map(|i| state.position(i));
+        for k in 0..4 {
+            let g = weights[k] * w[k];
+            if g == 0.0 {
+                continue;
+            }
+            let scale = g / effective;
+            state.set(s[k], x[k] + (push * g) * n, v[k] + scale * dv);
+        }
+        true
+    }
+}
+
+/// The key of pair `(a, b)` in the exemption lists.
+fn pair_key(a: u32, b: u32) -> u64 {
+    (a as u64) << 32 | b as u64
+}
+
+/// Whether `key` is in the sorted `exempt` list.
+fn is_exempt(exempt: &[u64], key: u64) -> bool {
+    !exempt.is_empty() && exempt.binary_search(&key).is_ok()
+}
+
+/// The unit normal of triangle `abc` (`None` for a degenerate one).
+fn unit_normal(a: Vec3, b: Vec3, c: Vec3) -> Option<Vec3> {
+    (b - a).cross(c - a).try_normalize()
+}
+
+/// Barycentric coordinates of `q` (in the plane of `abc`) with respect to `a`, `b`, `c`.
+fn barycentric(q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<[f32; 3]> {
+    let (e1, e2, r) = (b - a, c - a, q - a);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d20, d21) = (r.dot(e1), r.dot(e2));
+    let denom = d00 * d11 - d01 * d01;
+    if !(denom > 0.0) {
+        return None;
+    }
+    let v = (d11 * d20 - d01 * d21) / denom;
+    let w = (d00 * d21 - d01 * d20) / denom;
+    Some([1.0 - v - w, v, w])
+}
+
+/// Distance from `p` to triangle `abc` (to its nearest edge or vertex when `p` is not over it).
+fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    if let Some(n) = unit_normal(a, b, c) {
+        let dist = (p - a).dot(n);
+        if let Some([u, v, w]) = barycentric(p - dist * n, a, b, c)
+            && u >= 0.0
+            && v >= 0.0
+            && w >= 0.0
+        {
+            return dist.abs();
+        }
+    }
+    [(a, b), (b, c), (c, a)]
+        .into_iter()
+        .map(|(e0, e1)| {
+            let d = e1 - e0;
+            let t = if d.length_squared() > 0.0 {
+                ((p - e0).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            p.distance(e0 + t * d)
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// The parameters `(s, t)` of the closest points `a + s (b − a)` and `c + t (d − c)` of segments
+/// `ab` and `cd`, both in `0..=1`.
+fn closest_on_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32) {
+    let (d1, d2, r) = (b - a, d - c, a - c);
+    let (aa, ee, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
+    const TINY: f32 = 1e-20;
+    if aa <= TINY && ee <= TINY {
+        return (0.0, 0.0);
+    }
+    if aa <= TINY {
+        return (0.0, (f / ee).clamp(0.0, 1.0));
+    }
+    let cc = d1.dot(r);
+    if ee <= TINY {
+        return ((-cc / aa).clamp(0.0, 1.0), 0.0);
+    }
+    let bb = d1.dot(d2);
+    let denom = aa * ee - bb * bb;
+    let mut s = if denom > TINY * aa * ee {
+        ((bb * f - cc * ee) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut t = (bb * s + f) / ee;
+    if t < 0.0 {
+        t = 0.0;
+        s = (-cc / aa).clamp(0.0, 1.0);
+    } else if t > 1.0 {
+        t = 1.0;
+        s = ((bb - cc) / aa).clamp(0.0, 1.0);
+    }
+    (s, t)
+}
+
+/// A spatial hash of boxes no larger than its cells: each box is listed in every cell it meets
+/// (at most two per axis), bucketed by a hash of the cell (counting sort, no per-build
+/// allocation once grown).
+#[derive(Debug, Clone, Default)]
+struct Hash {
+    /// The boxes, filled by the caller before [`Self::build`].
+    boxes: Vec<(Vec3, Vec3)>,
+    /// 1 / cell size.
+    inv_cell: f32,
+    /// Buckets − 1 (a power of two less one).
+    mask: u32,
+    /// Where each bucket's entries begin in `entries` (one more than the buckets).
+    start: Vec<u32>,
+    /// (box, cell) per listing, grouped by bucket.
+    entries: Vec<(u32, [i32; 3])>,
+}
+
+impl Hash {
+    /// Lists the boxes in their cells. Returns `false` (and lists nothing) if a box is not finite.
+    fn build(&mut self) -> bool {
+        let mut extent = 0.0f32;
+        for (lo, hi) in &self.boxes {
+            let e = (*hi - *lo).max_element();
+            if !(lo.is_finite() && hi.is_finite()) {
+                self.entries.clear();
+                return false;
+            }
+            extent = extent.max(e);
+        }
+        self.inv_cell = 1.0 / extent.max(1e-6);
+        let buckets = (2 * self.boxes.len()).next_power_of_two().max(16);
+        self.mask = (buckets - 1) as u32;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        let mut count = 0usize;
+        for (lo, hi) in &self.boxes {
+            for_cells(self.cell(*lo), self.cell(*hi), |c| {
+                self.start[bucket(c, self.mask) + 1] += 1;
+                count += 1;
+            });
+        }
+        for b in 0..buckets {
+            self.start[b + 1] += self.start[b];
+        }
+        self.entries.clear();
+        self.entries.resize(count, (0, [0; 3]));
+        // `start[b]` serves as bucket b's cursor while filling, then is restored.
+        for (i, (lo, hi)) in self.boxes.iter().enumerate() {
+            for_cells(self.cell(*lo), self.cell(*hi), |c| {
+                let b = bucket(c, self.mask);
+                self.entries[self.start[b] as usize] = (i as u32, c);
+                self.start[b] += 1;
+            });
+        }
+        for b in (1..=buckets).rev() {
+            self.start[b] = self.start[b - 1];
+        }
+        self.start[0] = 0;
+        true
+    }
+
+    /// The cell of point `p`.
+    fn cell(&self, p: Vec3) -> [i32; 3] {
+        (p * self.inv_cell).floor().as_ivec3().to_array()
+    }
+
+    /// Calls `f(box, cell)` once for every box that meets box `lo..hi`, which must be no larger
+    /// than a cell (in the one cell that holds the low corner of the two boxes' overlap).
+    fn visit(&self, lo: Vec3, hi: Vec3, mut f: impl FnMut(u32, [i32; 3])) {
+        if self.entries.is_empty() {
+            return;
+        }
+        for_cells(self.cell(lo), self.cell(hi), |c| {
+            let b = bucket(c, self.mask);
+            for &(i, cell) in &self.entries[self.start[b] as usize..self.start[b + 1] as usize] {
+                if cell != c {
+                    continue;
+                }
+                let (blo, bhi) = self.boxes[i as usize];
+                if blo.cmple(hi).all() && bhi.cmpge(lo).all() && self.cell(blo.max(lo)) == c {
+                    f(i, c);
+                }
+            }
+        });
+    }
+}
+
+/// Calls `f` for every cell from `lo` to `hi` (inclusive).
+fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
+    for x in lo[0]..=hi[0] {
+        for y in lo[1]..=hi[1] {
+            for z in lo[2]..=hi[2] {
+                f([x, y, z]);
+            }
+        }
+    }
+}
+
+/// The bucket of cell `c`.
+fn bucket(c: [i32; 3], mask: u32) -> usize {
+    let h = (c[0] as u32).wrapping_mul(0x8da6_b343)
+        ^ (c[1] as u32).wrapping_mul(0xd816_3841)
+        ^ (c[2] as u32).wrapping_mul(0xcb1a_b31f);
+    (h & mask) as usize
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::contact::Vectors;
+    use crate::sim::{ClothModel, GridSpec};
+
+    /// Resolves one substep of `contacts` from `start` to `x` with velocities `v`.
+    fn resolve(
+        contacts: &mut SelfContacts,
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        w: &[f32],
+    ) {
+        contacts.begin_step(0.0);
+        let mut state = Vectors {
+            x,
+            v,
+            start,
+            inv_mass: w,
+        };
+        contacts.resolve(1.0 / 1200.0, &mut state);
+    }
+
+    #[test]
+    fn neighbours_closer_than_the_thickness_at_rest_are_exempt() {
+        let coarse = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let c = SelfContacts::new(&coarse.triangles, &coarse.rest_positions, 0.005, 0.0);
+        assert_eq!(c.exempt_count(), 0);
+        // At 2 mm spacing a 5 mm thickness reaches the next ring of triangles and edges.
+        let fine = ClothModel::grid(&GridSpec::new(8, 8, 0.002)).unwrap();
+        let mut c = SelfContacts::new(&fine.triangles, &fine.rest_positions, 0.005, 0.0);
+        assert!(c.exempt_count() > 100, "{}", c.exempt_count());
+        // So the flat cloth at rest has no candidate pairs and nothing moves.
+        let start = fine.rest_positions.clone();
+        let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; start.len()]);
+        resolve(&mut c, &start, &mut x, &mut v, &vec![1.0; start.len()]);
+        assert_eq!(c.candidate_count(), (0, 0));
+        assert_eq!(x, start);
+    }
+
+    /// Two triangles: a fixed one in y = 0 and a free one above it, whose first vertex dips to
+    /// `dip` below the first triangle's interior over the substep.
+    fn falling_vertex(dip: f32) -> (SelfContacts, Vec<Vec3>, Vec<Vec3>) {
+        let start = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.25, 0.02, 0.25),
+            Vec3::new(2.0, 0.5, 2.0),
+            Vec3::new(3.0, 0.5, 2.0),
+        ];
+        let mut end = start.clone();
+        end[3].y = -dip;
+        let contacts = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
+        (contacts, start, end)
+    }
+
+    #[test]
+    fn a_vertex_that_passed_through_a_triangle_is_put_back_on_its_side() {
+        for dip in [0.001, 0.004, 0.01] {
+            let (mut c, start, mut x) = falling_vertex(dip);
+            let mut v = vec![Vec3::ZERO; 6];
+            v[3] = Vec3::new(0.1, -2.0, 0.0);
+            let w = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+            resolve(&mut c, &start, &mut x, &mut v, &w);
+            assert!((x[3].y - 0.005).abs() < 1e-6, "dip {dip}: {}", x[3]);
+            // The approach is removed, the sliding slowed by nothing (frictionless).
+            assert!(
+                v[3].y.abs() < 1e-6 && (v[3].x - 0.1).abs() < 1e-6,
+                "{}",
+                v[3]
+            );
+        }
+    }
+
+    #[test]
+    fn a_pair_of_free_particles_keeps_its_momentum() {
+        let (c, start, mut x) = falling_vertex(0.003);
+        let mut v: Vec<Vec3> = (0..6)
+            .map(|i| Vec3::new(0.3 * i as f32, -1.0, 0.1))
+            .collect();
+        let w = [2.0, 1.0, 0.5, 1.0, 1.0, 1.0];
+        let momentum = |v: &[Vec3]| -> Vec3 { v.iter().zip(&w).map(|(v, w)| *v / *w).sum() };
+        let (p0, v0) = (momentum(&v), v.clone());
+        let centre = |x: &[Vec3]| -> Vec3 { x.iter().zip(&w).map(|(x, w)| *x / *w).sum() };
+        let c0 = centre(&x);
+        let mut c = SelfContacts { friction: 0.5, ..c };
+        resolve(&mut c, &start, &mut x, &mut v, &w);
+        assert!(v != v0, "the contact acted");
+        assert!(
+            (momentum(&v) - p0).length() < 1e-5,
+            "{} vs {p0}",
+            momentum(&v)
+        );
+        assert!((centre(&x) - c0).length() < 1e-5);
+    }
+
+    #[test]
+    fn edges_that_passed_through_each_other_are_put_back_apart() {
+        // Edge 0–1 along x at y = 0 (fixed), edge 3–4 along z, which moves from above it to
+        // below it over the substep; their triangles' other vertices are far away.
+        let start = vec![
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -3.0),
+            Vec3::new(0.0, 0.01, -1.0),
+            Vec3::new(0.0, 0.01, 1.0),
+            Vec3::new(-3.0, 0.01, 3.0),
+        ];
+        let mut x = start.clone();
+        x[3].y = -0.01;
+        x[4].y = -0.01;
+        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
+        let mut v = vec![Vec3::ZERO; 6];
+        let w = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0];
+        resolve(&mut c, &start, &mut x, &mut v, &w);
+        // The closest points, at the edges' middles, are the thickness apart on the starting side.
+        let middle = 0.5 * (x[3] + x[4]);
+        assert!(middle.y > 0.0049 && middle.y < 0.0051, "{} {}", x[3], x[4]);
+    }
+
+    #[test]
+    fn closest_points_of_crossing_and_parallel_segments() {
+        let (s, t) = closest_on_segments(
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.5, -1.0, 0.2),
+            Vec3::new(0.5, 1.0, 0.2),
+        );
+        assert!((s - 0.75).abs() < 1e-6 && (t - 0.5).abs() < 1e-6, "{s} {t}");
+        let (s, t) = closest_on_segments(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(2.0, 0.1, 0.0),
+            Vec3::new(3.0, 0.1, 0.0),
+        );
+        assert_eq!((s, t), (1.0, 0.0));
+    }
+
+    #[test]
+    fn point_triangle_distance_over_the_face_and_past_an_edge() {
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        assert!((point_triangle_distance(Vec3::new(0.2, 0.2, -0.3), a, b, c) - 0.3).abs() < 1e-6);
+        let d = point_triangle_distance(Vec3::new(2.0, 0.0, 0.0), a, b, c);
+        assert!((d - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_hash_finds_every_overlapping_box_once() {
+        // Boxes on a jittered lattice, queried by boxes of every size up to a cell: the hash's
+        // answers equal a brute-force overlap test's, each once.
+        let mut hash = Hash::default();
+        let jitter = |i: usize, k: usize| ((i * 7919 + k * 104_729) % 1000) as f32 / 1000.0;
+        hash.boxes = (0..300)
+            .map(|i| {
+                let lo = Vec3::new(jitter(i, 0), jitter(i, 1), jitter(i, 2)) * 3.0 - 1.5;
+                (
+                    lo,
+                    lo + Vec3::new(jitter(i, 3), jitter(i, 4), jitter(i, 5)) * 0.4,
+                )
+            })
+            .collect();
+        assert!(hash.build());
+        for q in 0..200 {
+            let lo = Vec3::new(jitter(q, 6), jitter(q, 7), jitter(q, 8)) * 3.0 - 1.5;
+            let hi = lo + Vec3::new(jitter(q, 9), jitter(q, 10), jitter(q, 11)) * 0.3;
+            let mut found = Vec::new();
+            hash.visit(lo, hi, |i, _| found.push(i));
+            let mut expected: Vec<u32> = (0..hash.boxes.len() as u32)
+                .filter(|&i| {
+                    let (blo, bhi) = hash.boxes[i as usize];
+                    blo.cmple(hi).all() && bhi.cmpge(lo).all()
+                })
+                .collect();
+            found.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(found, expected, "query {q}");
+        }
+    }
+}

@@ -1,0 +1,284 @@
+//! Self-collision, judged by a crossing counter of this file's own (not the solver's): the edges of
+//! a cloth that pass through one of its triangles they share no vertex with. Piles, folds and
+//! coarse cloths must show none at any frame; without self-collision the same scenes show many.
+
+use std::collections::HashMap;
+
+use bevy::prelude::*;
+use bevy_cloth::prelude::*;
+use bevy_cloth::scene::ConstantVelocity;
+
+mod common;
+use common::*;
+
+/// Number of (edge, triangle) pairs of the mesh `triangles` over `x` in which the edge passes
+/// through the triangle's interior and shares no vertex with it.
+fn crossings(x: &[Vec3], triangles: &[u32]) -> usize {
+    let tris: Vec<[u32; 3]> = triangles
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    let mut edges: Vec<(u32, u32)> = tris
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    // A uniform grid of cells as large as the largest triangle's box: every triangle is listed in
+    // each cell its box meets, and an edge (never larger than its triangle) meets at most eight.
+    let boxes: Vec<(Vec3, Vec3)> = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            (a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect();
+    let cell = boxes
+        .iter()
+        .map(|(lo, hi)| (*hi - *lo).max_element())
+        .fold(1e-4, f32::max);
+    let key = |p: Vec3| (p / cell).floor().as_ivec3();
+    let mut grid: HashMap<IVec3, Vec<usize>> = HashMap::new();
+    for (t, (lo, hi)) in boxes.iter().enumerate() {
+        let (a, b) = (key(*lo), key(*hi));
+        for i in a.x..=b.x {
+            for j in a.y..=b.y {
+                for k in a.z..=b.z {
+                    grid.entry(IVec3::new(i, j, k)).or_default().push(t);
+                }
+            }
+        }
+    }
+    let mut count = 0;
+    let mut seen: Vec<usize> = Vec::new();
+    for &(a, b) in &edges {
+        let (p, q) = (x[a as usize], x[b as usize]);
+        let (lo, hi) = (key(p.min(q)), key(p.max(q)));
+        seen.clear();
+        for i in lo.x..=hi.x {
+            for j in lo.y..=hi.y {
+                for k in lo.z..=hi.z {
+                    let Some(list) = grid.get(&IVec3::new(i, j, k)) else {
+                        continue;
+                    };
+                    for &t in list {
+                        if seen.contains(&t) || tris[t].contains(&a) || tris[t].contains(&b) {
+                            continue;
+                        }
+                        seen.push(t);
+                        let [u, v, w] = tris[t].map(|i| x[i as usize]);
+                        count += usize::from(segment_crosses_triangle(p, q, u, v, w));
+                    }
+                }
+            }
+        }
+    }
+    count
+}
+
+/// Whether segment `pq` passes through the interior of triangle `abc` (Möller–Trumbore).
+fn segment_crosses_triangle(p: Vec3, q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let dir = q - p;
+    let (e1, e2) = (b - a, c - a);
+    let h = dir.cross(e2);
+    let det = e1.dot(h);
+    if det.abs() < 1e-12 {
+        return false;
+    }
+    let s = p - a;
+    let u = s.dot(h) / det;
+    let r = s.cross(e1);
+    let v = dir.dot(r) / det;
+    let t = e2.dot(r) / det;
+    u > 0.0 && v > 0.0 && u + v < 1.0 && t > 0.0 && t < 1.0
+}
+
+/// Crossings of cloth `e` now.
+fn cloth_crossings(app: &App, e: Entity) -> usize {
+    let sim = sim(app, e);
+    crossings(sim.positions(), &sim.model().triangles)
+}
+
+/// Settings with self-collision on (`on`) or off, `thickness` thick.
+fn config(on: bool, thickness: f32) -> ClothConfig {
+    ClothConfig {
+        solver: SolverSettings {
+            self_collision: SelfCollision {
+                enabled: on,
+                thickness,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// Runs `ticks` fixed steps and returns the most crossings cloth `e` had after any of them.
+fn worst_crossings(app: &mut App, e: Entity, ticks: u32) -> usize {
+    let mut worst = 0;
+    for _ in 0..ticks {
+        app.update();
+        worst = worst.max(cloth_crossings(app, e));
+        assert!(
+            sim(app, e).positions().iter().all(|p| p.is_finite()),
+            "positions finite"
+        );
+    }
+    worst
+}
+
+/// An app with a floor at y = 0.
+fn app_with_floor() -> App {
+    let mut app = app();
+    app.world_mut()
+        .spawn((ClothCollider::half_space(Vec3::Y), Transform::IDENTITY));
+    app
+}
+
+/// A 32×32 cloth (3 cm spacing, 5 mm thick), tilted, dropped onto the floor: it lands corner first
+/// and folds over itself.
+fn tilted_drop(on: bool) -> (App, Entity) {
+    let mut app = app_with_floor();
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(32, 32, 0.03)),
+            config(on, 0.005),
+            Transform::from_xyz(0.0, 0.6, 0.0)
+                .with_rotation(Quat::from_rotation_z(0.9) * Quat::from_rotation_x(0.4)),
+        ),
+    );
+    (app, cloth)
+}
+
+#[test]
+fn the_crossing_counter_sees_an_edge_through_a_triangle() {
+    // A triangle in z = 0 and a vertical edge through its interior, then beside it; an edge that
+    // shares a vertex with the triangle never counts.
+    let x = [
+        Vec3::ZERO,
+        Vec3::X,
+        Vec3::Y,
+        Vec3::new(0.2, 0.2, -0.5),
+        Vec3::new(0.2, 0.2, 0.5),
+        Vec3::new(0.3, 0.2, 0.5),
+    ];
+    assert_eq!(crossings(&x, &[0, 1, 2, 3, 4, 5]), 2);
+    let beside = [
+        x[0],
+        x[1],
+        x[2],
+        x[3] + Vec3::X,
+        x[4] + Vec3::X,
+        x[5] + Vec3::X,
+    ];
+    assert_eq!(crossings(&beside, &[0, 1, 2, 3, 4, 5]), 0);
+}
+
+#[test]
+fn a_tilted_cloth_dropped_on_a_floor_folds_without_crossing_itself() {
+    // Without self-collision the same drop crosses itself: the scene and counter can fail.
+    let (mut app, cloth) = tilted_drop(false);
+    let without = worst_crossings(&mut app, cloth, 300);
+    assert!(without > 50, "{without} crossings without self-collision");
+
+    let (mut app, cloth) = tilted_drop(true);
+    let with = worst_crossings(&mut app, cloth, 300);
+    assert_eq!(with, 0, "crossings with self-collision ({without} without)");
+    // It still lies on the floor, folded: the pile is thicker than one layer.
+    let top = sim(&app, cloth)
+        .positions()
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MIN, f32::max);
+    assert!(top > 0.012 && top < 0.3, "top of the pile at {top} m");
+}
+
+#[test]
+fn a_coarse_cloth_four_times_its_thickness_piles_without_crossing() {
+    // Spacing 4 cm, thickness 1 cm, dropped onto a small ball on the floor: particle–particle
+    // distances alone would let layers slip between each other's particles.
+    let mut app = app_with_floor();
+    app.world_mut().spawn((
+        ClothCollider::sphere(0.08),
+        Transform::from_xyz(0.0, 0.08, 0.0),
+    ));
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(24, 24, 0.04)),
+            config(true, 0.01),
+            Transform::from_xyz(0.05, 0.5, 0.0).with_rotation(Quat::from_rotation_x(0.3)),
+        ),
+    );
+    assert_eq!(worst_crossings(&mut app, cloth, 240), 0);
+}
+
+#[test]
+fn a_cloth_swept_into_folds_by_a_moving_capsule_never_crosses_itself() {
+    // A 64×64 cloth (2 cm spacing) lying on the floor, pushed 0.6 m by a capsule lying across it.
+    let mut app = app_with_floor();
+    app.world_mut().spawn((
+        ClothCollider::capsule(0.04, 0.8),
+        Transform::from_xyz(-0.75, 0.045, 0.0)
+            .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2)),
+        ConstantVelocity(Vec3::new(0.6, 0.0, 0.0)),
+    ));
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(64, 64, 0.02)),
+            config(true, 0.005),
+            Transform::from_xyz(0.0, 0.01, 0.0),
+        ),
+    );
+    assert_eq!(worst_crossings(&mut app, cloth, 120), 0);
+    // The capsule has pushed the cloth's near edge up into folds.
+    let top = sim(&app, cloth)
+        .positions()
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MIN, f32::max);
+    assert!(top > 0.05, "the cloth rose to {top} m");
+}
+
+#[test]
+fn a_hanging_cloth_has_no_self_contact_candidates() {
+    // A flat cloth hanging from two corners cannot touch itself: its broad phase finds nothing, so
+    // no pair is tested in any substep.
+    let mut app = app();
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(32, 32, 0.03).with_plane(GridPlane::Vertical)),
+            config(true, 0.005),
+            ClothPins::new([0, 31]),
+        ),
+    );
+    for _ in 0..60 {
+        app.update();
+        assert_eq!(sim(&app, cloth).self_contact_candidates(), (0, 0));
+    }
+}
+
+#[test]
+fn a_bad_thickness_is_a_typed_error() {
+    for thickness in [0.0, -0.01, f32::NAN, f32::INFINITY] {
+        let error = config(true, thickness).validate().unwrap_err();
+        assert!(
+            matches!(
+                error.innermost(),
+                ClothError::InvalidValue {
+                    field: "self_collision.thickness",
+                    ..
+                }
+            ),
+            "{thickness}: {error}"
+        );
+    }
+    let mut bad_friction = config(true, 0.005);
+    bad_friction.solver.self_collision.friction = f32::NAN;
+    assert!(bad_friction.validate().is_err());
+}
