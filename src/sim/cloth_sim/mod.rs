@@ -494,7 +494,10 @@ impl ClothSim {
         self.active = self.choose_integrator(dt);
         let substeps = self.substeps_for(dt);
         if self.settings.self_collision.enabled {
-            let speed = max_length(&self.particles.velocities);
+            // Only motion relative to the cloth's mean brings its own elements together.
+            let v = &self.particles.velocities;
+            let mean = v.iter().sum::<Vec3>() / v.len().max(1) as f32;
+            let speed = v.iter().map(|v| v.distance(mean)).fold(0.0, f32::max);
             self.contacts.begin_self_step(self.reach_bound(dt, speed));
         }
         if env.colliders.is_empty() {

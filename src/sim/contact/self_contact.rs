@@ -72,6 +72,8 @@ pub(crate) struct SelfContacts {
     reach: f32,
     /// The reach the step was begun with.
     step_reach: f32,
+    /// The most reach a broad phase is given (see `reach_cap`).
+    reach_cap: f32,
     /// Whether the candidates must be found again before the next resolution (a new step).
     stale: bool,
 }
@@ -100,6 +102,10 @@ impl SelfContacts {
             }
             tri_edges[at / 3][at % 3] = (edges.len() - 1) as u32;
         }
+        let shortest = edges
+            .iter()
+            .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
+            .fold(f32::INFINITY, f32::min);
         let mut contacts = Self {
             thickness,
             friction,
@@ -107,6 +113,7 @@ impl SelfContacts {
             edges,
             tri_edges,
             stale: true,
+            reach_cap: reach_cap(shortest, thickness),
             ..Self::default()
         };
         // The pairs within the thickness at rest are exactly the candidates of a broad phase on
@@ -138,13 +145,15 @@ impl SelfContacts {
         (self.vt.len(), self.ee.len())
     }
 
-    /// Starts a step in which no particle is expected to move farther than `reach` (m): the
-    /// candidates are found afresh at the step's first resolution.
+    /// Starts a step in which no particle is expected to move farther than `reach` (m) relative to
+    /// the cloth's mean motion: the candidates are found afresh at the step's first resolution,
+    /// with at most `reach_cap`'s reach (a fast cloth finds them again within the step
+    /// rather than gathering every pair in reach of a whole step's motion).
     pub fn begin_step(&mut self, reach: f32) {
         self.step_reach = if reach.is_finite() {
-            reach.max(0.0)
+            reach.clamp(0.0, self.reach_cap)
         } else {
-            0.0
+            self.reach_cap
         };
         self.stale = true;
     }
@@ -182,12 +191,8 @@ impl SelfContacts {
     fn refresh_candidates<S: ContactState>(&mut self, state: &S) {
         let n = state.len();
         if !self.stale && self.found_at.len() == n {
-            let limit = self.reach * self.reach;
-            let far = (0..n).any(|p| {
-                let s = self.slot[p] as usize;
-                state.position(s).distance_squared(self.found_at[p]) > limit
-            });
-            if !far {
+            let position = |p: usize| state.position(self.slot[p] as usize);
+            if spread(n, |p| position(p) - self.found_at[p]) <= self.reach {
                 return;
             }
         }
@@ -198,12 +203,9 @@ impl SelfContacts {
         self.found_at
             .extend(self.slot.iter().map(|&s| state.start(s as usize)));
         // Found at the substep's start, the candidates must also cover where it ends.
-        let moved = self
-            .slot
-            .iter()
-            .zip(&self.found_at)
-            .map(|(&s, x)| state.position(s as usize).distance(*x))
-            .fold(0.0, f32::max);
+        let moved = spread(n, |p| {
+            state.position(self.slot[p] as usize) - self.found_at[p]
+        });
         self.reach = self.step_reach.max(moved);
         let positions = std::mem::take(&mut self.found_at);
         self.find_candidates(&positions, self.thickness + 2.0 * self.reach);
@@ -385,6 +387,36 @@ impl SelfContacts {
         }
         true
     }
+}
+
+/// How far the `n` displacements `d(0..n)` spread about their mean: the largest distance of one
+/// from the mean (infinite if one is not finite). Moving every particle by the same vector
+/// changes no distance between them, so only this part of the motion can bring a pair together:
+/// two elements move closer by at most twice it.
+fn spread(n: usize, d: impl Fn(usize) -> Vec3) -> f32 {
+    if n == 0 {
+        return 0.0;
+    }
+    let mean = (0..n).map(&d).sum::<Vec3>() / n as f32;
+    let worst = (0..n)
+        .map(|p| d(p).distance_squared(mean))
+        .fold(
+            0.0,
+            |a: f32, b| if b.is_nan() { f32::INFINITY } else { a.max(b) },
+        );
+    worst.sqrt()
+}
+
+/// The most reach a broad phase is given for a cloth whose shortest edge is `edge` long and which
+/// is `thickness` thick: small enough that a flat grid's non-neighbouring elements (at least
+/// `edge/√2` apart) stay out of the margin `thickness + 2 reach`, so a cloth that cannot touch
+/// itself has no candidates; a cloth moving faster finds its candidates again more often within
+/// a step. (0 without edges: a cloth without triangles has no self-contacts.)
+fn reach_cap(edge: f32, thickness: f32) -> f32 {
+    if !edge.is_finite() {
+        return 0.0;
+    }
+    (0.45 * (0.7 * edge - thickness)).max(0.1 * edge)
 }
 
 /// The key of pair `(a, b)` in the exemption lists.
