@@ -4,18 +4,19 @@
 //! also at 10 substeps. The explicit
 //! integrators (Verlet, symplectic Euler) on the same cloths at their stable substeps. Then the same
 //! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
-//! whole App frames with one active cloth against 100 sleeping ones.
+//! whole App frames with one active cloth against 100 sleeping ones. Last, self-collision's cost:
+//! a hanging 64×64 cloth and one lying crumpled on a floor, each with it off and on.
 
 use std::hint::black_box;
 
 use bevy::math::Vec3;
-use bevy::math::primitives::Sphere;
-use bevy::prelude::{Transform, default};
+use bevy::math::primitives::{InfinitePlane3d, Sphere};
+use bevy::prelude::{Quat, Transform, default};
 use bevy::tasks::TaskPoolBuilder;
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
     ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Integrator,
-    Pose, ScopedThread, SolverSettings, Spread, WindField,
+    Pose, ScopedThread, SelfCollision, SolverSettings, Spread, WindField,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -262,5 +263,65 @@ fn sleeping(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, step, explicit, environment, sleeping);
+/// `sim` with self-collision turned on or off (5 mm thick).
+fn with_self_collision(mut sim: ClothSim, enabled: bool) -> ClothSim {
+    let settings = SolverSettings {
+        self_collision: SelfCollision {
+            enabled,
+            thickness: 0.005,
+            ..Default::default()
+        },
+        ..*sim.settings()
+    };
+    sim.set_settings(settings).unwrap();
+    sim
+}
+
+/// Self-collision off and on for the same cloth: hanging from two corners (it cannot touch
+/// itself, so only the broad phase runs), and 64×64 (1.6 cm spacing) dropped nearly upright onto
+/// a floor, crumpled into a pile by 1.5 s of simulation with self-collision on.
+fn self_collision(c: &mut Criterion) {
+    let mut group = c.benchmark_group("self_collision_64x64");
+    let floor = [Collider::fixed(
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Vec3::Y)),
+        Pose::from_translation(Vec3::ZERO),
+        Friction::default(),
+        0.005,
+    )];
+    let on_floor = Environment {
+        colliders: &floor,
+        ..Default::default()
+    };
+    let model = ClothModel::grid(&GridSpec::new(64, 64, 1.0 / 63.0)).unwrap();
+    let settings = SolverSettings {
+        sleep_speed: 0.0,
+        ..Default::default()
+    };
+    let tilt = Quat::from_rotation_z(1.45) * Quat::from_rotation_x(0.3);
+    let upright = ClothSim::new(model, settings, |p| tilt * p + Vec3::new(0.0, 0.8, 0.0)).unwrap();
+    let mut pile = with_self_collision(upright, true);
+    for _ in 0..90 {
+        pile.step_in(1.0 / 60.0, &on_floor).unwrap();
+    }
+    let none = Environment::default();
+    for (name, sim, env) in [("hanging", hanging(64), &none), ("pile", pile, &on_floor)] {
+        for enabled in [false, true] {
+            let mut sim = with_self_collision(sim.clone(), enabled);
+            let label = if enabled { "on" } else { "off" };
+            group.bench_function(format!("{name}_{label}"), |b| {
+                b.iter(|| sim.step_in(black_box(1.0 / 60.0), env).unwrap())
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    step,
+    explicit,
+    environment,
+    sleeping,
+    self_collision
+);
 criterion_main!(benches);

@@ -106,6 +106,9 @@ enum Command {
         /// Print every step's energies and fastest particle (for rerunning one case).
         #[arg(long)]
         trace: bool,
+        /// Turn self-collision on in every case (thickness a quarter of the grid's spacing).
+        #[arg(long)]
+        self_collision: bool,
     },
     /// Bit-for-bit fingerprints: one line per preset scene (assets/scenes, run through the
     /// plugin) and per stress case of every integrator, with the hash of its final positions and
@@ -411,6 +414,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             from,
             integrators,
             trace,
+            self_collision,
         } => {
             let mut chosen = Vec::new();
             for name in &integrators {
@@ -423,7 +427,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => return Err(format!("unknown integrator {other:?}").into()),
                 });
             }
-            if !stress::run(from..from + cases, seed, &chosen, trace) {
+            if !stress::run(from..from + cases, seed, &chosen, (self_collision, trace)) {
                 return Err("stress cases failed (listed above)".into());
             }
         }

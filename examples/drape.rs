@@ -1,6 +1,7 @@
 //! The source paper's scene (its Figure 5): a textured cloth pinned at its four corners above a
 //! sphere, with wind, pin release, texture and wireframe toggles, a movable sphere, and the cloth
 //! inspector panel (every `ClothConfig` field, subdivision level and rule, fps, step time).
+//! Self-collision is on: released, the cloth piles on the floor without passing through itself.
 //!
 //! `cargo run --release --features examples --example drape`
 //!
@@ -91,8 +92,16 @@ fn setup(
         .spawn((Name::new("drape"), paper.bundle()))
         .insert((
             // Scenes show the exact simulated state; on screen, interpolate between fixed steps.
+            // Self-collision on, so that a released cloth piles on the floor without passing
+            // through itself.
             ClothConfig {
-                solver: paper.solver,
+                solver: SolverSettings {
+                    self_collision: SelfCollision {
+                        enabled: true,
+                        ..default()
+                    },
+                    ..paper.solver
+                },
                 ..default()
             },
             // The paper renders the first subdivision level.

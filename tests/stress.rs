@@ -2,7 +2,7 @@
 //! every integrator, more for the default one, and every case that once failed. `cloth_cli stress`
 //! runs as many as you like.
 
-use bevy_cloth::harness::stress::{StressLimits, StressOutcome, draw_case, run_case};
+use bevy_cloth::harness::stress::{StressCase, StressLimits, StressOutcome, draw_case, run_case};
 use bevy_cloth::sim::Integrator::{self, ImplicitEuler};
 
 const SEED: u64 = 0x5EED_C10A;
@@ -17,11 +17,20 @@ fn limits() -> StressLimits {
 }
 
 fn run(integrators: &[Integrator], cases: std::ops::Range<u64>) {
+    run_with(integrators, cases, |case| case);
+}
+
+/// [`run`], each case changed by `change` first.
+fn run_with(
+    integrators: &[Integrator],
+    cases: std::ops::Range<u64>,
+    change: impl Fn(StressCase) -> StressCase,
+) {
     let limits = limits();
     let mut failures = Vec::new();
     let (mut stable, mut detected) = (0, 0);
     for index in cases {
-        let case = draw_case(SEED, index, integrators, &limits);
+        let case = change(draw_case(SEED, index, integrators, &limits));
         let result = run_case(&case, &limits);
         match &result.outcome {
             StressOutcome::Stable => stable += 1,
@@ -44,6 +53,15 @@ fn every_integrator_survives_200_stress_cases() {
 #[test]
 fn the_default_integrator_survives_200_more() {
     run(&[Integrator::default()], 1000..1200);
+}
+
+#[test]
+fn every_integrator_survives_100_stress_cases_with_self_collision() {
+    run_with(
+        &Integrator::ALL,
+        2000..2100,
+        StressCase::with_self_collision,
+    );
 }
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with

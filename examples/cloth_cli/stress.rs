@@ -28,13 +28,13 @@ struct Tally {
     unstable_h_omega: f32,
 }
 
-/// Runs cases `cases` of suite `seed` over `integrators`; returns whether all passed.
-/// With `trace`, prints every step of every case.
+/// Runs cases `cases` of suite `seed` over `integrators` (with `self_collision`, every case has
+/// it on); returns whether all passed. With `trace`, prints every step of every case.
 pub fn run(
     cases: std::ops::Range<u64>,
     seed: u64,
     integrators: &[Integrator],
-    trace: bool,
+    (self_collision, trace): (bool, bool),
 ) -> bool {
     let limits = StressLimits::default();
     let bar = ProgressBar::new(cases.end - cases.start);
@@ -49,7 +49,10 @@ pub fn run(
         .collect();
     let mut failures: Vec<StressResult> = Vec::new();
     for index in cases.clone() {
-        let case = draw_case(seed, index, integrators, &limits);
+        let mut case = draw_case(seed, index, integrators, &limits);
+        if self_collision {
+            case = case.with_self_collision();
+        }
         let r = trace_case(&case, &limits, |step, sim| {
             if trace {
                 bar.suspend(|| println!("case {index} step {step}: {}", trace_line(sim)));

@@ -29,7 +29,7 @@ use crate::error::ClothError;
 use crate::hash::{GOLDEN_GAMMA, mix64};
 use crate::sim::{
     ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
-    Integrator, Pose, SolverSettings, Stiffness, WindField,
+    Integrator, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
 };
 
 /// How deep (m) a free particle may end a step inside a collider before the case fails.
@@ -356,6 +356,18 @@ impl StressCase {
                 0.005,
             )
         })
+    }
+
+    /// The same case with self-collision on, its thickness a quarter of the drawn grid's
+    /// spacing (a cloth shrunk to the work budget is coarser, so its thickness stays below that).
+    pub fn with_self_collision(mut self) -> Self {
+        let spacing = self.size / (self.side.max(2) - 1) as f32;
+        self.settings.self_collision = SelfCollision {
+            enabled: true,
+            thickness: 0.25 * spacing,
+            ..Default::default()
+        };
+        self
     }
 
     fn isolated(&self) -> bool {

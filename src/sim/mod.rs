@@ -15,7 +15,7 @@
 //! | [`settings`] | [`Integrator`], [`Stiffness`], [`SolverSettings`] and their validation | `model` (spring kinds) |
 //! | `forces` | the spring-force kernel, its linearisation, energy and frequency bound | `soa`, `simd`, `runs`, `model` |
 //! | `state` | particles, pins, [`Energy`] | `forces` |
-//! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout | `soa`, `simd` |
+//! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout; self-contacts | `soa`, `simd` |
 //! | [`aero`], [`wind`] | aerodynamic forces; the wind field (`wind` uses `aero`) | — |
 //! | `integrate` | one stepper per integrator, each owning its scratch: `xpbd/` (layout, kernel, threads, driver), `explicit`, `implicit`; the [`Spread`] of threads | all of the above |
 //! | `cloth_sim` | [`ClothSim`]: chooses the integrator and substeps, runs the broad phase and wind, sleep, the runaway watchdog | all of the above |

@@ -1,4 +1,6 @@
-//! Collisions between a cloth and kinematic colliders: spheres, capsules, cuboids and half-spaces.
+//! Collisions between a cloth and kinematic colliders (spheres, capsules, cuboids and
+//! half-spaces), and of a cloth with itself (`self_contact`, resolved right after the colliders in
+//! the same substeps and on the same `ContactState`s; its pipeline is in that module's docs).
 //!
 //! # Pipeline, per step and per substep
 //! 1. **Broad phase** (once per step, `Contacts::begin_step`): the cloth's bounding box, grown by
@@ -253,8 +255,11 @@ impl Contacts {
             inv_mass,
         };
         resolve(active, clearance, (t0, t1, h), triangles, &mut state);
-        if let Some(s) = self_contacts {
-            s.resolve(h, &mut state);
+        // Pushing layers apart may push one into a collider: the colliders have the last word.
+        if let Some(s) = self_contacts
+            && s.resolve(h, &mut state)
+        {
+            resolve(active, clearance, (t0, t1, h), triangles, &mut state);
         }
     }
 
@@ -275,8 +280,17 @@ impl Contacts {
             triangles,
             state,
         );
-        if let Some(s) = &mut self.self_contacts {
-            s.resolve(h, state);
+        // Pushing layers apart may push one into a collider: the colliders have the last word.
+        if let Some(s) = &mut self.self_contacts
+            && s.resolve(h, state)
+        {
+            resolve(
+                &self.active,
+                &mut self.clearance,
+                (t0, t1, h),
+                triangles,
+                state,
+            );
         }
     }
 }

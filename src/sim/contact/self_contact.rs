@@ -34,6 +34,11 @@ use super::narrow::ContactState;
 /// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
 const PASSES: u32 = 4;
 
+/// At most this many candidate pairs per triangle of the cloth (of each kind): a cloth crushed
+/// into a ball smaller than the margin would otherwise have every pair of its elements as a
+/// candidate. A cloth lying in a deep pile has a few per triangle.
+const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
+
 /// A vertex counts as over a triangle's interior when none of its barycentric coordinates is
 /// below this (a vertex just past an edge is caught by the edge–edge pairs of that edge).
 const INSIDE: f32 = -1e-3;
@@ -118,7 +123,7 @@ impl SelfContacts {
         };
         // The pairs within the thickness at rest are exactly the candidates of a broad phase on
         // the rest positions with no motion.
-        contacts.find_candidates(rest, thickness);
+        contacts.find_candidates(rest, thickness, usize::MAX);
         contacts.exempt_vt = contacts.vt.iter().map(|&(p, t)| pair_key(p, t)).collect();
         contacts.exempt_ee = contacts.ee.iter().map(|&(e, f)| pair_key(e, f)).collect();
         contacts.exempt_vt.sort_unstable();
@@ -159,12 +164,14 @@ impl SelfContacts {
     }
 
     /// The narrow phase and response at the end of a substep of length `h` (see the module docs).
-    pub fn resolve<S: ContactState>(&mut self, h: f32, state: &mut S) {
+    /// Returns whether any particle moved.
+    pub fn resolve<S: ContactState>(&mut self, h: f32, state: &mut S) -> bool {
         if self.tris.is_empty() {
-            return;
+            return false;
         }
         self.refresh_candidates(state);
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
+        let mut any = false;
         for _ in 0..PASSES {
             let mut moved = false;
             for k in 0..self.vt.len() {
@@ -180,10 +187,12 @@ impl SelfContacts {
                 let slots = [a, b, c, d].map(|i| self.slot[i as usize] as usize);
                 moved |= self.edge_edge(state, slots, inv_h);
             }
+            any |= moved;
             if !moved {
                 break;
             }
         }
+        any
     }
 
     /// Finds the candidates at the step's first resolution, or again when a particle has moved
@@ -202,20 +211,32 @@ impl SelfContacts {
         self.found_at.clear();
         self.found_at
             .extend(self.slot.iter().map(|&s| state.start(s as usize)));
-        // Found at the substep's start, the candidates must also cover where it ends.
+        // Found at the substep's start, the candidates must also cover where it ends. A cloth
+        // whose parts moved farther apart than the cap within this one substep gets its
+        // candidates where the substep ends instead: the pairs within the thickness there, on
+        // the wrong side or not, are still found and put right; a pair that passed through
+        // each other and far beyond within one substep is not (that needs a continuous test).
         let moved = spread(n, |p| {
             state.position(self.slot[p] as usize) - self.found_at[p]
         });
-        self.reach = self.step_reach.max(moved);
+        if moved <= self.reach_cap {
+            self.reach = self.step_reach.max(moved);
+        } else {
+            self.reach = self.reach_cap;
+            for (x, &s) in self.found_at.iter_mut().zip(&self.slot) {
+                *x = state.position(s as usize);
+            }
+        }
         let positions = std::mem::take(&mut self.found_at);
-        self.find_candidates(&positions, self.thickness + 2.0 * self.reach);
+        let cap = MAX_CANDIDATES_PER_TRIANGLE * self.tris.len();
+        self.find_candidates(&positions, self.thickness + 2.0 * self.reach, cap);
         self.found_at = positions;
         self.stale = false;
     }
 
     /// The broad phase on `x` (by model particle): every vertex–triangle and edge–edge pair that
-    /// shares no vertex, is not exempt, and is closer than `margin`.
-    fn find_candidates(&mut self, x: &[Vec3], margin: f32) {
+    /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind.
+    fn find_candidates(&mut self, x: &[Vec3], margin: f32, cap: usize) {
         self.vt.clear();
         self.ee.clear();
         let grow = Vec3::splat(margin);
@@ -229,6 +250,9 @@ impl SelfContacts {
         }
         let hash = &self.hash;
         for (p, &at) in x.iter().enumerate() {
+            if self.vt.len() >= cap {
+                break;
+            }
             let p = p as u32;
             hash.visit(at, at, |t, _| {
                 let tri = self.tris[t as usize];
@@ -242,6 +266,9 @@ impl SelfContacts {
             });
         }
         for (e, &[a, b]) in self.edges.iter().enumerate() {
+            if self.ee.len() >= cap {
+                break;
+            }
             let e = e as u32;
             let (lo, hi) = (
                 x[a as usize].min(x[b as usize]),
