@@ -380,11 +380,11 @@ impl SelfContacts {
         inv_h: f32,
     ) -> bool {
         let depth = self.thickness - dist;
-        if !(depth > 0.0) {
+        if depth.is_nan() || depth <= 0.0 {
             return false;
         }
         let effective: f32 = (0..4).map(|k| weights[k] * weights[k] * w[k]).sum();
-        if !(effective > 1e-12) {
+        if effective.is_nan() || effective <= 1e-12 {
             return false;
         }
         let push = depth / effective;
@@ -467,7 +467,7 @@ fn barycentric(q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<[f32; 3]> {
     let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let (d20, d21) = (r.dot(e1), r.dot(e2));
     let denom = d00 * d11 - d01 * d01;
-    if !(denom > 0.0) {
+    if denom.is_nan() || denom <= 0.0 {
         return None;
     }
     let v = (d11 * d20 - d01 * d21) / denom;
