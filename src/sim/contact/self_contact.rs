@@ -79,8 +79,11 @@ pub(crate) struct SelfContacts {
     step_reach: f32,
     /// The most reach a broad phase is given (see `reach_cap`).
     reach_cap: f32,
-    /// Whether the candidates must be found again before the next resolution (a new step).
+    /// Whether the candidates must be found again before the next resolution.
     stale: bool,
+    /// Whether the next resolution is a step's first (whose stepper may store the particles in
+    /// another order than the last step's).
+    new_step: bool,
 }
 
 impl SelfContacts {
@@ -151,16 +154,17 @@ impl SelfContacts {
     }
 
     /// Starts a step in which no particle is expected to move farther than `reach` (m) relative to
-    /// the cloth's mean motion: the candidates are found afresh at the step's first resolution,
-    /// with at most `reach_cap`'s reach (a fast cloth finds them again within the step
-    /// rather than gathering every pair in reach of a whole step's motion).
+    /// the cloth's mean motion: candidates found in this step get that reach, at most
+    /// `reach_cap`'s (a fast cloth finds them again within the step rather than gathering every
+    /// pair in reach of a whole step's motion). Candidates found in an earlier step are kept as
+    /// long as the particles stay within their reach, so a cloth at rest finds them only once.
     pub fn begin_step(&mut self, reach: f32) {
         self.step_reach = if reach.is_finite() {
             reach.clamp(0.0, self.reach_cap)
         } else {
             self.reach_cap
         };
-        self.stale = true;
+        self.new_step = true;
     }
 
     /// The narrow phase and response at the end of a substep of length `h` (see the module docs).
@@ -199,6 +203,12 @@ impl SelfContacts {
     /// farther than the reach since they were found.
     fn refresh_candidates<S: ContactState>(&mut self, state: &S) {
         let n = state.len();
+        if std::mem::take(&mut self.new_step)
+            && (self.slot.len() != n
+                || (0..n).any(|p| state.slot(p as u32) != self.slot[p] as usize))
+        {
+            self.stale = true;
+        }
         if !self.stale && self.found_at.len() == n {
             let position = |p: usize| state.position(self.slot[p] as usize);
             if spread(n, |p| position(p) - self.found_at[p]) <= self.reach {
