@@ -285,8 +285,32 @@ fn a_hanging_cloth_has_no_self_contact_candidates() {
     );
     for _ in 0..60 {
         app.update();
-        assert_eq!(sim(&app, cloth).self_contact_candidates(), (0, 0));
+        let stats = sim(&app, cloth).self_contact_stats();
+        assert_eq!((stats.vertex_triangle, stats.edge_edge), (0, 0));
     }
+}
+
+#[test]
+fn a_cloth_at_rest_keeps_its_candidates() {
+    // A cloth lying still on the floor (never asleep, so it steps) finds its self-contact
+    // candidates once, then keeps them while nothing moves.
+    let mut app = app_with_floor();
+    let mut c = config(true, 0.005);
+    c.solver.sleep_speed = 0.0;
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(16, 16, 0.03)),
+            c,
+            Transform::from_xyz(0.0, 0.006, 0.0),
+        ),
+    );
+    run(&mut app, 60);
+    let before = sim(&app, cloth).self_contact_stats().searches;
+    run(&mut app, 60);
+    let after = sim(&app, cloth).self_contact_stats().searches;
+    assert!(before >= 1, "searched {before} times");
+    assert_eq!(after, before, "searched again at rest");
 }
 
 #[test]

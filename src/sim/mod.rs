@@ -43,7 +43,7 @@ mod state;
 pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
-pub use cloth_sim::{ClothSim, Environment};
+pub use cloth_sim::{ClothSim, Environment, SelfContactStats};
 pub use contact::{Collider, ColliderShape, Friction, Pose};
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{

@@ -89,6 +89,19 @@ struct Sleep {
     bounds: (Vec3, Vec3),
 }
 
+/// Diagnostics of a cloth's self-contacts ([`ClothSim::self_contact_stats`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SelfContactStats {
+    /// Vertex–triangle pairs the last broad phase found close enough to meet before the next.
+    pub vertex_triangle: usize,
+    /// Edge–edge pairs the last broad phase found.
+    pub edge_edge: usize,
+    /// Broad phases run since self-collision was turned on (or its thickness or friction
+    /// changed): none while the particles stay within the last one's reach (a cloth at rest),
+    /// several within a step while the cloth's parts move fast relative to each other.
+    pub searches: u64,
+}
+
 /// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),
 /// which of them this cloth collides with, and the air.
 #[derive(Debug, Clone, Copy)]
@@ -449,13 +462,18 @@ impl ClothSim {
         self.step_in(dt, &Environment::default())
     }
 
-    /// Candidate pairs of the cloth's self-contacts in the last step that found them:
-    /// vertex–triangle and edge–edge pairs close enough to meet within the step (`(0, 0)` with
-    /// self-collision off).
-    pub fn self_contact_candidates(&self) -> (usize, usize) {
+    /// What the cloth's self-contacts did so far (all zero with self-collision off).
+    pub fn self_contact_stats(&self) -> SelfContactStats {
         self.contacts
             .self_contacts()
-            .map_or((0, 0), SelfContacts::candidate_count)
+            .map_or(SelfContactStats::default(), |s| {
+                let (vertex_triangle, edge_edge) = s.candidate_count();
+                SelfContactStats {
+                    vertex_triangle,
+                    edge_edge,
+                    searches: s.searches(),
+                }
+            })
     }
 
     /// Number of colliders that passed the broad phase of the last step.

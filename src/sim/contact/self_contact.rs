@@ -81,6 +81,8 @@ pub(crate) struct SelfContacts {
     reach_cap: f32,
     /// Whether the candidates must be found again before the next resolution.
     stale: bool,
+    /// Broad phases run so far.
+    searches: u64,
     /// Whether the next resolution is a step's first (whose stepper may store the particles in
     /// another order than the last step's).
     new_step: bool,
@@ -151,6 +153,11 @@ impl SelfContacts {
     /// Number of candidate pairs (vertex–triangle, edge–edge) the last broad phase found.
     pub fn candidate_count(&self) -> (usize, usize) {
         (self.vt.len(), self.ee.len())
+    }
+
+    /// Number of broad phases run so far.
+    pub fn searches(&self) -> u64 {
+        self.searches
     }
 
     /// Starts a step in which no particle is expected to move farther than `reach` (m) relative to
@@ -239,6 +246,7 @@ impl SelfContacts {
         }
         let positions = std::mem::take(&mut self.found_at);
         let cap = MAX_CANDIDATES_PER_TRIANGLE * self.tris.len();
+        self.searches += 1;
         self.find_candidates(&positions, self.thickness + 2.0 * self.reach, cap);
         self.found_at = positions;
         self.stale = false;
