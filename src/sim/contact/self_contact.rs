@@ -56,7 +56,9 @@ pub(crate) struct SelfContacts {
     tris: Vec<[u32; 3]>,
     /// The unique edges, by model particle.
     edges: Vec<[u32; 2]>,
-    /// Each triangle's three edges (indices into `edges`).
+    /// The edges each triangle owns (indices into `edges`; `u32::MAX` for one owned by the
+    /// triangle before it that shares it). An edge lies inside its owner's box, so the broad
+    /// phase meets each edge once, through its owner.
     tri_edges: Vec<[u32; 3]>,
     /// Vertex–triangle pairs exempt (closer than the thickness at rest), as `vertex << 32 |
     /// triangle`, sorted.
@@ -105,12 +107,12 @@ impl SelfContacts {
         }
         keyed.sort_unstable();
         let mut edges: Vec<[u32; 2]> = Vec::new();
-        let mut tri_edges = vec![[0u32; 3]; tris.len()];
+        let mut tri_edges = vec![[u32::MAX; 3]; tris.len()];
         for (i, &(key, at)) in keyed.iter().enumerate() {
             if i == 0 || keyed[i - 1].0 != key {
                 edges.push([(key >> 32) as u32, key as u32]);
+                tri_edges[at / 3][at % 3] = (edges.len() - 1) as u32;
             }
-            tri_edges[at / 3][at % 3] = (edges.len() - 1) as u32;
         }
         let shortest = edges
             .iter()
@@ -294,7 +296,7 @@ impl SelfContacts {
             );
             hash.visit(lo, hi, |t, _| {
                 for &f in &self.tri_edges[t as usize] {
-                    if f <= e {
+                    if f <= e || f == u32::MAX {
                         continue;
                     }
                     let [c, d] = self.edges[f as usize];
@@ -314,9 +316,6 @@ impl SelfContacts {
                 }
             });
         }
-        // An edge pair is met through each triangle of the second edge (two inside the mesh).
-        self.ee.sort_unstable();
-        self.ee.dedup();
     }
 
     /// Keeps vertex `s[0]` at least the thickness from triangle `s[1..]` on the side it started
@@ -805,6 +804,57 @@ mod tests {
         assert!((point_triangle_distance(Vec3::new(0.2, 0.2, -0.3), a, b, c) - 0.3).abs() < 1e-6);
         let d = point_triangle_distance(Vec3::new(2.0, 0.0, 0.0), a, b, c);
         assert!((d - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_broad_phase_finds_exactly_the_pairs_within_the_margin() {
+        // A 12×12 grid crumpled by a pseudo-random jitter of half its spacing: the broad phase's
+        // pairs equal a brute-force search's (every pair sharing no vertex, closer than the
+        // margin), each once.
+        let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
+        let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        let jitter = |i: usize, k: usize| ((i * 7919 + k * 104_729) % 1000) as f32 / 1000.0 - 0.5;
+        let x: Vec<Vec3> = model
+            .rest_positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let fold = Vec3::new(0.0, (p.x * 40.0).sin() * 0.05, 0.0);
+                *p + fold + 0.015 * Vec3::new(jitter(i, 0), jitter(i, 1), jitter(i, 2))
+            })
+            .collect();
+        let margin = 0.02;
+        c.find_candidates(&x, margin, usize::MAX);
+        let mut vt = c.vt.clone();
+        let mut ee = c.ee.clone();
+        vt.sort_unstable();
+        ee.sort_unstable();
+        let mut expected_vt = Vec::new();
+        for p in 0..x.len() as u32 {
+            for (t, tri) in c.tris.iter().enumerate() {
+                let [a, b, d] = tri.map(|i| x[i as usize]);
+                if !tri.contains(&p) && point_triangle_distance(x[p as usize], a, b, d) < margin {
+                    expected_vt.push((p, t as u32));
+                }
+            }
+        }
+        let mut expected_ee = Vec::new();
+        for (e, &[a, b]) in c.edges.iter().enumerate() {
+            for (f, &[d, g]) in c.edges.iter().enumerate().skip(e + 1) {
+                if [d, g].iter().any(|v| *v == a || *v == b) {
+                    continue;
+                }
+                let [pa, pb, pd, pg] = [a, b, d, g].map(|i| x[i as usize]);
+                let (s, t) = closest_on_segments(pa, pb, pd, pg);
+                if pa.lerp(pb, s).distance(pd.lerp(pg, t)) < margin {
+                    expected_ee.push((e as u32, f as u32));
+                }
+            }
+        }
+        assert!(!expected_vt.is_empty() && !expected_ee.is_empty());
+        assert_eq!(vt, expected_vt);
+        assert_eq!(ee, expected_ee);
+        assert_eq!(c.ee.len(), expected_ee.len(), "each pair once");
     }
 
     #[test]
