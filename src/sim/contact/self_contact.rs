@@ -4,14 +4,16 @@
 //! 1. **Topology, once** ([`SelfContacts::new`]): the triangles, their unique edges, and the
 //!    vertex–triangle and edge–edge pairs that share no vertex but are closer than the thickness
 //!    at rest (neighbours along the mesh of a fine cloth). Those are exempt for good.
-//! 2. **Broad phase, once per step** (and again within a step only if some particle moves farther
-//!    than the step's reach, [`SelfContacts::begin_step`]): every triangle's bounding box, grown by
-//!    the thickness and twice the reach, goes into a spatial hash whose cells are as large as the
-//!    largest box. A vertex inside a triangle's box makes a vertex–triangle candidate; an edge whose
-//!    box meets a triangle's makes edge–edge candidates with that triangle's edges. Two elements
-//!    farther apart than the thickness plus twice the reach cannot come within the thickness
-//!    while no particle moves more than the reach, so the candidates hold every pair that can
-//!    touch until then; each substep checks that no particle has gone farther.
+//! 2. **Broad phase, when needed** ([`SelfContacts::begin_step`]): every triangle's bounding
+//!    box, grown by the thickness and twice a reach (the step's relative motion, capped below what
+//!    a flat grid's non-neighbours allow), goes into a spatial hash whose cells are as large as
+//!    the largest box; vertices and edges are looked up in it, and the pairs closer than the
+//!    thickness plus twice the reach are the candidates (at most `MAX_CANDIDATES_PER_TRIANGLE`
+//!    per triangle). Two elements farther apart than that cannot come within the thickness
+//!    until their displacements since differ by twice the reach. Each substep bounds that from
+//!    the particles' displacements, patch by patch (`Regions`): a cloth moving as a whole keeps
+//!    its candidates; one whose parts move relative to each other searches again, within a step
+//!    if need be. A cloth at rest searches once.
 //! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
 //!    particles in ([`ContactState`]): for each candidate, the signed distance at the end of the
 //!    substep along the pair's normal (the triangle's, for a vertex over a triangle's interior; the
@@ -26,6 +28,11 @@
 //!
 //! Deciding the side from the start of each substep is what keeps a pile from passing through
 //! itself: a proximity test alone pushes a particle that has already crossed further through.
+//! Not covered: two elements that pass through each other and beyond within a single substep
+//! (faster than the thickness per substep relative to each other; that needs a continuous
+//! test), and more candidate pairs than the cap (a cloth crushed into a ball).
+
+use std::collections::HashMap;
 
 use glam::Vec3;
 
@@ -85,6 +92,9 @@ pub(crate) struct SelfContacts {
     stale: bool,
     /// Broad phases run so far.
     searches: u64,
+    /// The particles' patches at the last broad phase, whose motion since tells when to search
+    /// again.
+    regions: Regions,
     /// Whether the next resolution is a step's first (whose stepper may store the particles in
     /// another order than the last step's).
     new_step: bool,
@@ -126,6 +136,10 @@ impl SelfContacts {
             tri_edges,
             stale: true,
             reach_cap: reach_cap(shortest, thickness),
+            regions: Regions {
+                size: 8.0 * (thickness + 2.0 * reach_cap(shortest, thickness)),
+                ..Regions::default()
+            },
             ..Self::default()
         };
         // The pairs within the thickness at rest are exactly the candidates of a broad phase on
@@ -219,8 +233,11 @@ impl SelfContacts {
             self.stale = true;
         }
         if !self.stale && self.found_at.len() == n {
-            let position = |p: usize| state.position(self.slot[p] as usize);
-            if spread(n, |p| position(p) - self.found_at[p]) <= self.reach {
+            let (slot, found_at) = (&self.slot, &self.found_at);
+            let (near, far) = self
+                .regions
+                .closing(|p| state.position(slot[p] as usize) - found_at[p]);
+            if near <= 2.0 * self.reach && far <= self.regions.size - self.thickness {
                 return;
             }
         }
@@ -250,6 +267,7 @@ impl SelfContacts {
         let cap = MAX_CANDIDATES_PER_TRIANGLE * self.tris.len();
         self.searches += 1;
         self.find_candidates(&positions, self.thickness + 2.0 * self.reach, cap);
+        self.regions.assign(&positions);
         self.found_at = positions;
         self.stale = false;
     }
@@ -430,6 +448,117 @@ impl SelfContacts {
             state.set(s[k], x[k] + (push * g) * n, v[k] + scale * dv);
         }
         true
+    }
+}
+
+/// The particles grouped into cubes of side `size` by where they were at the last broad phase.
+/// Two elements that were closer than `size` then lie in the same or neighbouring cubes, and the
+/// displacements since then, compared cube by cube, bound how much closer any two elements can
+/// have come: a cloth that swings or falls as a whole, however fast, moves little within and
+/// between neighbouring cubes and need not search again.
+#[derive(Debug, Clone, Default)]
+struct Regions {
+    /// Side of the cubes, m (at least the broad phase's margin).
+    size: f32,
+    /// Each model particle's cube.
+    of: Vec<u32>,
+    /// Particles per cube.
+    count: Vec<u32>,
+    /// Pairs of neighbouring cubes (a cube with itself too), `a <= b`.
+    pairs: Vec<(u32, u32)>,
+    /// Cube index of each occupied cell.
+    index: HashMap<[i32; 3], u32>,
+    /// Per cube: mean displacement (scratch).
+    mean: Vec<Vec3>,
+    /// Per cube: largest distance of a displacement from the cube's mean (scratch).
+    deviation: Vec<f32>,
+}
+
+impl Regions {
+    /// Groups the particles at `x` (by model particle) into cubes.
+    fn assign(&mut self, x: &[Vec3]) {
+        let inv = 1.0 / self.size;
+        self.index.clear();
+        self.of.clear();
+        self.count.clear();
+        for p in x {
+            let cell = (*p * inv).floor().as_ivec3().to_array();
+            let next = self.index.len() as u32;
+            let r = *self.index.entry(cell).or_insert(next);
+            if r == next {
+                self.count.push(0);
+            }
+            self.count[r as usize] += 1;
+            self.of.push(r);
+        }
+        self.pairs.clear();
+        for (cell, &a) in &self.index {
+            let (lo, hi) = (
+                cell.map(|c| c.saturating_sub(1)),
+                cell.map(|c| c.saturating_add(1)),
+            );
+            for_cells(lo, hi, |c| {
+                if let Some(&b) = self.index.get(&c)
+                    && a <= b
+                {
+                    self.pairs.push((a, b));
+                }
+            });
+        }
+        let cubes = self.count.len();
+        self.mean.resize(cubes, Vec3::ZERO);
+        self.deviation.resize(cubes, 0.0);
+    }
+
+    /// For displacements `d(p)` since [`Self::assign`]: how much closer two particles that were
+    /// within `size` of each other can have come, and how much closer any two can have come
+    /// (both infinite if a displacement is not finite).
+    fn closing(&mut self, d: impl Fn(usize) -> Vec3) -> (f32, f32) {
+        let n = self.of.len();
+        if n == 0 {
+            return (0.0, 0.0);
+        }
+        self.mean.fill(Vec3::ZERO);
+        for p in 0..n {
+            self.mean[self.of[p] as usize] += d(p);
+        }
+        let total = self.mean.iter().sum::<Vec3>() / n as f32;
+        for (m, &c) in self.mean.iter_mut().zip(&self.count) {
+            *m /= c as f32;
+        }
+        self.deviation.fill(0.0);
+        for p in 0..n {
+            let r = self.of[p] as usize;
+            let e = d(p).distance(self.mean[r]);
+            let worst = &mut self.deviation[r];
+            *worst = if e.is_nan() {
+                f32::INFINITY
+            } else {
+                worst.max(e)
+            };
+        }
+        let near = self
+            .pairs
+            .iter()
+            .map(|&(a, b)| {
+                let (a, b) = (a as usize, b as usize);
+                self.deviation[a] + self.deviation[b] + self.mean[a].distance(self.mean[b])
+            })
+            .fold(
+                0.0,
+                |w: f32, x| if x.is_nan() { f32::INFINITY } else { w.max(x) },
+            );
+        let far = 2.0
+            * self
+                .mean
+                .iter()
+                .zip(&self.deviation)
+                .map(|(m, dev)| m.distance(total) + dev)
+                .fold(
+                    0.0,
+                    |w: f32, x| if x.is_nan() { f32::INFINITY } else { w.max(x) },
+                );
+        (near, far)
     }
 }
 
