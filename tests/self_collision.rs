@@ -314,6 +314,26 @@ fn a_cloth_at_rest_keeps_its_candidates() {
 }
 
 #[test]
+fn a_scene_file_sets_self_collision() {
+    let scene = bevy_cloth::scene::ClothScene::from_ron(
+        "(cloth: Grid((nx: 4, ny: 4, spacing: 0.1)), \
+          solver: (self_collision: (enabled: true, thickness: 0.004)))",
+    )
+    .unwrap();
+    let c = scene.solver.self_collision;
+    assert!(c.enabled);
+    assert_eq!(
+        (c.thickness, c.friction),
+        (0.004, SelfCollision::default().friction)
+    );
+    let bad = bevy_cloth::scene::ClothScene::from_ron(
+        "(cloth: Grid((nx: 4, ny: 4, spacing: 0.1)), \
+          solver: (self_collision: (enabled: true, thickness: -1.0)))",
+    );
+    assert!(bad.is_err(), "a negative thickness in a scene is an error");
+}
+
+#[test]
 fn a_bad_thickness_is_a_typed_error() {
     for thickness in [0.0, -0.01, f32::NAN, f32::INFINITY] {
         let error = config(true, thickness).validate().unwrap_err();
