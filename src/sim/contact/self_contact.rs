@@ -82,7 +82,9 @@ pub(crate) struct SelfContacts {
     slot: Vec<u32>,
     /// Positions (by model particle) when the candidates were found.
     found_at: Vec<Vec3>,
-    /// How far a particle may move from `found_at` before the candidates must be found again, m.
+    /// The reach the candidates were found with, m: they hold every pair that can come within the
+    /// thickness while any two particles' displacements since `found_at` differ by at most twice
+    /// this.
     reach: f32,
     /// The reach the step was begun with.
     step_reach: f32,
