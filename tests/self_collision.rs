@@ -137,19 +137,31 @@ fn app_with_floor() -> App {
     app
 }
 
-/// A 32×32 cloth (3 cm spacing, 5 mm thick), tilted nearly upright, dropped onto the floor: it
-/// lands on an edge and crumples onto itself.
-fn tilted_drop(on: bool) -> (App, Entity) {
+/// An `n`×`n` cloth of `spacing`, `thickness` thick, tilted nearly upright and dropped onto the
+/// floor: it lands on an edge and crumples onto itself.
+fn upright_drop(n: u32, spacing: f32, thickness: f32, on: bool) -> (App, Entity) {
     let mut app = app_with_floor();
     let cloth = spawn_valid(
         &mut app,
         (
-            Cloth::grid(GridSpec::new(32, 32, 0.03)),
-            config(on, 0.005),
+            Cloth::grid(GridSpec::new(n, n, spacing)),
+            config(on, thickness),
             Transform::from_xyz(0.0, 0.8, 0.0)
                 .with_rotation(Quat::from_rotation_z(1.45) * Quat::from_rotation_x(0.3)),
         ),
     );
+    (app, cloth)
+}
+
+/// Runs `scene` for `ticks` steps without and with self-collision: the former must cross itself
+/// (so the scene can fail), the latter never. Returns the second app and cloth.
+fn crosses_only_without(scene: impl Fn(bool) -> (App, Entity), ticks: u32) -> (App, Entity) {
+    let (mut app, cloth) = scene(false);
+    let without = worst_crossings(&mut app, cloth, ticks);
+    assert!(without > 0, "{without} crossings without self-collision");
+    let (mut app, cloth) = scene(true);
+    let with = worst_crossings(&mut app, cloth, ticks);
+    assert_eq!(with, 0, "crossings with self-collision ({without} without)");
     (app, cloth)
 }
 
@@ -188,14 +200,8 @@ fn the_crossing_counter_sees_an_edge_through_a_triangle() {
 
 #[test]
 fn a_tilted_cloth_dropped_on_a_floor_folds_without_crossing_itself() {
-    // Without self-collision the same drop crosses itself: the scene and counter can fail.
-    let (mut app, cloth) = tilted_drop(false);
-    let without = worst_crossings(&mut app, cloth, 300);
-    assert!(without > 500, "{without} crossings without self-collision");
-
-    let (mut app, cloth) = tilted_drop(true);
-    let with = worst_crossings(&mut app, cloth, 300);
-    assert_eq!(with, 0, "crossings with self-collision ({without} without)");
+    // 32×32, 3 cm spacing, 5 mm thick.
+    let (app, cloth) = crosses_only_without(|on| upright_drop(32, 0.03, 0.005, on), 300);
     // It still lies on the floor, folded: the pile is thicker than one layer.
     let top = sim(&app, cloth)
         .positions()
@@ -205,31 +211,11 @@ fn a_tilted_cloth_dropped_on_a_floor_folds_without_crossing_itself() {
     assert!(top > 0.012 && top < 0.3, "top of the pile at {top} m");
 }
 
-/// A 24×24 cloth with spacing 4 cm and thickness 1 cm dropped nearly upright onto the floor, where
-/// it crumples: particle–particle distances alone would let its layers slip between each other's
-/// particles.
-fn coarse_pile(on: bool) -> (App, Entity) {
-    let mut app = app_with_floor();
-    let cloth = spawn_valid(
-        &mut app,
-        (
-            Cloth::grid(GridSpec::new(24, 24, 0.04)),
-            config(on, 0.01),
-            Transform::from_xyz(0.0, 0.8, 0.0)
-                .with_rotation(Quat::from_rotation_z(1.45) * Quat::from_rotation_x(0.3)),
-        ),
-    );
-    (app, cloth)
-}
-
 #[test]
 fn a_coarse_cloth_four_times_its_thickness_piles_without_crossing() {
-    let (mut app, cloth) = coarse_pile(false);
-    let without = worst_crossings(&mut app, cloth, 240);
-    assert!(without > 0, "{without} crossings without self-collision");
-    let (mut app, cloth) = coarse_pile(true);
-    let with = worst_crossings(&mut app, cloth, 240);
-    assert_eq!(with, 0, "crossings with self-collision ({without} without)");
+    // 24×24, spacing 4 cm, thickness 1 cm: particle–particle distances alone would let its
+    // layers slip between each other's particles.
+    let _ = crosses_only_without(|on| upright_drop(24, 0.04, 0.01, on), 240);
 }
 
 /// A 64×64 cloth (2 cm spacing, 5 mm thick) lying on the floor, pushed 0.72 m by a capsule lying
@@ -255,12 +241,7 @@ fn capsule_sweep(on: bool) -> (App, Entity) {
 
 #[test]
 fn a_cloth_swept_into_folds_by_a_moving_capsule_never_crosses_itself() {
-    let (mut app, cloth) = capsule_sweep(false);
-    let without = worst_crossings(&mut app, cloth, 120);
-    assert!(without > 0, "{without} crossings without self-collision");
-    let (mut app, cloth) = capsule_sweep(true);
-    let with = worst_crossings(&mut app, cloth, 120);
-    assert_eq!(with, 0, "crossings with self-collision ({without} without)");
+    let (app, cloth) = crosses_only_without(capsule_sweep, 120);
     // The capsule has pushed the cloth's near edge up into folds.
     let top = sim(&app, cloth)
         .positions()

@@ -254,13 +254,12 @@ impl Contacts {
             start,
             inv_mass,
         };
-        resolve(active, clearance, (t0, t1, h), triangles, &mut state);
-        // Pushing layers apart may push one into a collider: the colliders have the last word.
-        if let Some(s) = self_contacts
-            && s.resolve(h, &mut state)
-        {
-            resolve(active, clearance, (t0, t1, h), triangles, &mut state);
-        }
+        resolve_all(
+            (active, clearance, self_contacts.as_mut()),
+            (t0, t1, h),
+            triangles,
+            &mut state,
+        );
     }
 
     /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
@@ -273,25 +272,36 @@ impl Contacts {
         triangles: &[u32],
         state: &mut S,
     ) {
-        resolve(
-            &self.active,
-            &mut self.clearance,
+        resolve_all(
+            (
+                &self.active,
+                &mut self.clearance,
+                self.self_contacts.as_mut(),
+            ),
             (t0, t1, h),
             triangles,
             state,
         );
-        // Pushing layers apart may push one into a collider: the colliders have the last word.
-        if let Some(s) = &mut self.self_contacts
-            && s.resolve(h, state)
-        {
-            resolve(
-                &self.active,
-                &mut self.clearance,
-                (t0, t1, h),
-                triangles,
-                state,
-            );
-        }
+    }
+}
+
+/// The colliders' response, then the self-contacts' (if any); the colliders once more if the
+/// self-contacts moved anything, since pushing layers apart may push one into a collider.
+fn resolve_all<S: ContactState>(
+    (active, clearance, self_contacts): (
+        &[ActiveCollider],
+        &mut Vec<f32>,
+        Option<&mut SelfContacts>,
+    ),
+    t: (f32, f32, f32),
+    triangles: &[u32],
+    state: &mut S,
+) {
+    resolve(active, clearance, t, triangles, state);
+    if let Some(s) = self_contacts
+        && s.resolve(t.2, state)
+    {
+        resolve(active, clearance, t, triangles, state);
     }
 }
 
