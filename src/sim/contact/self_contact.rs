@@ -24,7 +24,8 @@
 //!    pair (momentum is kept). Then the relative velocity's approaching normal part is removed
 //!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
 //!    change (the velocity removed plus the push-out over the substep). Passes repeat
-//!    (Gauss-Seidel) until nothing moves, at most [`PASSES`] times.
+//!    (Gauss-Seidel) over the pairs that acted in the first until nothing moves, at most
+//!    [`PASSES`] times in all.
 //!
 //! Deciding the side from the start of each substep is what keeps a pile from passing through
 //! itself: a proximity test alone pushes a particle that has already crossed further through.
@@ -97,6 +98,8 @@ pub(crate) struct SelfContacts {
     /// The particles' patches at the last broad phase, whose motion since tells when to search
     /// again.
     regions: Regions,
+    /// The candidates that acted in a substep's first pass (scratch).
+    acting: Vec<u32>,
     /// Whether the next resolution is a step's first (whose stepper may store the particles in
     /// another order than the last step's).
     new_step: bool,
@@ -200,28 +203,45 @@ impl SelfContacts {
         }
         self.refresh_candidates(state);
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
-        let mut any = false;
-        for _ in 0..PASSES {
+        // The first pass tests every candidate; the later ones only those that acted in it (a
+        // pile rests on a few thousand pairs out of tens of thousands of candidates).
+        let mut acting = std::mem::take(&mut self.acting);
+        acting.clear();
+        for k in 0..self.vt.len() + self.ee.len() {
+            if self.pair(state, k, inv_h) {
+                acting.push(k as u32);
+            }
+        }
+        for _ in 1..PASSES {
             let mut moved = false;
-            for k in 0..self.vt.len() {
-                let (p, t) = self.vt[k];
-                let [a, b, c] = self.tris[t as usize];
-                let slots = [p, a, b, c].map(|i| self.slot[i as usize] as usize);
-                moved |= self.vertex_triangle(state, slots, inv_h);
+            for &k in &acting {
+                moved |= self.pair(state, k as usize, inv_h);
             }
-            for k in 0..self.ee.len() {
-                let (e, f) = self.ee[k];
-                let [a, b] = self.edges[e as usize];
-                let [c, d] = self.edges[f as usize];
-                let slots = [a, b, c, d].map(|i| self.slot[i as usize] as usize);
-                moved |= self.edge_edge(state, slots, inv_h);
-            }
-            any |= moved;
             if !moved {
                 break;
             }
         }
+        let any = !acting.is_empty();
+        self.acting = acting;
         any
+    }
+
+    /// Resolves candidate `k`: vertex–triangle pairs first, then edge–edge pairs. Returns whether
+    /// anything moved.
+    fn pair<S: ContactState>(&self, state: &mut S, k: usize, inv_h: f32) -> bool {
+        let slot = |i: u32| self.slot[i as usize] as usize;
+        match self.vt.get(k) {
+            Some(&(p, t)) => {
+                let [a, b, c] = self.tris[t as usize];
+                self.vertex_triangle(state, [p, a, b, c].map(slot), inv_h)
+            }
+            None => {
+                let (e, f) = self.ee[k - self.vt.len()];
+                let [a, b] = self.edges[e as usize];
+                let [c, d] = self.edges[f as usize];
+                self.edge_edge(state, [a, b, c, d].map(slot), inv_h)
+            }
+        }
     }
 
     /// Finds the candidates at the step's first resolution, or again when a particle has moved
