@@ -44,7 +44,7 @@ const PASSES: u32 = 4;
 
 /// At most this many candidate pairs per triangle of the cloth (of each kind): a cloth crushed
 /// into a ball smaller than the margin would otherwise have every pair of its elements as a
-/// candidate. A cloth lying in a deep pile has a few per triangle.
+/// candidate. A pile of cloth needs far fewer.
 const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
 
 /// A vertex counts as over a triangle's interior when none of its barycentric coordinates is
@@ -133,6 +133,7 @@ impl SelfContacts {
             .iter()
             .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
             .fold(f32::INFINITY, f32::min);
+        let cap = reach_cap(shortest, thickness);
         let mut contacts = Self {
             thickness,
             friction,
@@ -140,9 +141,9 @@ impl SelfContacts {
             edges,
             tri_edges,
             stale: true,
-            reach_cap: reach_cap(shortest, thickness),
+            reach_cap: cap,
             regions: Regions {
-                size: 8.0 * (thickness + 2.0 * reach_cap(shortest, thickness)),
+                size: 8.0 * (thickness + 2.0 * cap),
                 ..Regions::default()
             },
             ..Self::default()
@@ -203,8 +204,8 @@ impl SelfContacts {
         }
         self.refresh_candidates(state);
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
-        // The first pass tests every candidate; the later ones only those that acted in it (a
-        // pile rests on a few thousand pairs out of tens of thousands of candidates).
+        // The first pass tests every candidate; the later ones only those that acted in it (in a
+        // pile most candidates are near but never act).
         let mut acting = std::mem::take(&mut self.acting);
         acting.clear();
         for k in 0..self.vt.len() + self.ee.len() {
@@ -254,7 +255,7 @@ impl SelfContacts {
         {
             self.stale = true;
         }
-        if !self.stale && self.found_at.len() == n {
+        if !self.stale {
             let (slot, found_at) = (&self.slot, &self.found_at);
             let (near, far) = self
                 .regions
@@ -314,7 +315,7 @@ impl SelfContacts {
                 break;
             }
             let p = p as u32;
-            hash.visit(at, at, |t, _| {
+            hash.visit(at, at, |t| {
                 let tri = self.tris[t as usize];
                 if tri.contains(&p) || is_exempt(&self.exempt_vt, pair_key(p, t)) {
                     return;
@@ -334,7 +335,7 @@ impl SelfContacts {
                 x[a as usize].min(x[b as usize]),
                 x[a as usize].max(x[b as usize]),
             );
-            hash.visit(lo, hi, |t, _| {
+            hash.visit(lo, hi, |t| {
                 for &f in &self.tri_edges[t as usize] {
                     if f <= e || f == u32::MAX {
                         continue;
@@ -552,12 +553,7 @@ impl Regions {
         for p in 0..n {
             let r = self.of[p] as usize;
             let e = d(p).distance(self.mean[r]);
-            let worst = &mut self.deviation[r];
-            *worst = if e.is_nan() {
-                f32::INFINITY
-            } else {
-                worst.max(e)
-            };
+            self.deviation[r] = max_or_infinite(self.deviation[r], e);
         }
         let near = self
             .pairs
@@ -566,20 +562,14 @@ impl Regions {
                 let (a, b) = (a as usize, b as usize);
                 self.deviation[a] + self.deviation[b] + self.mean[a].distance(self.mean[b])
             })
-            .fold(
-                0.0,
-                |w: f32, x| if x.is_nan() { f32::INFINITY } else { w.max(x) },
-            );
+            .fold(0.0, max_or_infinite);
         let far = 2.0
             * self
                 .mean
                 .iter()
                 .zip(&self.deviation)
                 .map(|(m, dev)| m.distance(total) + dev)
-                .fold(
-                    0.0,
-                    |w: f32, x| if x.is_nan() { f32::INFINITY } else { w.max(x) },
-                );
+                .fold(0.0, max_or_infinite);
         (near, far)
     }
 }
@@ -595,10 +585,7 @@ fn spread(n: usize, d: impl Fn(usize) -> Vec3) -> f32 {
     let mean = (0..n).map(&d).sum::<Vec3>() / n as f32;
     let worst = (0..n)
         .map(|p| d(p).distance_squared(mean))
-        .fold(
-            0.0,
-            |a: f32, b| if b.is_nan() { f32::INFINITY } else { a.max(b) },
-        );
+        .fold(0.0, max_or_infinite);
     worst.sqrt()
 }
 
@@ -612,6 +599,12 @@ fn reach_cap(edge: f32, thickness: f32) -> f32 {
         return 0.0;
     }
     (0.45 * (0.7 * edge - thickness)).max(0.1 * edge)
+}
+
+/// The larger of `a` and `b`, infinite if `b` is NaN (a non-finite displacement must force a new
+/// search, not vanish in a comparison).
+fn max_or_infinite(a: f32, b: f32) -> f32 {
+    if b.is_nan() { f32::INFINITY } else { a.max(b) }
 }
 
 /// The key of pair `(a, b)` in the exemption lists.
@@ -769,9 +762,9 @@ impl Hash {
         (p * self.inv_cell).floor().as_ivec3().to_array()
     }
 
-    /// Calls `f(box, cell)` once for every box that meets box `lo..hi`, which must be no larger
+    /// Calls `f(box)` once for every box that meets box `lo..hi`, which must be no larger
     /// than a cell (in the one cell that holds the low corner of the two boxes' overlap).
-    fn visit(&self, lo: Vec3, hi: Vec3, mut f: impl FnMut(u32, [i32; 3])) {
+    fn visit(&self, lo: Vec3, hi: Vec3, mut f: impl FnMut(u32)) {
         if self.entries.is_empty() {
             return;
         }
@@ -783,7 +776,7 @@ impl Hash {
                 }
                 let (blo, bhi) = self.boxes[i as usize];
                 if blo.cmple(hi).all() && bhi.cmpge(lo).all() && self.cell(blo.max(lo)) == c {
-                    f(i, c);
+                    f(i);
                 }
             }
         });
@@ -883,6 +876,102 @@ mod tests {
                 v[3]
             );
         }
+    }
+
+    /// [`Vectors`] stored in another order: model particle `p` at `slot[p]`.
+    struct Reordered<'a> {
+        inner: Vectors<'a>,
+        slot: Vec<usize>,
+    }
+
+    impl ContactState for Reordered<'_> {
+        fn len(&self) -> usize {
+            self.inner.len()
+        }
+        fn inv_mass(&self, i: usize) -> f32 {
+            self.inner.inv_mass(i)
+        }
+        fn slot(&self, p: u32) -> usize {
+            self.slot[p as usize]
+        }
+        fn start(&self, i: usize) -> Vec3 {
+            self.inner.start(i)
+        }
+        fn position(&self, i: usize) -> Vec3 {
+            self.inner.position(i)
+        }
+        fn velocity(&self, i: usize) -> Vec3 {
+            self.inner.velocity(i)
+        }
+        fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+            self.inner.set(i, x, v);
+        }
+        fn clearances(&self, near: crate::sim::contact::Near, out: &mut [f32]) {
+            self.inner.clearances(near, out);
+        }
+    }
+
+    #[test]
+    fn a_step_that_stores_the_particles_in_another_order_finds_its_pairs_again() {
+        // A fixed triangle; free vertex 3 over it, and pinned vertex 4 (of another triangle) at
+        // the same place. A step in the model's order finds the pair (3, triangle); the next step
+        // stores 3 and 4 swapped and moves both through the triangle. Every particle moved alike
+        // as far as the kept candidates can tell, so only noticing the new order makes the step
+        // resolve particle 3 rather than the pinned particle now stored where 3 was.
+        let over = Vec3::new(0.25, 0.006, 0.25);
+        let start = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Z,
+            over,
+            over,
+            Vec3::new(3.0, 0.0, 3.0),
+            Vec3::new(4.0, 0.0, 3.0),
+        ];
+        let triangles = [0, 1, 2, 3, 5, 6, 4, 6, 5];
+        // At rest vertex 4 lies on the triangle, so the pair (4, triangle) is exempt: no pair
+        // but (3, triangle) can reach particle 3.
+        let mut rest = start.clone();
+        rest[4].y = 0.0;
+        let mut c = SelfContacts::new(&triangles, &rest, 0.005, 0.0);
+        let w = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+        let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; 7]);
+        c.begin_step(0.05);
+        let mut state = Vectors {
+            x: &mut x,
+            v: &mut v,
+            start: &start,
+            inv_mass: &w,
+        };
+        c.resolve(1.0 / 1200.0, &mut state);
+        assert!(c.vt.contains(&(3, 0)), "{:?}", c.vt);
+        // Stored order: 0 1 2 4 3 5 6.
+        let order = [0, 1, 2, 4, 3, 5, 6];
+        let swapped = |a: &[Vec3]| order.map(|p| a[p]).to_vec();
+        let mut end = start.clone();
+        end[3].y = -0.003;
+        end[4].y = -0.003;
+        let (stored_start, mut x) = (swapped(&end), swapped(&end));
+        let stored_start: Vec<Vec3> = order
+            .iter()
+            .zip(&stored_start)
+            .map(|(&p, e)| if p == 3 || p == 4 { over } else { *e })
+            .collect();
+        let mut v = vec![Vec3::ZERO; 7];
+        let stored_w = order.map(|p| w[p]);
+        c.begin_step(0.05);
+        let mut state = Reordered {
+            inner: Vectors {
+                x: &mut x,
+                v: &mut v,
+                start: &stored_start,
+                inv_mass: &stored_w,
+            },
+            slot: vec![0, 1, 2, 4, 3, 5, 6],
+        };
+        c.resolve(1.0 / 1200.0, &mut state);
+        // Back above the triangle by the thickness (its edges' pairs may lift it a little more).
+        assert!(x[4].y > 0.005 - 1e-6, "particle 3 at {}", x[4]);
     }
 
     #[test]
@@ -1028,7 +1117,7 @@ mod tests {
             let lo = Vec3::new(jitter(q, 6), jitter(q, 7), jitter(q, 8)) * 3.0 - 1.5;
             let hi = lo + Vec3::new(jitter(q, 9), jitter(q, 10), jitter(q, 11)) * 0.3;
             let mut found = Vec::new();
-            hash.visit(lo, hi, |i, _| found.push(i));
+            hash.visit(lo, hi, |i| found.push(i));
             let mut expected: Vec<u32> = (0..hash.boxes.len() as u32)
                 .filter(|&i| {
                     let (blo, bhi) = hash.boxes[i as usize];
