@@ -13,9 +13,13 @@
 //!    until their displacements since differ by twice the reach. Each substep bounds that from
 //!    the particles' displacements, patch by patch (`Regions`): a cloth moving as a whole keeps
 //!    its candidates; one whose parts move relative to each other searches again, within a step
-//!    if need be. A cloth at rest searches once.
+//!    if need be. A cloth at rest searches once. Parts of the cloth too flat to fold onto
+//!    themselves are not searched (normal cones of patches, see [`patches`]), so a hanging or
+//!    gently curved cloth's search is one pass over its triangles.
 //! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
-//!    particles in ([`ContactState`]): for each candidate, the signed distance at the end of the
+//!    particles in ([`ContactState`]): for each candidate whose distance at the broad phase, less
+//!    how far its particles have since moved relative to the cloth, may have fallen to the
+//!    thickness (a pile's candidates mostly have not), the signed distance at the end of the
 //!    substep along the pair's normal (the triangle's, for a vertex over a triangle's interior; the
 //!    line between the closest points, for two edges), with its sign taken from the start of the
 //!    substep. A pair closer than the thickness, or on the other side of each other than at the
@@ -38,6 +42,9 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::narrow::ContactState;
+use patches::Patches;
+
+mod patches;
 
 /// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
 const PASSES: u32 = 4;
@@ -73,12 +80,23 @@ pub(crate) struct SelfContacts {
     exempt_vt: Vec<u64>,
     /// Edge–edge pairs exempt, as `low << 32 | high` edge index, sorted.
     exempt_ee: Vec<u64>,
+    /// The triangles in patches, whose normal cones cull the search.
+    patches: Patches,
+    /// Patch of each edge (that of the triangle owning it).
+    edge_patch: Vec<u32>,
+    /// The shortest altitude of a triangle at rest, m.
+    altitude: f32,
     /// The spatial hash of the triangles' grown boxes.
     hash: Hash,
     /// This step's vertex–triangle candidates: (vertex, triangle).
     vt: Vec<(u32, u32)>,
     /// This step's edge–edge candidates: (edge, edge).
     ee: Vec<(u32, u32)>,
+    /// Each candidate's distance when found (vertex–triangle ones, then edge–edge ones), m.
+    gap: Vec<f32>,
+    /// Per stored particle: how far it may have moved, relative to the cloth's mean motion,
+    /// since the candidates were found (an upper bound; scratch of each resolution).
+    drift: Vec<f32>,
     /// Where each model particle is stored in the state being resolved.
     slot: Vec<u32>,
     /// Positions (by model particle) when the candidates were found.
@@ -134,7 +152,25 @@ impl SelfContacts {
             .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
             .fold(f32::INFINITY, f32::min);
         let cap = reach_cap(shortest, thickness);
+        let patches = Patches::new(&tris, rest);
+        let mut edge_patch = vec![0; edges.len()];
+        for (t, owned) in tri_edges.iter().enumerate() {
+            for &e in owned.iter().filter(|&&e| e != u32::MAX) {
+                edge_patch[e as usize] = patches.of_triangle(t as u32);
+            }
+        }
+        let altitude = tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| rest[i as usize]);
+                let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                (b - a).cross(c - a).length() / longest
+            })
+            .fold(f32::INFINITY, f32::min);
         let mut contacts = Self {
+            patches,
+            edge_patch,
+            altitude,
             thickness,
             friction,
             tris,
@@ -150,13 +186,14 @@ impl SelfContacts {
         };
         // The pairs within the thickness at rest are exactly the candidates of a broad phase on
         // the rest positions with no motion.
-        contacts.find_candidates(rest, thickness, usize::MAX);
+        contacts.find_candidates(rest, thickness, usize::MAX, None);
         contacts.exempt_vt = contacts.vt.iter().map(|&(p, t)| pair_key(p, t)).collect();
         contacts.exempt_ee = contacts.ee.iter().map(|&(e, f)| pair_key(e, f)).collect();
         contacts.exempt_vt.sort_unstable();
         contacts.exempt_ee.sort_unstable();
         contacts.vt.clear();
         contacts.ee.clear();
+        contacts.gap.clear();
         contacts
     }
 
@@ -204,19 +241,22 @@ impl SelfContacts {
         }
         self.refresh_candidates(state);
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
-        // The first pass tests every candidate; the later ones only those that acted in it (in a
-        // pile most candidates are near but never act).
+        let mut drift = std::mem::take(&mut self.drift);
+        self.measure_drift(state, &mut drift);
+        // The first pass tests the candidates that may have come within the thickness since they
+        // were found; the later ones only those that acted in it (in a pile most candidates are
+        // near but never act).
         let mut acting = std::mem::take(&mut self.acting);
         acting.clear();
         for k in 0..self.vt.len() + self.ee.len() {
-            if self.pair(state, k, inv_h) {
+            if self.may_touch(k, &drift) && self.pair(state, k, inv_h, &mut drift) {
                 acting.push(k as u32);
             }
         }
         for _ in 1..PASSES {
             let mut moved = false;
             for &k in &acting {
-                moved |= self.pair(state, k as usize, inv_h);
+                moved |= self.pair(state, k as usize, inv_h, &mut drift);
             }
             if !moved {
                 break;
@@ -224,23 +264,80 @@ impl SelfContacts {
         }
         let any = !acting.is_empty();
         self.acting = acting;
+        self.drift = drift;
         any
     }
 
-    /// Resolves candidate `k`: vertex–triangle pairs first, then edge–edge pairs. Returns whether
-    /// anything moved.
-    fn pair<S: ContactState>(&self, state: &mut S, k: usize, inv_h: f32) -> bool {
-        let slot = |i: u32| self.slot[i as usize] as usize;
-        match self.vt.get(k) {
+    /// Fills `drift` (by stored particle) with each particle's largest distance, at the start or
+    /// the end of the substep, from where it was when the candidates were found, the cloth's mean
+    /// displacement taken off. Along the substep's straight paths no particle is farther than
+    /// that, so two elements have come closer than at the broad phase by at most the sum of their
+    /// particles' largest drifts.
+    fn measure_drift<S: ContactState>(&self, state: &S, drift: &mut Vec<f32>) {
+        let n = self.slot.len();
+        drift.clear();
+        drift.resize(state.len(), f32::INFINITY);
+        if n == 0 {
+            return;
+        }
+        let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
+        for (&s, x) in self.slot.iter().zip(&self.found_at) {
+            m0 += state.start(s as usize) - *x;
+            m1 += state.position(s as usize) - *x;
+        }
+        let (m0, m1) = (m0 / n as f32, m1 / n as f32);
+        for (&s, x) in self.slot.iter().zip(&self.found_at) {
+            let s = s as usize;
+            let d0 = (state.start(s) - *x - m0).length();
+            let d1 = (state.position(s) - *x - m1).length();
+            // NaN stays infinite: such a particle is always tested.
+            drift[s] = if d0.is_nan() || d1.is_nan() {
+                f32::INFINITY
+            } else {
+                d0.max(d1)
+            };
+        }
+    }
+
+    /// Whether candidate `k`'s elements may have come within the thickness since they were found:
+    /// its distance then less the most its two elements' particles have drifted.
+    fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
+        let slot = |i: u32| drift[self.slot[i as usize] as usize];
+        let closing = match self.vt.get(k) {
             Some(&(p, t)) => {
                 let [a, b, c] = self.tris[t as usize];
-                self.vertex_triangle(state, [p, a, b, c].map(slot), inv_h)
+                slot(p) + slot(a).max(slot(b)).max(slot(c))
             }
             None => {
                 let (e, f) = self.ee[k - self.vt.len()];
                 let [a, b] = self.edges[e as usize];
                 let [c, d] = self.edges[f as usize];
-                self.edge_edge(state, [a, b, c, d].map(slot), inv_h)
+                slot(a).max(slot(b)) + slot(c).max(slot(d))
+            }
+        };
+        self.gap[k] - closing <= self.thickness
+    }
+
+    /// Resolves candidate `k`: vertex–triangle pairs first, then edge–edge pairs. Returns whether
+    /// anything moved; adds what it moved each particle to `drift`.
+    fn pair<S: ContactState>(
+        &self,
+        state: &mut S,
+        k: usize,
+        inv_h: f32,
+        drift: &mut [f32],
+    ) -> bool {
+        let slot = |i: u32| self.slot[i as usize] as usize;
+        match self.vt.get(k) {
+            Some(&(p, t)) => {
+                let [a, b, c] = self.tris[t as usize];
+                self.vertex_triangle(state, [p, a, b, c].map(slot), inv_h, drift)
+            }
+            None => {
+                let (e, f) = self.ee[k - self.vt.len()];
+                let [a, b] = self.edges[e as usize];
+                let [c, d] = self.edges[f as usize];
+                self.edge_edge(state, [a, b, c, d].map(slot), inv_h, drift)
             }
         }
     }
@@ -289,24 +386,50 @@ impl SelfContacts {
         let positions = std::mem::take(&mut self.found_at);
         let cap = MAX_CANDIDATES_PER_TRIANGLE * self.tris.len();
         self.searches += 1;
-        self.find_candidates(&positions, self.thickness + 2.0 * self.reach, cap);
+        let cull = self.cull_angle();
+        self.find_candidates(
+            &positions,
+            self.thickness + 2.0 * self.reach,
+            cap,
+            Some(cull),
+        );
         self.regions.assign(&positions);
         self.found_at = positions;
         self.stale = false;
     }
 
+    /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
+    /// right angle (beyond which a surface can fold onto itself) less the most a triangle can turn
+    /// while the candidates are kept (its vertices' relative displacements stay within twice
+    /// the reach, over its shortest altitude) and a tenth of a radian to spare.
+    fn cull_angle(&self) -> f32 {
+        let turn = (2.0 * self.reach / self.altitude).atan();
+        // NaN (no triangles, or a degenerate one at rest) culls nothing.
+        let flat = std::f32::consts::FRAC_PI_2 - turn - 0.1;
+        if flat.is_nan() { -1.0 } else { flat }
+    }
+
     /// The broad phase on `x` (by model particle): every vertex–triangle and edge–edge pair that
-    /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind.
-    fn find_candidates(&mut self, x: &[Vec3], margin: f32, cap: usize) {
+    /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind;
+    /// with `cull`, none between patches within that angle of one direction (see [`patches`]).
+    fn find_candidates(&mut self, x: &[Vec3], margin: f32, cap: usize, cull: Option<f32>) {
         self.vt.clear();
         self.ee.clear();
+        self.gap.clear();
         let grow = Vec3::splat(margin);
         self.hash.boxes.clear();
         self.hash.boxes.extend(self.tris.iter().map(|t| {
             let [a, b, c] = t.map(|i| x[i as usize]);
             (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
         }));
-        if !self.hash.build() {
+        if let Some(flat) = cull {
+            self.patches.update(x, &self.tris, &self.hash.boxes, flat);
+        }
+        let patches = &self.patches;
+        let cull = cull.is_some();
+        let live = |patch: u32| !cull || patches.live(patch);
+        let culled = |a: u32, b: u32| cull && patches.culled(a, b);
+        if !self.hash.build(|t| live(patches.of_triangle(t))) {
             return;
         }
         let hash = &self.hash;
@@ -315,14 +438,23 @@ impl SelfContacts {
                 break;
             }
             let p = p as u32;
+            let patch = patches.of_vertex(p);
+            if !live(patch) {
+                continue;
+            }
             hash.visit(at, at, |t| {
                 let tri = self.tris[t as usize];
-                if tri.contains(&p) || is_exempt(&self.exempt_vt, pair_key(p, t)) {
+                if tri.contains(&p)
+                    || culled(patch, patches.of_triangle(t))
+                    || is_exempt(&self.exempt_vt, pair_key(p, t))
+                {
                     return;
                 }
                 let [a, b, c] = tri.map(|i| x[i as usize]);
-                if point_triangle_distance(at, a, b, c) < margin {
+                let gap = point_triangle_distance(at, a, b, c);
+                if gap < margin {
                     self.vt.push((p, t));
+                    self.gap.push(gap);
                 }
             });
         }
@@ -331,11 +463,18 @@ impl SelfContacts {
                 break;
             }
             let e = e as u32;
+            let patch = self.edge_patch[e as usize];
+            if !live(patch) {
+                continue;
+            }
             let (lo, hi) = (
                 x[a as usize].min(x[b as usize]),
                 x[a as usize].max(x[b as usize]),
             );
             hash.visit(lo, hi, |t| {
+                if culled(patch, patches.of_triangle(t)) {
+                    return;
+                }
                 for &f in &self.tri_edges[t as usize] {
                     if f <= e || f == u32::MAX {
                         continue;
@@ -351,8 +490,10 @@ impl SelfContacts {
                         continue;
                     }
                     let (s, t) = closest_on_segments(pa, pb, pc, pd);
-                    if pa.lerp(pb, s).distance(pc.lerp(pd, t)) < margin {
+                    let gap = pa.lerp(pb, s).distance(pc.lerp(pd, t));
+                    if gap < margin {
                         self.ee.push((e, f));
+                        self.gap.push(gap);
                     }
                 }
             });
@@ -361,7 +502,13 @@ impl SelfContacts {
 
     /// Keeps vertex `s[0]` at least the thickness from triangle `s[1..]` on the side it started
     /// the substep on, when it is over the triangle's interior. Returns whether anything moved.
-    fn vertex_triangle<S: ContactState>(&self, state: &mut S, s: [usize; 4], inv_h: f32) -> bool {
+    fn vertex_triangle<S: ContactState>(
+        &self,
+        state: &mut S,
+        s: [usize; 4],
+        inv_h: f32,
+        drift: &mut [f32],
+    ) -> bool {
         let w = s.map(|i| state.inv_mass(i));
         if w == [0.0; 4] {
             return false;
@@ -389,12 +536,18 @@ impl SelfContacts {
             None => dist.signum(),
         };
         let weights = [1.0, -u, -v, -t];
-        self.separate(state, s, w, weights, side * n, side * dist, inv_h)
+        self.separate(state, s, (w, weights), side * n, side * dist, inv_h, drift)
     }
 
     /// Keeps edge `s[0..2]` at least the thickness from edge `s[2..]` on the side it started the
     /// substep on. Returns whether anything moved.
-    fn edge_edge<S: ContactState>(&self, state: &mut S, s: [usize; 4], inv_h: f32) -> bool {
+    fn edge_edge<S: ContactState>(
+        &self,
+        state: &mut S,
+        s: [usize; 4],
+        inv_h: f32,
+        drift: &mut [f32],
+    ) -> bool {
         let w = s.map(|i| state.inv_mass(i));
         if w == [0.0; 4] {
             return false;
@@ -420,7 +573,7 @@ impl SelfContacts {
             }
         };
         let weights = [1.0 - u, u, t - 1.0, -t];
-        self.separate(state, s, w, weights, n, dist, inv_h)
+        self.separate(state, s, (w, weights), n, dist, inv_h, drift)
     }
 
     /// The response to one pair: the combination `Σ weights[k] x[s[k]]` is `dist` along `n`;
@@ -431,11 +584,11 @@ impl SelfContacts {
         &self,
         state: &mut S,
         s: [usize; 4],
-        w: [f32; 4],
-        weights: [f32; 4],
+        (w, weights): ([f32; 4], [f32; 4]),
         n: Vec3,
         dist: f32,
         inv_h: f32,
+        drift: &mut [f32],
     ) -> bool {
         let depth = self.thickness - dist;
         if depth.is_nan() || depth <= 0.0 {
@@ -469,6 +622,7 @@ impl SelfContacts {
             }
             let scale = g / effective;
             state.set(s[k], x[k] + (push * g) * n, v[k] + scale * dv);
+            drift[s[k]] += (push * g).abs();
         }
         true
     }
@@ -711,31 +865,41 @@ struct Hash {
     start: Vec<u32>,
     /// (box, cell) per listing, grouped by bucket.
     entries: Vec<(u32, [i32; 3])>,
+    /// The cell of each box's low corner.
+    low: Vec<[i32; 3]>,
 }
 
 impl Hash {
-    /// Lists the boxes in their cells. Returns `false` (and lists nothing) if a box is not finite.
-    fn build(&mut self) -> bool {
+    /// Lists the boxes `i` for which `include(i)` holds in their cells. Returns `false` (and lists
+    /// nothing) if a box is not finite.
+    fn build(&mut self, include: impl Fn(u32) -> bool) -> bool {
         let mut extent = 0.0f32;
-        for (lo, hi) in &self.boxes {
-            let e = (*hi - *lo).max_element();
+        for (i, (lo, hi)) in self.boxes.iter().enumerate() {
             if !(lo.is_finite() && hi.is_finite()) {
                 self.entries.clear();
                 return false;
             }
-            extent = extent.max(e);
+            if include(i as u32) {
+                extent = extent.max((*hi - *lo).max_element());
+            }
         }
         self.inv_cell = 1.0 / extent.max(1e-6);
         let buckets = (2 * self.boxes.len()).next_power_of_two().max(16);
         self.mask = (buckets - 1) as u32;
         self.start.clear();
         self.start.resize(buckets + 1, 0);
+        self.low.clear();
+        let inv = self.inv_cell;
+        self.low
+            .extend(self.boxes.iter().map(|(lo, _)| cell_of(*lo, inv)));
         let mut count = 0usize;
-        for (lo, hi) in &self.boxes {
-            for_cells(self.cell(*lo), self.cell(*hi), |c| {
-                self.start[bucket(c, self.mask) + 1] += 1;
-                count += 1;
-            });
+        for (i, (lo, hi)) in self.boxes.iter().enumerate() {
+            if include(i as u32) {
+                for_cells(self.cell(*lo), self.cell(*hi), |c| {
+                    self.start[bucket(c, self.mask) + 1] += 1;
+                    count += 1;
+                });
+            }
         }
         for b in 0..buckets {
             self.start[b + 1] += self.start[b];
@@ -744,11 +908,13 @@ impl Hash {
         self.entries.resize(count, (0, [0; 3]));
         // `start[b]` serves as bucket b's cursor while filling, then is restored.
         for (i, (lo, hi)) in self.boxes.iter().enumerate() {
-            for_cells(self.cell(*lo), self.cell(*hi), |c| {
-                let b = bucket(c, self.mask);
-                self.entries[self.start[b] as usize] = (i as u32, c);
-                self.start[b] += 1;
-            });
+            if include(i as u32) {
+                for_cells(self.cell(*lo), self.cell(*hi), |c| {
+                    let b = bucket(c, self.mask);
+                    self.entries[self.start[b] as usize] = (i as u32, c);
+                    self.start[b] += 1;
+                });
+            }
         }
         for b in (1..=buckets).rev() {
             self.start[b] = self.start[b - 1];
@@ -759,7 +925,7 @@ impl Hash {
 
     /// The cell of point `p`.
     fn cell(&self, p: Vec3) -> [i32; 3] {
-        (p * self.inv_cell).floor().as_ivec3().to_array()
+        cell_of(p, self.inv_cell)
     }
 
     /// Calls `f(box)` once for every box that meets box `lo..hi`, which must be no larger
@@ -768,14 +934,19 @@ impl Hash {
         if self.entries.is_empty() {
             return;
         }
-        for_cells(self.cell(lo), self.cell(hi), |c| {
+        let from = self.cell(lo);
+        for_cells(from, self.cell(hi), |c| {
             let b = bucket(c, self.mask);
             for &(i, cell) in &self.entries[self.start[b] as usize..self.start[b + 1] as usize] {
                 if cell != c {
                     continue;
                 }
                 let (blo, bhi) = self.boxes[i as usize];
-                if blo.cmple(hi).all() && bhi.cmpge(lo).all() && self.cell(blo.max(lo)) == c {
+                // The overlap's low corner is the larger of the two low corners, and the cell
+                // of a point is monotonic in it.
+                let low = self.low[i as usize];
+                let first = [0, 1, 2].map(|k| low[k].max(from[k]));
+                if blo.cmple(hi).all() && bhi.cmpge(lo).all() && first == c {
                     f(i);
                 }
             }
@@ -792,6 +963,11 @@ fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
             }
         }
     }
+}
+
+/// The cell of point `p` in a grid of cells `1 / inv` wide.
+fn cell_of(p: Vec3, inv: f32) -> [i32; 3] {
+    (p * inv).floor().as_ivec3().to_array()
 }
 
 /// The bucket of cell `c`.
@@ -1064,21 +1240,35 @@ mod tests {
             })
             .collect();
         let margin = 0.02;
-        c.find_candidates(&x, margin, usize::MAX);
+        c.find_candidates(&x, margin, usize::MAX, None);
         let mut vt = c.vt.clone();
         let mut ee = c.ee.clone();
         vt.sort_unstable();
         ee.sort_unstable();
-        let mut expected_vt = Vec::new();
+        let [expected_vt, expected_ee] = pairs_within(&c, &x, margin);
+        assert!(!expected_vt.is_empty() && !expected_ee.is_empty());
+        assert_eq!(vt, expected_vt);
+        assert_eq!(ee, expected_ee);
+        assert_eq!(c.ee.len(), expected_ee.len(), "each pair once");
+    }
+
+    /// Every vertex–triangle and edge–edge pair of `c` at `x` sharing no vertex and closer than
+    /// `margin`, found by brute force.
+    fn pairs_within(
+        c: &SelfContacts,
+        x: &[Vec3],
+        margin: f32,
+    ) -> [Vec<(u32, u32)>; 2] {
+        let mut vt = Vec::new();
         for p in 0..x.len() as u32 {
             for (t, tri) in c.tris.iter().enumerate() {
                 let [a, b, d] = tri.map(|i| x[i as usize]);
                 if !tri.contains(&p) && point_triangle_distance(x[p as usize], a, b, d) < margin {
-                    expected_vt.push((p, t as u32));
+                    vt.push((p, t as u32));
                 }
             }
         }
-        let mut expected_ee = Vec::new();
+        let mut ee = Vec::new();
         for (e, &[a, b]) in c.edges.iter().enumerate() {
             for (f, &[d, g]) in c.edges.iter().enumerate().skip(e + 1) {
                 if [d, g].iter().any(|v| *v == a || *v == b) {
@@ -1087,14 +1277,75 @@ mod tests {
                 let [pa, pb, pd, pg] = [a, b, d, g].map(|i| x[i as usize]);
                 let (s, t) = closest_on_segments(pa, pb, pd, pg);
                 if pa.lerp(pb, s).distance(pd.lerp(pg, t)) < margin {
-                    expected_ee.push((e as u32, f as u32));
+                    ee.push((e as u32, f as u32));
                 }
             }
         }
-        assert!(!expected_vt.is_empty() && !expected_ee.is_empty());
-        assert_eq!(vt, expected_vt);
-        assert_eq!(ee, expected_ee);
-        assert_eq!(c.ee.len(), expected_ee.len(), "each pair once");
+        [vt, ee]
+    }
+
+    #[test]
+    fn flat_patches_are_not_searched_and_a_fold_is() {
+        // A 16×16 grid (3 cm spacing) folded in half over a 1 cm radius: two flat layers 2 cm
+        // apart (x is the arc length across the grid, centred on 0). With the normal-cone cull, the flat layers are not searched against themselves,
+        // but every pair between the layers within the margin is found.
+        let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
+        let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        let margin = 0.025;
+        let flat = 1.0;
+        c.find_candidates(&model.rest_positions, margin, usize::MAX, Some(flat));
+        assert!(c.hash.entries.is_empty(), "a flat cloth is not searched");
+        assert_eq!(c.candidate_count(), (0, 0));
+
+        let (r, bend) = (0.01, 0.0);
+        let arc = std::f32::consts::PI * r;
+        let layer = |p: Vec3| (p.x > bend + arc / 2.0) as u8;
+        let x: Vec<Vec3> = model
+            .rest_positions
+            .iter()
+            .map(|p| {
+                let s = p.x;
+                if s < bend {
+                    Vec3::new(s, 0.0, p.z)
+                } else if s < bend + arc {
+                    let a = (s - bend) / r;
+                    Vec3::new(bend + r * a.sin(), r - r * a.cos(), p.z)
+                } else {
+                    Vec3::new(bend - (s - bend - arc), 2.0 * r, p.z)
+                }
+            })
+            .collect();
+        c.find_candidates(&x, margin, usize::MAX, Some(flat));
+        let (vt, ee) = (c.vt.clone(), c.ee.clone());
+        let [all_vt, all_ee] = pairs_within(&c, &x, margin);
+        let rest = &model.rest_positions;
+        let across = |v: &[u32]| {
+            v.iter()
+                .any(|&i| layer(rest[i as usize]) != layer(rest[v[0] as usize]))
+        };
+        let mut crossing = 0;
+        for &(p, t) in &all_vt {
+            let [a, b, d] = c.tris[t as usize];
+            if across(&[p, a, b, d]) {
+                crossing += 1;
+                assert!(
+                    vt.contains(&(p, t)),
+                    "vertex {p} over triangle {t} across the fold"
+                );
+            }
+        }
+        for &(e, f) in &all_ee {
+            let ([a, b], [d, g]) = (c.edges[e as usize], c.edges[f as usize]);
+            if across(&[a, b, d, g]) {
+                crossing += 1;
+                assert!(ee.contains(&(e, f)), "edges {e} and {f} across the fold");
+            }
+        }
+        assert!(crossing > 100, "{crossing}");
+        assert!(
+            vt.len() + ee.len() < all_vt.len() + all_ee.len(),
+            "nothing culled"
+        );
     }
 
     #[test]
@@ -1112,7 +1363,7 @@ mod tests {
                 )
             })
             .collect();
-        assert!(hash.build());
+        assert!(hash.build(|_| true));
         for q in 0..200 {
             let lo = Vec3::new(jitter(q, 6), jitter(q, 7), jitter(q, 8)) * 3.0 - 1.5;
             let hi = lo + Vec3::new(jitter(q, 9), jitter(q, 10), jitter(q, 11)) * 0.3;

@@ -1,0 +1,340 @@
+//! Patches of a cloth's triangles and their normal cones: what lets the self-contact broad phase
+//! skip the parts of a cloth that cannot touch themselves.
+//!
+//! A patch is a few dozen edge-connected triangles, close together at rest. When all its
+//! triangle normals lie within an angle `flat` below 90° of one direction, the patch is a height
+//! field over the plane across that direction: it has no fold and cannot pass through itself
+//! (Volino and Magnenat-Thalmann's normal-cone test). Its elements are then not paired with each
+//! other, nor with those of a nearby patch (one sharing a vertex, or both sharing one with a
+//! third) when the patches together (with the third) are that flat. `flat` leaves room for the
+//! normals to turn as far as the motion that the kept candidates allow (see
+//! `SelfContacts::cull_angle`), so a culled patch stays unfolded until the next search.
+//! A patch takes part in the search at all only while it is folded or its box meets a patch it is
+//! not culled with, so a hanging or flat cloth's search is one pass over its triangles.
+//! Culled pairs are kept from crossing, not held the thickness apart: a smooth patch's elements
+//! that share no vertex lie about a triangle's altitude apart, but a sharply creased one (still
+//! within `flat`) may bring some closer.
+
+use glam::Vec3;
+
+/// Triangles per patch, about (the patches are cubes of the rest shape).
+const SIZE: usize = 32;
+
+/// A cloth's triangles grouped into patches, with each patch's box and normal cone as of the last
+/// [`Patches::update`].
+#[derive(Debug, Clone, Default)]
+pub(super) struct Patches {
+    /// Patch of each triangle.
+    of_triangle: Vec<u32>,
+    /// Patch of each vertex (that of the first triangle holding it).
+    of_vertex: Vec<u32>,
+    /// The triangles, grouped by patch.
+    members: Vec<u32>,
+    /// Where each patch's triangles begin in `members` (one more than the patches).
+    start: Vec<u32>,
+    /// Where each patch's adjacent patches begin in `adjacent` (one more than the patches).
+    adjacent_start: Vec<u32>,
+    /// The patches sharing a vertex with each patch, sorted per patch.
+    adjacent: Vec<u32>,
+    /// Where each patch's nearby patches begin in `nearby` (one more than the patches).
+    nearby_start: Vec<u32>,
+    /// The patches adjacent to each patch or to one of its adjacent patches, sorted per patch.
+    nearby: Vec<u32>,
+    /// Per entry of `nearby`: whether the two patches' elements are not paired this search.
+    culled_with: Vec<bool>,
+    /// Per triangle: its unit normal (zero if degenerate); scratch.
+    normal: Vec<Vec3>,
+    /// Per patch: the union of its triangles' boxes.
+    bounds: Vec<(Vec3, Vec3)>,
+    /// Per patch: the axis of its normal cone.
+    axis: Vec<Vec3>,
+    /// Per patch: the half-angle of its normal cone (π if it has no axis).
+    angle: Vec<f32>,
+    /// Per patch: whether its elements take part in the search.
+    live: Vec<bool>,
+    /// The widest normal cone (half-angle, radians) of patches not searched this time.
+    flat: f32,
+    /// Patches by the low x of their boxes (scratch of the sweep).
+    order: Vec<u32>,
+}
+
+impl Patches {
+    /// Patches of the triangles `tris` of a mesh at rest at `rest`: the triangles whose centres lie
+    /// in one cube of a grid about [`SIZE`] triangles wide, split into edge-connected parts (so
+    /// that layers of a mesh folded at rest are patches of their own).
+    pub fn new(tris: &[[u32; 3]], rest: &[Vec3]) -> Self {
+        let vertices = rest.len();
+        // Triangles across each edge: sort the edges by their vertices.
+        let mut keyed: Vec<(u64, u32)> = Vec::with_capacity(3 * tris.len());
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                keyed.push(((a.min(b) as u64) << 32 | a.max(b) as u64, t as u32));
+            }
+        }
+        keyed.sort_unstable();
+        let mut across: Vec<Vec<u32>> = vec![Vec::new(); tris.len()];
+        let (mut length, mut count) = (0.0f32, 0usize);
+        for (k, &(key, t)) in keyed.iter().enumerate() {
+            if k > 0 && keyed[k - 1].0 == key {
+                let u = keyed[k - 1].1;
+                across[t as usize].push(u);
+                across[u as usize].push(t);
+            } else {
+                length += rest[(key >> 32) as usize].distance(rest[key as u32 as usize]);
+                count += 1;
+            }
+        }
+        let side = (SIZE as f32 / 2.0).sqrt() * length / count.max(1) as f32;
+        let inv = if side.is_finite() && side > 0.0 {
+            1.0 / side
+        } else {
+            0.0
+        };
+        let cube: Vec<[i32; 3]> = tris
+            .iter()
+            .map(|t| {
+                let centre = t.iter().map(|&i| rest[i as usize]).sum::<Vec3>() / 3.0;
+                (centre * inv).floor().as_ivec3().to_array()
+            })
+            .collect();
+        let mut of_triangle = vec![u32::MAX; tris.len()];
+        let mut members = Vec::with_capacity(tris.len());
+        let mut start = vec![0u32];
+        for seed in 0..tris.len() {
+            if of_triangle[seed] != u32::MAX {
+                continue;
+            }
+            let patch = start.len() as u32 - 1;
+            of_triangle[seed] = patch;
+            let mut next = members.len();
+            members.push(seed as u32);
+            while next < members.len() {
+                let t = members[next] as usize;
+                next += 1;
+                for &u in &across[t] {
+                    if of_triangle[u as usize] == u32::MAX && cube[u as usize] == cube[seed] {
+                        of_triangle[u as usize] = patch;
+                        members.push(u);
+                    }
+                }
+            }
+            start.push(members.len() as u32);
+        }
+        let patches = start.len() - 1;
+        let mut of_vertex = vec![0u32; vertices];
+        let mut seen = vec![false; vertices];
+        let mut holding: Vec<Vec<u32>> = vec![Vec::new(); vertices];
+        for (t, tri) in tris.iter().enumerate() {
+            for &v in tri {
+                let v = v as usize;
+                if !seen[v] {
+                    seen[v] = true;
+                    of_vertex[v] = of_triangle[t];
+                }
+                holding[v].push(of_triangle[t]);
+            }
+        }
+        let mut sets: Vec<Vec<u32>> = vec![Vec::new(); patches];
+        for list in &mut holding {
+            list.sort_unstable();
+            list.dedup();
+            for &a in list.iter() {
+                sets[a as usize].extend(list.iter().copied().filter(|&b| b != a));
+            }
+        }
+        let mut adjacent_start = vec![0u32];
+        let mut adjacent = Vec::new();
+        for set in &mut sets {
+            set.sort_unstable();
+            set.dedup();
+            adjacent.extend_from_slice(set);
+            adjacent_start.push(adjacent.len() as u32);
+        }
+        let mut nearby_start = vec![0u32];
+        let mut nearby = Vec::new();
+        for (a, set) in sets.iter().enumerate() {
+            let from = nearby.len();
+            for &b in set {
+                nearby.push(b);
+                nearby.extend(
+                    sets[b as usize]
+                        .iter()
+                        .copied()
+                        .filter(|&c| c as usize != a),
+                );
+            }
+            nearby[from..].sort_unstable();
+            let mut kept = from;
+            for k in from..nearby.len() {
+                if k == from || nearby[k] != nearby[kept - 1] {
+                    nearby[kept] = nearby[k];
+                    kept += 1;
+                }
+            }
+            nearby.truncate(kept);
+            nearby_start.push(nearby.len() as u32);
+        }
+        Self {
+            of_triangle,
+            of_vertex,
+            members,
+            start,
+            culled_with: vec![false; nearby.len()],
+            adjacent_start,
+            adjacent,
+            nearby_start,
+            nearby,
+            normal: Vec::with_capacity(tris.len()),
+            bounds: vec![(Vec3::ZERO, Vec3::ZERO); patches],
+            axis: vec![Vec3::ZERO; patches],
+            angle: vec![0.0; patches],
+            live: vec![false; patches],
+            flat: -1.0,
+            order: (0..patches as u32).collect(),
+        }
+    }
+
+    /// Number of patches.
+    pub fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// Patch of triangle `t`.
+    pub fn of_triangle(&self, t: u32) -> u32 {
+        self.of_triangle[t as usize]
+    }
+
+    /// Patch of vertex `p`.
+    pub fn of_vertex(&self, p: u32) -> u32 {
+        self.of_vertex[p as usize]
+    }
+
+    /// Whether patch `a`'s elements take part in this search.
+    pub fn live(&self, a: u32) -> bool {
+        self.live[a as usize]
+    }
+
+    /// Whether the elements of patches `a` and `b` (the same patch or two) are not paired.
+    pub fn culled(&self, a: u32, b: u32) -> bool {
+        if a == b {
+            return self.angle[a as usize] <= self.flat;
+        }
+        self.entry(a as usize, b as usize)
+            .is_some_and(|k| self.culled_with[k])
+    }
+
+    /// Takes the patches' boxes (the union of their triangles' `boxes`) and normal cones from the
+    /// triangles `tris` at positions `x`, and decides which patches take part in the search and
+    /// which nearby pairs are culled: those within `flat` (radians) of one direction.
+    pub fn update(&mut self, x: &[Vec3], tris: &[[u32; 3]], boxes: &[(Vec3, Vec3)], flat: f32) {
+        self.flat = flat;
+        self.normal.clear();
+        self.normal.extend(tris.iter().map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            (b - a).cross(c - a).normalize_or_zero()
+        }));
+        for p in 0..self.len() {
+            let members = &self.members[self.start[p] as usize..self.start[p + 1] as usize];
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            let mut sum = Vec3::ZERO;
+            let mut degenerate = false;
+            for &t in members {
+                let (blo, bhi) = boxes[t as usize];
+                lo = lo.min(blo);
+                hi = hi.max(bhi);
+                let n = self.normal[t as usize];
+                degenerate |= n == Vec3::ZERO;
+                sum += n;
+            }
+            self.bounds[p] = (lo, hi);
+            let axis = sum.normalize_or_zero();
+            self.axis[p] = axis;
+            self.angle[p] = if degenerate || axis == Vec3::ZERO {
+                std::f32::consts::PI
+            } else {
+                let cos = members
+                    .iter()
+                    .map(|&t| self.normal[t as usize].dot(axis))
+                    .fold(1.0f32, f32::min);
+                // NaN (a position not finite) makes the patch folded.
+                if cos.is_nan() {
+                    std::f32::consts::PI
+                } else {
+                    cos.clamp(-1.0, 1.0).acos()
+                }
+            };
+            self.live[p] = self.angle[p] > flat;
+        }
+        self.culled_with.fill(false);
+        let bounds = &self.bounds;
+        self.order
+            .sort_unstable_by(|&a, &b| bounds[a as usize].0.x.total_cmp(&bounds[b as usize].0.x));
+        for i in 0..self.order.len() {
+            let a = self.order[i] as usize;
+            let (alo, ahi) = self.bounds[a];
+            for j in i + 1..self.order.len() {
+                let b = self.order[j] as usize;
+                let (blo, bhi) = self.bounds[b];
+                if blo.x > ahi.x {
+                    break;
+                }
+                if !(blo.cmple(ahi).all() && bhi.cmpge(alo).all()) {
+                    continue;
+                }
+                match (self.entry(a, b), self.entry(b, a)) {
+                    (Some(ab), Some(ba)) if self.flat_together(a, b) => {
+                        self.culled_with[ab] = true;
+                        self.culled_with[ba] = true;
+                    }
+                    _ => {
+                        self.live[a] = true;
+                        self.live[b] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Where patch `b` is in patch `a`'s list of nearby patches, if it is there.
+    fn entry(&self, a: usize, b: usize) -> Option<usize> {
+        let from = self.nearby_start[a] as usize;
+        let to = self.nearby_start[a + 1] as usize;
+        self.nearby[from..to]
+            .binary_search(&(b as u32))
+            .ok()
+            .map(|k| from + k)
+    }
+
+    /// The patches adjacent to patch `a`.
+    fn adjacent(&self, a: usize) -> &[u32] {
+        &self.adjacent[self.adjacent_start[a] as usize..self.adjacent_start[a + 1] as usize]
+    }
+
+    /// Whether nearby patches `a` and `b` make a connected surface within `flat` of one
+    /// direction: the two, if adjacent, or with a patch adjacent to both.
+    fn flat_together(&self, a: usize, b: usize) -> bool {
+        if self.adjacent(a).binary_search(&(b as u32)).is_ok() {
+            return self.cone_about(a, &[b]) <= self.flat;
+        }
+        self.adjacent(a).iter().any(|&c| {
+            self.adjacent(c as usize).binary_search(&(b as u32)).is_ok()
+                && self.cone_about(c as usize, &[a, b]) <= self.flat
+        })
+    }
+
+    /// Half-angle of a cone about patch `a`'s axis holding its normals and those of `others`
+    /// (NaN if a patch has no axis, which compares as not flat).
+    fn cone_about(&self, a: usize, others: &[usize]) -> f32 {
+        others
+            .iter()
+            .map(|&b| self.axis[a].angle_between(self.axis[b]) + self.angle[b])
+            .fold(self.angle[a], |m, x| {
+                if x.is_nan() || m.is_nan() {
+                    f32::NAN
+                } else {
+                    m.max(x)
+                }
+            })
+    }
+}
