@@ -1254,11 +1254,7 @@ mod tests {
 
     /// Every vertex–triangle and edge–edge pair of `c` at `x` sharing no vertex and closer than
     /// `margin`, found by brute force.
-    fn pairs_within(
-        c: &SelfContacts,
-        x: &[Vec3],
-        margin: f32,
-    ) -> [Vec<(u32, u32)>; 2] {
+    fn pairs_within(c: &SelfContacts, x: &[Vec3], margin: f32) -> [Vec<(u32, u32)>; 2] {
         let mut vt = Vec::new();
         for p in 0..x.len() as u32 {
             for (t, tri) in c.tris.iter().enumerate() {
