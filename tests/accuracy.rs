@@ -362,7 +362,7 @@ fn free_fall_follows_the_parabola() {
         let model = ClothModel::grid(&GridSpec::new(3, 3, 0.1)).unwrap();
         let mut sim = ClothSim::new(model, settings, |p| p + Vec3::new(0.0, 10.0, 0.0)).unwrap();
         let v0 = Vec3::new(1.0, 2.0, 0.5);
-        sim.set_velocities(v0);
+        sim.set_velocities(v0).unwrap();
         let x0 = sim.positions()[4];
         for _ in 0..60 {
             sim.step(DT).unwrap();

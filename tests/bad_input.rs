@@ -144,6 +144,22 @@ fn a_rejected_settings_edit_leaves_the_simulation_as_it_was() {
     err_naming(ClothSim::new(model, bad, |p| p), &["particle_mass"]);
 }
 
+#[test]
+fn a_velocity_that_is_not_finite_is_refused_and_changes_nothing() {
+    let model = ClothModel::grid(&GridSpec::new(3, 3, 0.1)).unwrap();
+    let mut sim = ClothSim::new(model, SolverSettings::default(), |p| p).unwrap();
+    for bad in [
+        Vec3::new(f32::NAN, 0.0, 0.0),
+        Vec3::new(0.0, f32::INFINITY, 0.0),
+        Vec3::new(0.0, 0.0, f32::NEG_INFINITY),
+    ] {
+        invalid_value(sim.set_velocities(bad), "velocity");
+        assert!(sim.velocities().iter().all(|v| *v == Vec3::ZERO));
+    }
+    sim.set_velocities(Vec3::X).unwrap();
+    assert!(sim.velocities().iter().all(|v| *v == Vec3::X));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Grid specs
 // ---------------------------------------------------------------------------------------------

@@ -161,7 +161,7 @@ impl AccuracyScene {
             .collect();
         sim.set_pins(targets)?;
         if self == AccuracyScene::Curtain {
-            sim.set_velocities(Vec3::new(0.0, 0.0, 1.0));
+            sim.set_velocities(Vec3::new(0.0, 0.0, 1.0))?;
         }
         Ok(sim)
     }

@@ -186,10 +186,19 @@ impl ClothSim {
         &self.particles.velocities
     }
 
-    /// Sets every particle's velocity (for tests and initial conditions).
-    pub fn set_velocities(&mut self, velocity: Vec3) {
+    /// Sets every particle's velocity (for tests and initial conditions). A velocity that is not
+    /// finite is [`ClothError::InvalidValue`] and changes nothing.
+    pub fn set_velocities(&mut self, velocity: Vec3) -> Result<(), ClothError> {
+        if let Some(&bad) = velocity.to_array().iter().find(|c| !c.is_finite()) {
+            return Err(ClothError::InvalidValue {
+                field: "velocity",
+                expected: "finite",
+                value: bad as f64,
+            });
+        }
         self.particles.velocities.fill(velocity);
         self.wake();
+        Ok(())
     }
 
     /// Wakes a sleeping cloth (see [`SolverSettings::sleep_speed`]); it steps again from the

@@ -79,7 +79,7 @@ fn free_fall_matches_the_parabola() {
     };
     let mut s = sim(3, settings);
     let v0 = Vec3::new(1.0, 2.0, 0.5);
-    s.set_velocities(v0);
+    s.set_velocities(v0).unwrap();
     let x0 = s.positions()[4];
     for _ in 0..60 {
         s.step(1.0 / 60.0).unwrap();
