@@ -1151,6 +1151,45 @@ mod tests {
     }
 
     #[test]
+    fn a_push_within_a_pass_counts_toward_the_later_pairs() {
+        // A free vertex in a wedge between two fixed triangles, 1 mm above the floor one and
+        // 7 mm from the tilted one (thickness 5 mm). Nothing moves, so nothing has drifted;
+        // pushing the vertex up out of the floor brings it within the thickness of the tilted
+        // one, which must then be tested in the same pass. The vertex is in no triangle.
+        let (p0, n2) = (Vec3::new(0.25, 0.001, 0.25), Vec3::new(-0.6, -0.8, 0.0));
+        let q = p0 - 0.007 * n2;
+        let (t1, t2) = (Vec3::new(0.8, -0.6, 0.0), Vec3::Z);
+        let start = vec![
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -1.0),
+            q + 0.004 * t1 - t2,
+            q + 0.004 * t1 + t2,
+            q - t1,
+            p0,
+        ];
+        // At rest the vertex is far away (so that neither pair is exempt).
+        let mut rest = start.clone();
+        rest[6].y = 1.0;
+        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &rest, 0.005, 0.0);
+        let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; start.len()]);
+        let w = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        // A reach wide enough for the tilted triangle to be a candidate.
+        c.begin_step(0.01);
+        let mut state = Vectors {
+            x: &mut x,
+            v: &mut v,
+            start: &start,
+            inv_mass: &w,
+        };
+        c.resolve(1.0 / 1200.0, &mut state);
+        let p = x[6];
+        let floor = p.y;
+        let tilted = (p - q).dot(n2);
+        assert!(floor > 0.0044 && tilted > 0.0044, "{floor} {tilted}");
+    }
+
+    #[test]
     fn a_pair_of_free_particles_keeps_its_momentum() {
         let (c, start, mut x) = falling_vertex(0.003);
         let mut v: Vec<Vec3> = (0..6)

@@ -17,6 +17,9 @@
 
 use glam::Vec3;
 
+/// The patch of a vertex in no triangle: it is searched, and paired, always.
+const LOOSE: u32 = u32::MAX;
+
 /// Triangles per patch, about (the patches are cubes of the rest shape).
 const SIZE: usize = 32;
 
@@ -26,7 +29,8 @@ const SIZE: usize = 32;
 pub(super) struct Patches {
     /// Patch of each triangle.
     of_triangle: Vec<u32>,
-    /// Patch of each vertex (that of the first triangle holding it).
+    /// Patch of each vertex (that of the first triangle holding it; [`LOOSE`] for one in no
+    /// triangle).
     of_vertex: Vec<u32>,
     /// The triangles, grouped by patch.
     members: Vec<u32>,
@@ -122,14 +126,12 @@ impl Patches {
             start.push(members.len() as u32);
         }
         let patches = start.len() - 1;
-        let mut of_vertex = vec![0u32; vertices];
-        let mut seen = vec![false; vertices];
+        let mut of_vertex = vec![LOOSE; vertices];
         let mut holding: Vec<Vec<u32>> = vec![Vec::new(); vertices];
         for (t, tri) in tris.iter().enumerate() {
             for &v in tri {
                 let v = v as usize;
-                if !seen[v] {
-                    seen[v] = true;
+                if of_vertex[v] == LOOSE {
                     of_vertex[v] = of_triangle[t];
                 }
                 holding[v].push(of_triangle[t]);
@@ -212,11 +214,14 @@ impl Patches {
 
     /// Whether patch `a`'s elements take part in this search.
     pub fn live(&self, a: u32) -> bool {
-        self.live[a as usize]
+        a == LOOSE || self.live[a as usize]
     }
 
     /// Whether the elements of patches `a` and `b` (the same patch or two) are not paired.
     pub fn culled(&self, a: u32, b: u32) -> bool {
+        if a == LOOSE {
+            return false;
+        }
         if a == b {
             return self.angle[a as usize] <= self.flat;
         }
