@@ -152,7 +152,7 @@ impl SelfContacts {
             .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
             .fold(f32::INFINITY, f32::min);
         let cap = reach_cap(shortest, thickness);
-        let patches = Patches::new(&tris, rest);
+        let patches = Patches::new(&tris, rest, &keyed);
         let mut edge_patch = vec![0; edges.len()];
         for (t, owned) in tri_edges.iter().enumerate() {
             for &e in owned.iter().filter(|&&e| e != u32::MAX) {

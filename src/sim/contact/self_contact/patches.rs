@@ -65,25 +65,17 @@ pub(super) struct Patches {
 impl Patches {
     /// Patches of the triangles `tris` of a mesh at rest at `rest`: the triangles whose centres lie
     /// in one cube of a grid about [`SIZE`] triangles wide, split into edge-connected parts (so
-    /// that layers of a mesh folded at rest are patches of their own).
-    pub fn new(tris: &[[u32; 3]], rest: &[Vec3]) -> Self {
+    /// that layers of a mesh folded at rest are patches of their own). `sides` lists every
+    /// triangle side as (its two vertices as `low << 32 | high`, `3 × triangle + side`), sorted.
+    pub fn new(tris: &[[u32; 3]], rest: &[Vec3], sides: &[(u64, usize)]) -> Self {
         let vertices = rest.len();
-        // Triangles across each edge: sort the edges by their vertices.
-        let mut keyed: Vec<(u64, u32)> = Vec::with_capacity(3 * tris.len());
-        for (t, tri) in tris.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                keyed.push(((a.min(b) as u64) << 32 | a.max(b) as u64, t as u32));
-            }
-        }
-        keyed.sort_unstable();
         let mut across: Vec<Vec<u32>> = vec![Vec::new(); tris.len()];
         let (mut length, mut count) = (0.0f32, 0usize);
-        for (k, &(key, t)) in keyed.iter().enumerate() {
-            if k > 0 && keyed[k - 1].0 == key {
-                let u = keyed[k - 1].1;
-                across[t as usize].push(u);
-                across[u as usize].push(t);
+        for (k, &(key, at)) in sides.iter().enumerate() {
+            if k > 0 && sides[k - 1].0 == key {
+                let (t, u) = (at / 3, sides[k - 1].1 / 3);
+                across[t].push(u as u32);
+                across[u].push(t as u32);
             } else {
                 length += rest[(key >> 32) as usize].distance(rest[key as u32 as usize]);
                 count += 1;
@@ -155,26 +147,16 @@ impl Patches {
         }
         let mut nearby_start = vec![0u32];
         let mut nearby = Vec::new();
+        let mut near = Vec::new();
         for (a, set) in sets.iter().enumerate() {
-            let from = nearby.len();
+            near.clear();
             for &b in set {
-                nearby.push(b);
-                nearby.extend(
-                    sets[b as usize]
-                        .iter()
-                        .copied()
-                        .filter(|&c| c as usize != a),
-                );
+                near.push(b);
+                near.extend(sets[b as usize].iter().filter(|&&c| c as usize != a));
             }
-            nearby[from..].sort_unstable();
-            let mut kept = from;
-            for k in from..nearby.len() {
-                if k == from || nearby[k] != nearby[kept - 1] {
-                    nearby[kept] = nearby[k];
-                    kept += 1;
-                }
-            }
-            nearby.truncate(kept);
+            near.sort_unstable();
+            near.dedup();
+            nearby.extend_from_slice(&near);
             nearby_start.push(nearby.len() as u32);
         }
         Self {
