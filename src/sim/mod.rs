@@ -15,7 +15,7 @@
 //! | [`settings`] | [`Integrator`], [`Stiffness`], [`SolverSettings`] and their validation | `model` (spring kinds) |
 //! | `forces` | the spring-force kernel, its linearisation, energy and frequency bound | `soa`, `simd`, `runs`, `model` |
 //! | `state` | particles, pins, [`Energy`] | `forces` |
-//! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout; self-contacts | `soa`, `simd` |
+//! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout; self-contacts; limits (targets with a maximum distance and backstop, tethers) | `soa`, `simd`, `settings` |
 //! | [`aero`], [`wind`] | aerodynamic forces; the wind field (`wind` uses `aero`) | — |
 //! | `integrate` | one stepper per integrator, each owning its scratch: `xpbd/` (layout, kernel, threads, driver), `explicit`, `implicit`; the [`Spread`] of threads | all of the above |
 //! | `cloth_sim` | [`ClothSim`]: chooses the integrator and substeps, runs the broad phase and wind, sleep, the runaway watchdog | all of the above |
@@ -23,11 +23,13 @@
 //! # Where a new constraint goes
 //! A constraint on particle positions (a tether, a maximum distance from a target, a
 //! self-contact) is data built once with the model or by `ClothSim` (beside the springs), plus a
-//! projection run by the position-based stepper (`integrate/xpbd`, after the spring sweeps of a
-//! substep, where contacts are resolved today) and, for the force-based steppers, the same
-//! projection after their substep (as `SoaState::resolve_contacts` does for colliders). Its data
-//! reaches the steppers through `integrate::Step`, the one struct every stepper is handed; its
-//! settings join [`SolverSettings`] and are validated there.
+//! projection run every substep on the stepper's own layout through `contact::ContactState`: the
+//! position-based stepper (`integrate/xpbd`) runs it after the spring sweeps of a substep, the
+//! force-based ones after their substep (`SoaState::resolve_contacts`, `Contacts::resolve`).
+//! Targets and tethers (`contact/limits.rs`) and self-contacts are resolved that way, inside
+//! `Contacts::resolve_state`, so every stepper has them. What a stepper needs beyond that pass
+//! (the moving frame of [`settings::Inertia`]) reaches it through `integrate::Step`, the one
+//! struct every stepper is handed; settings join [`SolverSettings`] and are validated there.
 
 pub mod aero;
 mod cloth_sim;
@@ -44,7 +46,7 @@ pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
 pub use cloth_sim::{ClothSim, Environment, SelfContactStats};
-pub use contact::{Collider, ColliderShape, Friction, Pose};
+pub use contact::{Collider, ColliderShape, Friction, Pose, Target};
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
     ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridPlane, GridSpec, MAX_DISC_RINGS,
@@ -52,8 +54,8 @@ pub use model::{
     compute_normals,
 };
 pub use settings::{
-    AUTO_MAX_STRETCH, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION, SelfCollision,
-    SolverSettings, Stiffness,
+    AUTO_MAX_STRETCH, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
+    SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers,
 };
 pub use state::Energy;
 pub use wind::{PlacedWindZone, WindField, WindZoneShape};

@@ -6,7 +6,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::model::SpringKind;
-use crate::error::{ClothError, count_in, non_negative, positive};
+use crate::error::{ClothError, count_in, non_negative, positive, unit_interval};
 
 /// Largest number of substeps per frame accepted by [`SolverSettings::validate`].
 pub const MAX_SUBSTEPS: u32 = 1024;
@@ -185,6 +185,12 @@ pub struct SolverSettings {
     pub sleep_steps: u32,
     /// Collisions of the cloth with itself (off by default).
     pub self_collision: SelfCollision,
+    /// How far particles tied to an animated target may leave it ([`ClothSim::set_targets`](super::ClothSim::set_targets)).
+    pub targets: TargetLimits,
+    /// Long-range attachments to the nearest pinned particle (off by default).
+    pub tethers: Tethers,
+    /// How much of its reference frame's motion the cloth feels ([`ClothSim::move_frame`](super::ClothSim::move_frame)).
+    pub inertia: Inertia,
 }
 
 impl Default for SolverSettings {
@@ -203,6 +209,9 @@ impl Default for SolverSettings {
             sleep_speed: 0.005,
             sleep_steps: 30,
             self_collision: SelfCollision::default(),
+            targets: TargetLimits::default(),
+            tethers: Tethers::default(),
+            inertia: Inertia::default(),
         }
     }
 }
@@ -219,6 +228,9 @@ impl SolverSettings {
         non_negative("lift_coefficient", self.lift_coefficient)?;
         non_negative("sleep_speed", self.sleep_speed)?;
         self.self_collision.validate()?;
+        self.targets.validate()?;
+        self.tethers.validate()?;
+        self.inertia.validate()?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -268,5 +280,106 @@ impl SelfCollision {
     pub fn validate(&self) -> Result<(), ClothError> {
         positive("self_collision.thickness", self.thickness)?;
         non_negative("self_collision.friction", self.friction)
+    }
+}
+
+/// Limits on particles tied to an animated target (a skinned position, or the rest shape carried
+/// by the cloth's transform): a particle of weight `w > 0` stays within `w × max_distance_scale`
+/// of its target, and outside a backstop sphere behind it. A weight of 0 is a pin.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct TargetLimits {
+    /// Maximum distance from the target per unit weight, m.
+    pub max_distance_scale: f32,
+    /// Radius of the backstop sphere, m (0: no backstop). Its centre lies behind the target
+    /// along the target's normal, at `backstop_radius + backstop_offset`, so a particle stays at
+    /// least `backstop_offset` in front of the animated surface near its target.
+    pub backstop_radius: f32,
+    /// How far behind the target the backstop sphere begins, m (negative: in front of it).
+    pub backstop_offset: f32,
+}
+
+impl Default for TargetLimits {
+    /// 1 m per unit weight, no backstop.
+    fn default() -> Self {
+        Self {
+            max_distance_scale: 1.0,
+            backstop_radius: 0.0,
+            backstop_offset: 0.0,
+        }
+    }
+}
+
+impl TargetLimits {
+    /// Checks the scale and radius are finite and non-negative and the offset finite.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        non_negative("targets.max_distance_scale", self.max_distance_scale)?;
+        non_negative("targets.backstop_radius", self.backstop_radius)?;
+        crate::error::finite("targets.backstop_offset", self.backstop_offset)
+    }
+}
+
+/// Tethers (long-range attachments): each free particle stays within `1 + slack` times its
+/// geodesic rest distance (along the mesh's edges) from the nearest pinned particle, so a cloth
+/// hanging from its pins does not stretch however few iterations it runs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct Tethers {
+    /// Whether tethers act.
+    pub enabled: bool,
+    /// Stretch allowed beyond the geodesic rest distance, as a fraction (0 = none).
+    pub slack: f32,
+}
+
+impl Default for Tethers {
+    /// Off, 2% slack.
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            slack: 0.02,
+        }
+    }
+}
+
+impl Tethers {
+    /// Checks the slack is finite and non-negative.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        non_negative("tethers.slack", self.slack)
+    }
+}
+
+/// How much of its reference frame's motion the cloth feels (its inertia in that frame): 1 is
+/// plain world-space simulation, 0 makes the free particles move with the frame as if it were
+/// still (a cape on a character that sprints off or rides a platform), values between damp the
+/// frame's pull. Linear and angular motion are scaled separately.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct Inertia {
+    /// Fraction of the frame's translation the cloth feels, 0..=1.
+    pub linear: f32,
+    /// Fraction of the frame's rotation the cloth feels, 0..=1.
+    pub angular: f32,
+}
+
+impl Default for Inertia {
+    /// World space: the cloth feels all of its frame's motion.
+    fn default() -> Self {
+        Self {
+            linear: 1.0,
+            angular: 1.0,
+        }
+    }
+}
+
+impl Inertia {
+    /// Checks both factors lie in 0..=1.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        unit_interval("inertia.linear", self.linear)?;
+        unit_interval("inertia.angular", self.angular)
+    }
+
+    /// Whether the cloth feels all of its frame's motion (nothing to do).
+    pub fn is_world(&self) -> bool {
+        self.linear == 1.0 && self.angular == 1.0
     }
 }

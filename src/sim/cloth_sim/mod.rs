@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::contact::{Collider, Contacts, SelfContacts, bounds};
+use super::contact::{Collider, Contacts, Pose, SelfContacts, Target, bounds};
 use super::forces::{SpringSet, max_frequency_bound};
 use super::integrate::{Spread, Step, Steppers};
 use super::model::{ClothModel, SpringKind};
@@ -55,6 +55,9 @@ pub struct ClothSim {
     /// Positions at the start of the current step, for the sleep test (empty when sleeping is off).
     step_start: Vec<Vec3>,
     runaway: Runaway,
+    /// The reference frame's pose at the start and end of the next step (see
+    /// [`Self::move_frame`]).
+    frame: Option<(Pose, Pose)>,
 }
 
 /// Steps of consecutive energy growth after which an explicit integrator past its stability limit
@@ -166,6 +169,7 @@ impl ClothSim {
             contact_work: None,
             step_start: Vec::with_capacity(n),
             runaway: Runaway::default(),
+            frame: None,
         };
         sim.apply_settings();
         Ok(sim)
@@ -255,6 +259,14 @@ impl ClothSim {
         for pin in &self.pins {
             p.inv_mass[pin.particle as usize] = 0.0;
         }
+        let pinned: Vec<bool> = p.inv_mass.iter().map(|w| *w == 0.0).collect();
+        let limits = self.contacts.limits_mut();
+        limits.set_settings(self.settings.targets);
+        limits.set_tethers(
+            self.settings.tethers,
+            (&self.model.triangles, &self.model.rest_positions),
+            &pinned,
+        );
         let mut scratch = vec![0.0; self.particles.positions.len()];
         self.omega_max =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
@@ -442,6 +454,76 @@ impl ClothSim {
         }
     }
 
+    /// Ties particles to animated targets (replacing any earlier ones): each [`Target`]'s particle
+    /// stays within `weight × max_distance_scale` of its target's position and, with a backstop
+    /// ([`SolverSettings::targets`]), outside the backstop sphere behind it. Targets move with
+    /// [`Self::move_targets`], interpolated across each step like pins. A pinned particle ignores
+    /// its target. Bad input (a particle out of range, a negative or non-finite weight, a
+    /// non-finite position or normal) is an error and changes nothing.
+    pub fn set_targets(&mut self, targets: &[Target]) -> Result<(), ClothError> {
+        let count = self.particles.positions.len();
+        for t in targets {
+            if t.particle as usize >= count {
+                return Err(ClothError::PinOutOfRange {
+                    index: t.particle,
+                    count,
+                });
+            }
+            crate::error::non_negative("target weight", t.weight)?;
+            crate::error::finite_vec3(
+                [
+                    "target position.x",
+                    "target position.y",
+                    "target position.z",
+                ],
+                t.position,
+            )?;
+            crate::error::finite_vec3(
+                ["target normal.x", "target normal.y", "target normal.z"],
+                t.normal,
+            )?;
+        }
+        self.contacts
+            .limits_mut()
+            .set_targets(targets.iter().copied());
+        self.wake();
+        Ok(())
+    }
+
+    /// Moves the targets, in the order given to [`Self::set_targets`], to `(position, normal)`
+    /// at the end of the next step; they travel there linearly across it. Non-finite values are
+    /// ignored (the target keeps its last one).
+    pub fn move_targets(&mut self, targets: impl IntoIterator<Item = (Vec3, Vec3)>) {
+        self.contacts.limits_mut().move_targets(targets);
+    }
+
+    /// Number of targets ([`Self::set_targets`]) and of tethers ([`SolverSettings::tethers`]:
+    /// one per free particle joined to a pinned one along the mesh).
+    pub fn limit_counts(&self) -> (usize, usize) {
+        self.contacts.limits().counts()
+    }
+
+    /// Sets where the cloth's reference frame will be at the end of the next step (its start is
+    /// where the last call left it). With [`SolverSettings::inertia`] below 1, the free particles
+    /// are carried along by that share of the frame's motion, substep by substep, without feeling
+    /// it; at 1 (the default) the frame changes nothing. A non-finite pose is ignored.
+    pub fn move_frame(&mut self, pose: Pose) {
+        if !(pose.translation.is_finite() && pose.rotation.is_finite()) {
+            return;
+        }
+        let from = self.frame.map_or(pose, |(_, to)| to);
+        self.frame = Some((from, pose));
+    }
+
+    /// The frame's motion over the next step as the steppers take it: `None` when the cloth
+    /// feels all of it or it stands still.
+    fn frame_motion(&self) -> Option<(Pose, Pose, super::settings::Inertia)> {
+        let inertia = self.settings.inertia;
+        self.frame
+            .filter(|(from, to)| !inertia.is_world() && from != to)
+            .map(|(from, to)| (from, to, inertia))
+    }
+
     /// Kinetic energy of the free particles, J.
     pub fn kinetic_energy(&self) -> f32 {
         self.particles
@@ -572,6 +654,7 @@ impl ClothSim {
             (&self.particles.inv_mass, dt),
             &self.model.triangles,
         );
+        let frame = self.frame_motion();
         let mut step = Step {
             model: &self.model,
             settings: &self.settings,
@@ -581,6 +664,7 @@ impl ClothSim {
             particles: &mut self.particles,
             contacts: &mut self.contacts,
             contact_work: &mut self.contact_work,
+            frame,
         };
         // `choose_integrator` never leaves `Auto` active.
         self.steppers
@@ -588,6 +672,10 @@ impl ClothSim {
         self.steps += 1;
         for pin in &mut self.pins {
             pin.from = pin.to;
+        }
+        self.contacts.limits_mut().end_step();
+        if let Some((from, to)) = &mut self.frame {
+            *from = *to;
         }
         let p = &self.particles;
         let not_finite = |v: &[Vec3]| v.iter().position(|x| !x.is_finite());
@@ -650,7 +738,7 @@ impl ClothSim {
             return false;
         }
         let disturbed = env.wind.is_some()
-            || self.pins.iter().any(|p| p.from != p.to)
+            || self.driven()
             || self.contacts.any_moving()
             || self.contacts.active_count() != self.sleep.colliders;
         if disturbed {
@@ -663,7 +751,7 @@ impl ClothSim {
     /// Counts quiet steps after a step that ran, and puts the cloth to sleep after enough of them.
     fn update_sleep(&mut self, env: &Environment, dt: f32) {
         let threshold = self.settings.sleep_speed;
-        if threshold <= 0.0 || env.wind.is_some() || self.pins.iter().any(|p| p.from != p.to) {
+        if threshold <= 0.0 || env.wind.is_some() || self.driven() {
             self.sleep.quiet_steps = 0;
             return;
         }
@@ -689,14 +777,35 @@ impl ClothSim {
         }
     }
 
+    /// Whether a pin, a target or the reference frame (felt at less than full inertia) moves
+    /// during the next step.
+    fn driven(&self) -> bool {
+        self.pins.iter().any(|p| p.from != p.to)
+            || self.contacts.limits().moving()
+            || self.frame_motion().is_some()
+    }
+
     /// A generous bound on how far any particle can move in a step of `dt` when none is faster
-    /// than `speed`: twice its free flight, plus gravity, plus the farthest pin jump.
+    /// than `speed`: twice its free flight, plus gravity, plus the farthest pin or target jump,
+    /// plus how far the frame carries it.
     fn reach_bound(&self, dt: f32, speed: f32) -> f32 {
         let pin_jump = self
             .pins
             .iter()
             .map(|p| p.from.distance(p.to))
-            .fold(0.0, f32::max);
-        2.0 * speed * dt + self.settings.gravity.length() * dt * dt + pin_jump
+            .fold(self.contacts.limits().max_jump(), f32::max);
+        let carried = self.frame_motion().map_or(0.0, |(from, to, inertia)| {
+            // The frame's turn sweeps the particles by at most its angle times their distance
+            // from its origin (bounded through the cloth's box).
+            let (lo, hi) = bounds(&self.particles.positions);
+            let far = (lo - from.translation)
+                .abs()
+                .max((hi - from.translation).abs())
+                .length();
+            let angle = from.rotation.angle_between(to.rotation);
+            (1.0 - inertia.linear) * from.translation.distance(to.translation)
+                + (1.0 - inertia.angular) * angle * far
+        });
+        2.0 * speed * dt + self.settings.gravity.length() * dt * dt + pin_jump + carried
     }
 }

@@ -1,6 +1,9 @@
 //! Collisions between a cloth and kinematic colliders (spheres, capsules, cuboids and
 //! half-spaces), and of a cloth with itself (`self_contact`, resolved right after the colliders in
 //! the same substeps and on the same `ContactState`s; its pipeline is in that module's docs).
+//! The limits on where a particle may go (`limits`: a maximum distance from an animated target,
+//! a backstop behind it, tethers to the pins) are resolved in the same pass, just before the
+//! colliders.
 //!
 //! # Pipeline, per step and per substep
 //! 1. **Broad phase** (once per step, `Contacts::begin_step`): the cloth's bounding box, grown by
@@ -45,6 +48,7 @@
 //! becomes Coulomb's law with static and kinetic coefficients, measured relative to the collider's
 //! own velocity.
 
+mod limits;
 mod narrow;
 mod self_contact;
 mod shapes;
@@ -55,6 +59,8 @@ use glam::Vec3;
 
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
+pub(crate) use limits::Limits;
+pub use limits::Target;
 pub(crate) use narrow::ContactState;
 use narrow::{ActiveCollider, resolve};
 pub(crate) use self_contact::SelfContacts;
@@ -114,6 +120,8 @@ pub(crate) struct Contacts {
     max_edge: f32,
     /// The cloth's contacts with itself, when enabled.
     self_contacts: Option<SelfContacts>,
+    /// Targets and tethers, resolved before the colliders.
+    limits: Limits,
 }
 
 impl Contacts {
@@ -125,6 +133,7 @@ impl Contacts {
             clearance: vec![0.0; particles],
             max_edge,
             self_contacts: None,
+            limits: Limits::default(),
         }
     }
 
@@ -146,10 +155,20 @@ impl Contacts {
         }
     }
 
-    /// Whether any contact is resolved this step: a collider survived the broad phase, or the
-    /// cloth collides with itself.
+    /// The targets and tethers.
+    pub fn limits(&self) -> &Limits {
+        &self.limits
+    }
+
+    /// The targets and tethers, to edit.
+    pub fn limits_mut(&mut self) -> &mut Limits {
+        &mut self.limits
+    }
+
+    /// Whether anything is resolved this step: a collider survived the broad phase, the cloth
+    /// collides with itself, or it has targets or tethers.
     pub fn is_active(&self) -> bool {
-        !self.active.is_empty() || self.self_contacts.is_some()
+        !self.active.is_empty() || self.self_contacts.is_some() || !self.limits.is_empty()
     }
 
     /// Number of colliders that survived the broad phase of this step.
@@ -246,6 +265,7 @@ impl Contacts {
             start,
             clearance,
             self_contacts,
+            limits,
             ..
         } = self;
         let mut state = Vectors {
@@ -255,7 +275,7 @@ impl Contacts {
             inv_mass,
         };
         resolve_all(
-            (active, clearance, self_contacts.as_mut()),
+            (active, clearance, self_contacts.as_mut(), limits),
             (t0, t1, h),
             triangles,
             &mut state,
@@ -263,7 +283,8 @@ impl Contacts {
     }
 
     /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
-    /// `h`: every free particle (inverse mass > 0) is moved out of every active collider and its
+    /// `h`: every free particle (inverse mass > 0) is brought back within its targets' and
+    /// tethers' limits, moved out of every active collider and its
     /// velocity corrected; then, for small spheres, every triangle; then the cloth's layers are
     /// kept apart (with self-contacts on).
     pub fn resolve_state<S: ContactState>(
@@ -277,6 +298,7 @@ impl Contacts {
                 &self.active,
                 &mut self.clearance,
                 self.self_contacts.as_mut(),
+                &self.limits,
             ),
             (t0, t1, h),
             triangles,
@@ -285,18 +307,23 @@ impl Contacts {
     }
 }
 
-/// The colliders' response, then the self-contacts' (if any); the colliders once more if the
-/// self-contacts moved anything, since pushing layers apart may push one into a collider.
+/// The limits (targets and tethers), the colliders' response, then the self-contacts' (if any);
+/// the colliders once more if the self-contacts moved anything, since pushing layers apart may
+/// push one into a collider. Colliders come after the limits so that they have the last word.
 fn resolve_all<S: ContactState>(
-    (active, clearance, self_contacts): (
+    (active, clearance, self_contacts, limits): (
         &[ActiveCollider],
         &mut Vec<f32>,
         Option<&mut SelfContacts>,
+        &Limits,
     ),
     t: (f32, f32, f32),
     triangles: &[u32],
     state: &mut S,
 ) {
+    if !limits.is_empty() {
+        limits.resolve(t, state);
+    }
     resolve(active, clearance, t, triangles, state);
     if let Some(s) = self_contacts
         && s.resolve(t.2, state)

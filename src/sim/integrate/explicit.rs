@@ -7,7 +7,7 @@
 //! particles following their interpolated targets, velocities decaying as `exp(-damping t)`.
 //! Nothing here allocates.
 
-use super::step::{Order, SoaState, Step};
+use super::step::{Order, SoaState, Step, frame_shift};
 use crate::sim::forces::{ForceRuns, add_spring_forces};
 use crate::sim::model::ClothModel;
 use crate::sim::soa::Soa;
@@ -69,10 +69,15 @@ impl Explicit {
         let keep = (-s.settings.damping * h).exp();
         self.state.load(s.particles, &Order::default());
         for sub in 0..n {
+            let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
             self.state.begin_substep(s.contacts);
             self.compute_forces(s);
             self.kick_drift_all(&s.particles.inv_mass, h, keep, h);
-            let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+            // The frame's unfelt motion over the substep, so that the next forces see the free
+            // particles and the pins at the same time.
+            if let Some(shift) = frame_shift(s.frame, t0, t1) {
+                self.state.carry(&shift, &s.particles.inv_mass, false);
+            }
             self.state
                 .drive_pins(s.pins, &Order::default(), (t0, t1), inv_h);
             self.resolve_contacts(s, sub, n, h);
@@ -96,9 +101,17 @@ impl Explicit {
                 *x += if *w > 0.0 { *v * half } else { 0.0 };
             }
         }
+        let mut carried_to = 0.0;
         for sub in 0..n {
-            self.state.begin_substep(s.contacts);
+            let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
             let mid = (sub as f32 + 0.5) / n as f32;
+            // The free particles stand at the substep's middle, where the pins are put: carried
+            // along by the frame's unfelt motion up to there.
+            if let Some(shift) = frame_shift(s.frame, carried_to, mid) {
+                self.state.carry(&shift, &s.particles.inv_mass, false);
+            }
+            carried_to = mid;
+            self.state.begin_substep(s.contacts);
             for pin in s.pins {
                 self.state
                     .x
@@ -109,7 +122,9 @@ impl Explicit {
             // Close this substep's drift and (unless it is the last) open the next one's.
             self.kick_drift_all(&s.particles.inv_mass, h, keep, if last { half } else { h });
             if last {
-                let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+                if let Some(shift) = frame_shift(s.frame, mid, 1.0) {
+                    self.state.carry(&shift, &s.particles.inv_mass, false);
+                }
                 self.state
                     .drive_pins(s.pins, &Order::default(), (t0, t1), inv_h);
             }

@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 
-use super::step::{Step, add_contact_work};
+use super::step::{Step, add_contact_work, frame_shift};
 use crate::sim::forces::{
     SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
 };
@@ -131,7 +131,7 @@ impl Implicit {
             particles,
             contacts,
             contact_work,
-            ..
+            frame,
         } = st;
         let Particles {
             positions: x,
@@ -159,8 +159,9 @@ impl Implicit {
             }
         }
         for sub in 0..n {
-            contacts.begin_substep(x);
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+            let shift = frame_shift(*frame, t0, t1);
+            contacts.begin_substep(x);
             // Forces and their linearisation at the start of the substep.
             for (f, m) in forces.iter_mut().zip(mass.iter()) {
                 *f = *m * g;
@@ -171,6 +172,15 @@ impl Implicit {
             // rhs = h f - h² K v.
             for (b, f) in s.rhs.iter_mut().zip(forces.iter()) {
                 *b = *f * h;
+            }
+            // The free particles are carried along by the frame's unfelt motion at the substep's
+            // end (below): relative to them, the pins move that much less (their velocity and
+            // target here; `drive_pins` sets both afterwards).
+            if let Some(shift) = &shift {
+                for pin in pins.iter() {
+                    let i = pin.particle as usize;
+                    v[i] -= (shift.point(x[i]) - x[i]) * inv_h;
+                }
             }
             add_stiffness_product(springs.a, springs.b, &s.jacobians, -h2, v, &mut s.rhs);
             // Jacobi preconditioner: the diagonal of M + h² K.
@@ -188,7 +198,10 @@ impl Implicit {
             // Prescribed Δv of the pinned particles; free ones start from the last substep's Δv.
             for pin in pins.iter() {
                 let i = pin.particle as usize;
-                let target = pin.from.lerp(pin.to, t1);
+                let mut target = pin.from.lerp(pin.to, t1);
+                if let Some(shift) = &shift {
+                    target -= shift.point(x[i]) - x[i];
+                }
                 s.dv[i] = (target - x[i]) * inv_h - v[i];
             }
             filter(&mut s.rhs, inv_mass);
@@ -270,6 +283,15 @@ impl Implicit {
                 if *w > 0.0 {
                     *v = (*v + *dv) * keep;
                     *x += *v * h;
+                }
+            }
+            if let Some(shift) = shift {
+                shift.carry(inv_mass, x, v);
+                // The next substep's first guess turns with the velocities.
+                for (dv, w) in s.dv.iter_mut().zip(inv_mass.iter()) {
+                    if *w > 0.0 {
+                        *dv = shift.vector(*dv);
+                    }
                 }
             }
             drive_pins(pins, t0, t1, inv_h, x, v);

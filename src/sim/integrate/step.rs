@@ -2,12 +2,12 @@
 //! scratch), and [`SoaState`], the coordinate arrays the vector steppers (XPBD, symplectic Euler,
 //! Verlet) step in, with their contact response.
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
-use crate::sim::contact::{ContactState, Contacts, Near, soa_clearances};
+use crate::sim::contact::{ContactState, Contacts, Near, Pose, soa_clearances};
 use crate::sim::forces::SpringSet;
 use crate::sim::model::ClothModel;
-use crate::sim::settings::SolverSettings;
+use crate::sim::settings::{Inertia, SolverSettings};
 use crate::sim::soa::Soa;
 use crate::sim::state::{Energy, Particles, PinState, pin_motion};
 use crate::sim::wind::WindScratch;
@@ -31,6 +31,9 @@ pub(crate) struct Step<'a> {
     pub contacts: &'a mut Contacts,
     /// Energy the contact responses added, J, when tracked (see `ClothSim::track_contact_work`).
     pub contact_work: &'a mut Option<f64>,
+    /// The reference frame's poses at the step's start and end, and how much of its motion
+    /// the cloth feels; `None` when it feels all of it (or the frame stands still).
+    pub frame: Option<(Pose, Pose, Inertia)>,
 }
 
 impl Step<'_> {
@@ -56,6 +59,56 @@ impl Step<'_> {
 pub(crate) fn add_contact_work(work: &mut Option<f64>, before: f64, after: f64) {
     if let Some(work) = work {
         *work += (after - before).max(0.0);
+    }
+}
+
+/// The part of the reference frame's motion over the substep `[t0, t1]` (fractions of the step)
+/// that the cloth does not feel, to carry its free particles along by at the substep's start
+/// (`frame`: see [`Step::frame`]).
+pub(crate) fn frame_shift(frame: Option<(Pose, Pose, Inertia)>, t0: f32, t1: f32) -> Option<Shift> {
+    let (from, to, inertia) = frame?;
+    // The frame turns at a constant rate (its rotation is slerped): over any part of the step,
+    // by the same power of the step's turn, taken once from the step's two ends (a turn between
+    // two slerped poses would carry their rounding, larger than a small substep's turn).
+    let turn = (to.rotation * from.rotation.inverse()).normalize();
+    let unfelt = (t1 - t0) * (1.0 - inertia.angular);
+    Some(Shift {
+        origin: from.translation.lerp(to.translation, t0),
+        turn: Quat::IDENTITY.slerp(turn, unfelt).normalize(),
+        translation: (1.0 - inertia.linear) * (t1 - t0) * (to.translation - from.translation),
+    })
+}
+
+/// A rigid motion the free particles are carried along by, unfelt (no force, no change of their
+/// velocity relative to it): a turn about `origin`, then a translation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Shift {
+    origin: Vec3,
+    turn: Quat,
+    translation: Vec3,
+}
+
+impl Shift {
+    /// Where the motion takes point `x`.
+    #[inline]
+    pub fn point(&self, x: Vec3) -> Vec3 {
+        self.origin + self.turn * (x - self.origin) + self.translation
+    }
+
+    /// Where the motion turns vector `v` (a velocity or a displacement).
+    #[inline]
+    pub fn vector(&self, v: Vec3) -> Vec3 {
+        self.turn * v
+    }
+
+    /// Carries the free particles (`inv_mass > 0`) at positions `x` along, turning their
+    /// velocities `v`.
+    pub fn carry(&self, inv_mass: &[f32], x: &mut [Vec3], v: &mut [Vec3]) {
+        for ((x, v), w) in x.iter_mut().zip(v.iter_mut()).zip(inv_mass) {
+            if *w > 0.0 {
+                (*x, *v) = (self.point(*x), self.vector(*v));
+            }
+        }
     }
 }
 
@@ -122,6 +175,23 @@ impl SoaState {
             .write_ordered(&mut particles.positions, order.order());
         self.v
             .write_ordered(&mut particles.velocities, order.order());
+    }
+
+    /// Carries the free particles (`inv_mass > 0`, in storage order) along by `shift`: their
+    /// positions `x`, and their velocities, held in `v` or (`velocity_in_d`, XPBD's predicted
+    /// displacement) in `d`.
+    pub fn carry(&mut self, shift: &Shift, inv_mass: &[f32], velocity_in_d: bool) {
+        let velocity = if velocity_in_d {
+            &mut self.d
+        } else {
+            &mut self.v
+        };
+        for (i, w) in inv_mass.iter().enumerate().take(self.x.len()) {
+            if *w > 0.0 {
+                self.x.set(i, shift.point(self.x.get(i)));
+                velocity.set(i, shift.vector(velocity.get(i)));
+            }
+        }
     }
 
     /// Records where a substep begins, in `d`, for the contact response's swept tests (only with

@@ -17,7 +17,7 @@ mod tests;
 
 use glam::Vec3;
 
-use super::step::{SoaState, Step};
+use super::step::{SoaState, Step, frame_shift};
 use crate::sim::contact::{ContactState, Near, soa_clearances};
 use crate::sim::model::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
@@ -111,8 +111,11 @@ impl Xpbd {
             if sub == 0 || after {
                 self.advance::<false, true>(&motion, wind, lead);
             }
-            // Pinned particles are given the displacement to their targets.
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
+            if let Some(shift) = frame_shift(s.frame, t0, t1) {
+                self.state.carry(&shift, &self.layout.inv_mass, true);
+            }
+            // Pinned particles are given the displacement to their targets.
             for pin in s.pins {
                 let i = self.layout.stored(pin.particle) as usize;
                 let (target, _) = pin_motion(pin, t0, t1, inv_h);

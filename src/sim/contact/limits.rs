@@ -1,0 +1,376 @@
+//! Limits on where a particle may go, resolved every substep with the contacts (before the
+//! colliders, so that a collider has the last word):
+//! - **targets**: a particle tied to an animated target (its skinned position, say) stays within
+//!   a maximum distance of it, and outside a backstop sphere behind it (along the target's
+//!   normal), so a cape follows its character without sinking into its back;
+//! - **tethers** (long-range attachments): a free particle stays within its geodesic rest
+//!   distance, times `1 + slack`, of the nearest pinned particle, so that stretch under a sudden
+//!   pull does not depend on how many iterations the springs get.
+//!
+//! Each limit is a one-sided distance constraint between the particle and a point that moves on
+//! its own (the target, interpolated across the step like a pin; the pinned anchor, already at
+//! the substep's end): a particle past it is projected back onto it, and its velocity relative
+//! to that point loses the component that would carry it out again (the same inelastic response
+//! as a contact, so a limit never adds energy of its own).
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use glam::Vec3;
+
+use super::narrow::ContactState;
+use crate::sim::settings::{TargetLimits, Tethers};
+
+/// A particle tied to an animated target (see [`crate::sim::ClothSim::set_targets`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Target {
+    /// The particle.
+    pub particle: u32,
+    /// Its weight: it stays within `weight × max_distance_scale` of the target (0: on it).
+    pub weight: f32,
+    /// The target's position, m (world space).
+    pub position: Vec3,
+    /// The animated surface's normal at the target (the backstop lies behind it); any length,
+    /// zero for no backstop.
+    pub normal: Vec3,
+}
+
+/// A target's state over a step: where it is at the step's start and end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Moving {
+    particle: u32,
+    weight: f32,
+    from: Vec3,
+    to: Vec3,
+    normal_from: Vec3,
+    normal_to: Vec3,
+}
+
+/// A tether: `particle` stays within `length` of `anchor` (a pinned particle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Tether {
+    particle: u32,
+    anchor: u32,
+    length: f32,
+}
+
+/// A cloth's targets and tethers, with the settings they are resolved with.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Limits {
+    targets: Vec<Moving>,
+    tethers: Vec<Tether>,
+    settings: Option<TargetLimits>,
+}
+
+impl Limits {
+    /// Whether there is nothing to resolve.
+    pub fn is_empty(&self) -> bool {
+        self.targets.is_empty() && self.tethers.is_empty()
+    }
+
+    /// Number of targets and of tethers.
+    pub fn counts(&self) -> (usize, usize) {
+        (self.targets.len(), self.tethers.len())
+    }
+
+    /// Sets how far targeted particles may leave their targets.
+    pub fn set_settings(&mut self, settings: TargetLimits) {
+        self.settings = Some(settings);
+    }
+
+    /// Replaces the targets; each starts the next step where it is given (no motion).
+    pub fn set_targets(&mut self, targets: impl IntoIterator<Item = Target>) {
+        self.targets.clear();
+        self.targets.extend(targets.into_iter().map(|t| Moving {
+            particle: t.particle,
+            weight: t.weight,
+            from: t.position,
+            to: t.position,
+            normal_from: t.normal,
+            normal_to: t.normal,
+        }));
+    }
+
+    /// Moves the targets, in the order [`Self::set_targets`] took them, to `(position, normal)`
+    /// at the end of the next step. Non-finite values are ignored.
+    pub fn move_targets(&mut self, moves: impl IntoIterator<Item = (Vec3, Vec3)>) {
+        for (t, (position, normal)) in self.targets.iter_mut().zip(moves) {
+            if position.is_finite() {
+                t.to = position;
+            }
+            if normal.is_finite() {
+                t.normal_to = normal;
+            }
+        }
+    }
+
+    /// Whether a target moves during the next step.
+    pub fn moving(&self) -> bool {
+        self.targets
+            .iter()
+            .any(|t| t.from != t.to || t.normal_from != t.normal_to)
+    }
+
+    /// The farthest any target moves during the next step, m.
+    pub fn max_jump(&self) -> f32 {
+        self.targets
+            .iter()
+            .map(|t| t.from.distance(t.to))
+            .fold(0.0, f32::max)
+    }
+
+    /// Ends a step: the targets' end becomes the next step's start.
+    pub fn end_step(&mut self) {
+        for t in &mut self.targets {
+            t.from = t.to;
+            t.normal_from = t.normal_to;
+        }
+    }
+
+    /// Ties every particle that a path along the `triangles`' edges joins to a pinned particle
+    /// (`pinned[i]`) to the nearest such one, at `1 + slack` times their distance along the
+    /// edges at rest (`rest`); or drops every tether when `tethers` is off or nothing is pinned.
+    pub fn set_tethers(
+        &mut self,
+        tethers: Tethers,
+        (triangles, rest): (&[u32], &[Vec3]),
+        pinned: &[bool],
+    ) {
+        self.tethers.clear();
+        if !tethers.enabled || !pinned.contains(&true) {
+            return;
+        }
+        let (nearest, distance) = geodesic_to_nearest(triangles, rest, pinned);
+        let stretch = 1.0 + tethers.slack;
+        for (i, (&anchor, &d)) in nearest.iter().zip(&distance).enumerate() {
+            if anchor != u32::MAX && !pinned[i] {
+                self.tethers.push(Tether {
+                    particle: i as u32,
+                    anchor,
+                    length: d * stretch,
+                });
+            }
+        }
+    }
+
+    /// Projects every free particle that has left its limits back onto them at the end of the
+    /// substep `[t0, t1]` (fractions of the step) of length `h`.
+    pub fn resolve<S: ContactState>(&self, (t0, t1, h): (f32, f32, f32), state: &mut S) {
+        let inv_h = 1.0 / h;
+        for t in &self.tethers {
+            let i = state.slot(t.particle);
+            if state.inv_mass(i) == 0.0 {
+                continue;
+            }
+            let a = state.slot(t.anchor);
+            let (centre, velocity) = (state.position(a), state.velocity(a));
+            within(state, i, (centre, velocity), t.length);
+        }
+        let Some(s) = self.settings else {
+            return;
+        };
+        for t in &self.targets {
+            let i = state.slot(t.particle);
+            if state.inv_mass(i) == 0.0 {
+                continue;
+            }
+            let target = t.from.lerp(t.to, t1);
+            let velocity = (target - t.from.lerp(t.to, t0)) * inv_h;
+            within(
+                state,
+                i,
+                (target, velocity),
+                t.weight * s.max_distance_scale,
+            );
+            if s.backstop_radius > 0.0 {
+                let normal = t.normal_from.lerp(t.normal_to, t1).normalize_or_zero();
+                if normal != Vec3::ZERO {
+                    let centre = target - normal * (s.backstop_radius + s.backstop_offset);
+                    outside(state, i, (centre, velocity, normal), s.backstop_radius);
+                }
+            }
+        }
+    }
+}
+
+/// Keeps the particle at `i` within `radius` of `centre`, which moves at `velocity`.
+fn within<S: ContactState>(state: &mut S, i: usize, (centre, velocity): (Vec3, Vec3), radius: f32) {
+    let x = state.position(i);
+    let offset = x - centre;
+    let distance2 = offset.length_squared();
+    if distance2 <= radius * radius {
+        return;
+    }
+    let n = offset / distance2.sqrt();
+    let mut v = state.velocity(i);
+    let outward = (v - velocity).dot(n);
+    if outward > 0.0 {
+        v -= outward * n;
+    }
+    state.set(i, centre + n * radius, v);
+}
+
+/// Keeps the particle at `i` at least `radius` from `centre`, which moves at `velocity`; a
+/// particle at the centre leaves along `normal`.
+fn outside<S: ContactState>(
+    state: &mut S,
+    i: usize,
+    (centre, velocity, normal): (Vec3, Vec3, Vec3),
+    radius: f32,
+) {
+    let x = state.position(i);
+    let offset = x - centre;
+    let distance = offset.length();
+    if distance >= radius {
+        return;
+    }
+    let n = if distance > 1e-9 * radius {
+        offset / distance
+    } else {
+        normal
+    };
+    let mut v = state.velocity(i);
+    let inward = (v - velocity).dot(n);
+    if inward < 0.0 {
+        v -= inward * n;
+    }
+    state.set(i, centre + n * radius, v);
+}
+
+/// For every particle, the nearest pinned particle along the triangles' edges (`u32::MAX` where
+/// none is joined to it) and the length of that path at rest, by Dijkstra's algorithm from all
+/// pinned particles at once. Ties go to the lower-numbered anchor, whatever the order of work.
+fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Vec<u32>, Vec<f32>) {
+    let n = rest.len();
+    // Each triangle's edges, both ways, as an adjacency list (compressed rows).
+    let mut degree = vec![0u32; n + 1];
+    let edges = triangles.chunks_exact(3).flat_map(|t| {
+        [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]
+            .into_iter()
+            .flat_map(|(a, b)| [(a, b), (b, a)])
+    });
+    for (a, _) in edges.clone() {
+        degree[a as usize + 1] += 1;
+    }
+    for i in 0..n {
+        degree[i + 1] += degree[i];
+    }
+    let mut fill = degree.clone();
+    let mut neighbours = vec![0u32; degree[n] as usize];
+    for (a, b) in edges {
+        neighbours[fill[a as usize] as usize] = b;
+        fill[a as usize] += 1;
+    }
+
+    /// A particle reached at `distance` from `anchor`, ordered nearest first for the max-heap.
+    #[derive(PartialEq)]
+    struct Reached {
+        distance: f32,
+        anchor: u32,
+        particle: u32,
+    }
+    impl Eq for Reached {}
+    impl Ord for Reached {
+        fn cmp(&self, other: &Self) -> Ordering {
+            other
+                .distance
+                .total_cmp(&self.distance)
+                .then(other.anchor.cmp(&self.anchor))
+                .then(other.particle.cmp(&self.particle))
+        }
+    }
+    impl PartialOrd for Reached {
+        fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+
+    let mut nearest = vec![u32::MAX; n];
+    let mut distance = vec![f32::INFINITY; n];
+    let mut done = vec![false; n];
+    let mut heap = BinaryHeap::new();
+    for (i, _) in pinned.iter().enumerate().filter(|(_, p)| **p) {
+        heap.push(Reached {
+            distance: 0.0,
+            anchor: i as u32,
+            particle: i as u32,
+        });
+    }
+    while let Some(r) = heap.pop() {
+        let p = r.particle as usize;
+        if done[p] {
+            continue;
+        }
+        done[p] = true;
+        (nearest[p], distance[p]) = (r.anchor, r.distance);
+        for &q in &neighbours[degree[p] as usize..degree[p + 1] as usize] {
+            let q = q as usize;
+            if !done[q] {
+                let d = r.distance + rest[p].distance(rest[q]);
+                if d <= distance[q] {
+                    distance[q] = d;
+                    heap.push(Reached {
+                        distance: d,
+                        anchor: r.anchor,
+                        particle: q as u32,
+                    });
+                }
+            }
+        }
+    }
+    (nearest, distance)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::model::{ClothModel, GridPlane, GridSpec};
+
+    #[test]
+    fn geodesic_distances_follow_the_edges_to_the_nearest_pin() {
+        // A 5×4 grid of 0.1 m spacing pinned at its two top corners: each particle is tied to
+        // the corner on its side, at a path length between the straight line and the path along
+        // rows and columns (the triangles' diagonals shorten it).
+        let spec = GridSpec::new(5, 4, 0.1).with_plane(GridPlane::Vertical);
+        let model = ClothModel::grid(&spec).unwrap();
+        let rest = &model.rest_positions;
+        let n = model.particle_count();
+        let top = rest.iter().map(|q| q.y).fold(f32::MIN, f32::max);
+        let corners: Vec<usize> = (0..n)
+            .filter(|&i| rest[i].y == top && (i % 5 == 0 || i % 5 == 4))
+            .collect();
+        assert_eq!(corners.len(), 2);
+        let mut pinned = vec![false; n];
+        for &c in &corners {
+            pinned[c] = true;
+        }
+        let (nearest, distance) = geodesic_to_nearest(&model.triangles, rest, &pinned);
+        for i in 0..n {
+            let a = nearest[i] as usize;
+            assert!(corners.contains(&a), "particle {i} tied to {a}");
+            if i % 5 != 2 {
+                assert_eq!(
+                    a.is_multiple_of(5),
+                    i % 5 < 2,
+                    "particle {i} tied to the far corner {a}"
+                );
+            }
+            let d = rest[i] - rest[a];
+            let (straight, rows_and_columns) = (d.length(), d.abs().element_sum());
+            assert!(
+                (straight - 1e-6..=rows_and_columns + 1e-6).contains(&distance[i]),
+                "particle {i}: {} not in {straight}..={rows_and_columns}",
+                distance[i]
+            );
+        }
+        assert!(
+            (0..n)
+                .any(|i| distance[i]
+                    < (rest[i] - rest[nearest[i] as usize]).abs().element_sum() - 1e-3),
+            "no path took a diagonal"
+        );
+        // Nothing pinned: no anchor anywhere.
+        let (nearest, _) = geodesic_to_nearest(&model.triangles, rest, &vec![false; n]);
+        assert!(nearest.iter().all(|&a| a == u32::MAX));
+    }
+}
