@@ -484,6 +484,77 @@ impl ClothPins {
     }
 }
 
+/// Where a cloth's per-particle weights come from (see [`ClothTargets`]).
+#[derive(Debug, Clone, PartialEq, Reflect)]
+pub enum TargetWeights {
+    /// One weight per particle (for grids, `j * nx + i`); a negative weight leaves the particle
+    /// free. For a mesh cloth, one per vertex.
+    Values(Vec<f32>),
+    /// A channel of the source mesh's vertex colours (`COLOR_0`, as the glTF loader reads it):
+    /// 0 red, 1 green, 2 blue, 3 alpha. Painting weights in a vertex colour channel is the
+    /// convention of bevy_silk and O3DE.
+    Color(u8),
+    /// A float vertex attribute of the source mesh, by name (a custom attribute registered with
+    /// the glTF loader, for example).
+    Attribute(String),
+}
+
+/// Ties a cloth to an animated target, vertex by vertex, with a weight per vertex: weight 0 pins
+/// the vertex to its target; weight `w > 0` lets it move at most `w ×`
+/// [`TargetLimits::max_distance_scale`](crate::sim::TargetLimits) from it and keeps it out of the
+/// backstop behind it (both in [`ClothConfig::solver`]`.targets`). The target is the vertex's
+/// skinned position when the cloth has a [`ClothSkin`] (a cloth spawned on a skinned mesh gets
+/// one), or else its rest position under the cloth's transform.
+///
+/// # Example
+/// ```
+/// use bevy::prelude::*;
+/// use bevy_cloth::prelude::*;
+///
+/// fn spawn(mut commands: Commands) {
+///     // A 16×24 cape: its top row follows the transform exactly, the rest may swing up to 30 cm
+///     // at the hem.
+///     let spec = GridSpec::new(16, 24, 0.03).with_plane(GridPlane::Vertical);
+///     let weights = (0..16 * 24).map(|p| (p / 16) as f32 / 23.0).collect();
+///     let mut config = ClothConfig::default();
+///     config.solver.targets.max_distance_scale = 0.3;
+///     commands.spawn((
+///         Cloth::grid(spec),
+///         ClothTargets { weights: TargetWeights::Values(weights) },
+///         config,
+///     ));
+/// }
+/// # bevy::ecs::system::assert_is_system(spawn);
+/// ```
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+pub struct ClothTargets {
+    /// The weights.
+    pub weights: TargetWeights,
+}
+
+/// The skin a cloth's targets are animated by: its joints and their inverse bind poses, as a
+/// [`SkinnedMesh`](bevy::mesh::skinning::SkinnedMesh) holds them (the cloth's source mesh
+/// carries each vertex's joint indices and weights). A cloth spawned on an entity with a
+/// `SkinnedMesh` has it moved here when it is built, since the cloth's mesh is simulated, not
+/// skinned by the renderer. Each fixed step, every weighted vertex's target is computed on the
+/// CPU: `Σ w · (joint's GlobalTransform · inverse bind pose) · rest position`.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+pub struct ClothSkin {
+    /// The joint entities, in the order the mesh's joint indices refer to.
+    pub joints: Vec<Entity>,
+    /// Their inverse bind poses.
+    pub inverse_bindposes: Handle<bevy::mesh::skinning::SkinnedMeshInverseBindposes>,
+}
+
+/// The reference frame a cloth's [`Inertia`](crate::sim::Inertia) is measured in: the entity
+/// whose motion the cloth feels only in part (a character's root or hip joint). Without it, the
+/// cloth's own entity.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+pub struct ClothFrame(pub Entity);
+
 /// Renders a cloth as a Catmull-Clark subdivision surface of its simulated mesh. Only the render
 /// mesh is refined: the simulation keeps its particles, and each step the refined positions are
 /// computed from a stencil table built once. Editing this component rebuilds the render mesh
@@ -579,8 +650,13 @@ pub struct ClothState {
     /// Render normals after the previous and the latest step.
     pub(crate) normals_prev: Vec<Vec3>,
     pub(crate) normals_curr: Vec<Vec3>,
-    /// Pin targets resolved this tick, in the order of [`ClothPins::pins`] (scratch buffer).
+    /// Pin targets resolved this tick: the [`ClothPins`] in their order, then the targets'
+    /// weight-0 particles listed in `target_pins` (scratch buffer).
     pub(crate) pin_targets: Vec<Vec3>,
+    /// The particles tied to targets ([`ClothTargets`]), when the cloth has any.
+    pub(crate) attachment: Option<crate::skin::Attachment>,
+    /// The entries of `attachment` pinned (weight 0 and not among the [`ClothPins`]).
+    pub(crate) target_pins: Vec<usize>,
     /// Set when stepping failed; the cloth is then stopped.
     pub(crate) failure: Option<ClothError>,
     /// Whether the mesh must be written this frame.
@@ -608,6 +684,24 @@ impl ClothState {
             self.sim.positions().len(),
             index,
         )
+    }
+
+    /// The particles tied to targets ([`ClothTargets`]) and where their targets are after the
+    /// last step (weight 0: pinned there).
+    pub fn targets(&self) -> impl Iterator<Item = crate::sim::Target> + '_ {
+        self.attachment.iter().flat_map(|a| {
+            a.weighted
+                .iter()
+                .zip(&a.targets)
+                .map(
+                    |(&(particle, weight), &(position, normal))| crate::sim::Target {
+                        particle,
+                        weight,
+                        position,
+                        normal,
+                    },
+                )
+        })
     }
 
     /// The simulation (positions, velocities, settings, statistics).

@@ -61,6 +61,13 @@ pub enum ClothError {
         /// Number of particles in the cloth.
         count: usize,
     },
+    /// A cloth's targets ([`ClothTargets`](crate::ClothTargets)) cannot be built: weights that
+    /// do not match the cloth, or a skin that does not match its mesh.
+    #[error("targets: {what}")]
+    InvalidTargets {
+        /// What is wrong.
+        what: String,
+    },
     /// A mesh given as a cloth source lacks something the cloth needs, or is malformed.
     #[error("mesh {what}")]
     InvalidMesh {

@@ -230,6 +230,14 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
             .text("thickness, m"),
     );
     ui.add(slider(&mut sc.friction, 0.0..=1.0).text("friction between layers"));
+    let t = &mut s.targets;
+    ui.add(slider(&mut t.max_distance_scale, 0.0..=2.0).text("max distance per unit weight, m"));
+    ui.add(slider(&mut t.backstop_radius, 0.0..=2.0).text("backstop radius, m (0 = none)"));
+    ui.add(slider(&mut t.backstop_offset, -0.1..=0.1).text("backstop offset, m"));
+    ui.checkbox(&mut s.tethers.enabled, "tethers");
+    ui.add(slider(&mut s.tethers.slack, 0.0..=0.5).text("tether slack"));
+    ui.add(slider(&mut s.inertia.linear, 0.0..=1.0).text("linear inertia"));
+    ui.add(slider(&mut s.inertia.angular, 0.0..=1.0).text("angular inertia"));
     ui.checkbox(&mut c.interpolate, "interpolate display");
     ui.horizontal(|ui| {
         ui.label("collision mask");
@@ -308,6 +316,10 @@ mod tests {
         s.sleep_steps = 1000;
         s.self_collision.thickness = 0.2;
         s.self_collision.friction = 1.5;
+        s.targets.max_distance_scale = 5.0;
+        s.targets.backstop_radius = 3.0;
+        s.targets.backstop_offset = 0.4;
+        s.tethers.slack = 0.8;
         let mut subdivision = ClothSubdivision::default();
         let mut wind = Wind {
             air_density: 12.0,

@@ -45,6 +45,7 @@ pub mod plugin;
 mod render;
 pub mod scene;
 pub mod sim;
+mod skin;
 pub mod subdivision;
 
 pub use components::*;
@@ -54,14 +55,15 @@ pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::components::{
-        Cloth, ClothCollider, ClothConfig, ClothInvalid, ClothPin, ClothPins, ClothSource,
-        ClothState, ClothSubdivision, PinAnchor, SubdivisionTarget, Wind, WindZone,
+        Cloth, ClothCollider, ClothConfig, ClothFrame, ClothInvalid, ClothPin, ClothPins,
+        ClothSkin, ClothSource, ClothState, ClothSubdivision, ClothTargets, PinAnchor,
+        SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{
-        ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Integrator, SelfCollision,
-        SolverSettings, Stiffness, WindZoneShape,
+        ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia, Integrator,
+        SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers, WindZoneShape,
     };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
 }

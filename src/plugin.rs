@@ -9,6 +9,7 @@ use bevy::ecs::prelude::*;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::error;
 use bevy::math::Vec3;
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, Mesh3d};
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::{Fixed, Time};
@@ -22,9 +23,10 @@ use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::contact::Pose;
 use crate::sim::{
-    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, WindField,
-    compute_normals,
+    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, Target,
+    WindField, compute_normals,
 };
+use crate::skin::{Attachment, influences_from_mesh, weights_from_mesh};
 use crate::subdivision::Subdivider;
 
 /// System sets of the cloth pipeline, public so games can order their own systems around them.
@@ -203,7 +205,9 @@ impl Plugin for ClothPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    build_cloths.in_set(ClothSystems::Build),
+                    (adopt_skins, build_cloths)
+                        .chain()
+                        .in_set(ClothSystems::Build),
                     write_meshes
                         .in_set(ClothSystems::Writeback)
                         .run_if(any_with_component::<ClothState>),
@@ -340,13 +344,28 @@ fn gather_wind(
     }
 }
 
-/// Where each pin should be at the end of this step.
+/// Where each pin, target and reference frame should be at the end of this step.
+#[allow(clippy::type_complexity)]
 fn resolve_pin_targets(
-    mut cloths: Query<(&ClothPins, &GlobalTransform, &mut ClothState), Without<ClothInvalid>>,
+    mut cloths: Query<
+        (
+            Entity,
+            &ClothPins,
+            &GlobalTransform,
+            Option<&ClothSkin>,
+            Option<&ClothFrame>,
+            &mut ClothState,
+        ),
+        Without<ClothInvalid>,
+    >,
     helper: TransformHelper,
     anchors: Query<&GlobalTransform>,
 ) {
-    for (pins, transform, mut state) in &mut cloths {
+    for (entity, pins, transform, skin, frame, mut state) in &mut cloths {
+        // The cloth's pose now (moved earlier in this step, or since the last propagation).
+        let transform = &helper
+            .compute_global_transform(entity)
+            .unwrap_or(*transform);
         let state = &mut *state;
         let rest = &state.sim.model().rest_positions;
         let map = state.particle_map.as_deref();
@@ -363,7 +382,39 @@ fn resolve_pin_targets(
                 *target = p;
             }
         }
+        if let Some(attachment) = &mut state.attachment {
+            let joints = skin.map_or(&[][..], |s| &s.joints[..]);
+            attachment.update(&transform.affine(), |j| {
+                let entity = *joints.get(j)?;
+                current_global(entity, &helper, &anchors).map(|g| g.affine())
+            });
+            let user = pins.pins.len();
+            for (target, &k) in state.pin_targets[user..].iter_mut().zip(&state.target_pins) {
+                *target = attachment.targets[k].0;
+            }
+            state.sim.move_targets(
+                attachment
+                    .weighted
+                    .iter()
+                    .zip(&attachment.targets)
+                    .filter(|((_, w), _)| *w > 0.0)
+                    .map(|(_, t)| *t),
+            );
+        }
         state.sim.move_pins(state.pin_targets.iter().copied());
+        let frame = frame.map_or(Some(*transform), |f| current_global(f.0, &helper, &anchors));
+        if let Some(frame) = frame {
+            state.sim.move_frame(pose_of(&frame));
+        }
+    }
+}
+
+/// The rotation and translation of a global transform (its scale left out).
+fn pose_of(global: &GlobalTransform) -> Pose {
+    let (_, rotation, translation) = global.to_scale_rotation_translation();
+    Pose {
+        rotation,
+        translation,
     }
 }
 
@@ -542,30 +593,73 @@ fn apply_edits(
 
 type BuildQuery<'a> = (
     Entity,
-    Ref<'a, Cloth>,
-    Ref<'a, ClothConfig>,
-    Ref<'a, ClothPins>,
+    (Ref<'a, Cloth>, Ref<'a, ClothConfig>, Ref<'a, ClothPins>),
     &'a GlobalTransform,
     Option<Ref<'a, ClothSubdivision>>,
+    (
+        Option<Ref<'a, ClothTargets>>,
+        Option<Ref<'a, ClothSkin>>,
+        Option<&'a ClothFrame>,
+    ),
     Option<&'a mut ClothState>,
     Has<ClothInvalid>,
 );
+
+/// A cloth spawned on a skinned mesh keeps the skin for its targets ([`ClothSkin`]); the
+/// renderer must not skin the simulated mesh again.
+fn adopt_skins(mut commands: Commands, cloths: Query<(Entity, &SkinnedMesh), With<Cloth>>) {
+    for (entity, skinned) in &cloths {
+        commands
+            .entity(entity)
+            .remove::<SkinnedMesh>()
+            .insert(ClothSkin {
+                joints: skinned.joints.clone(),
+                inverse_bindposes: skinned.inverse_bindposes.clone(),
+            });
+    }
+}
+
+/// What building a cloth reads besides its own components: mesh assets (and where new meshes
+/// go), the skins' inverse bind poses, and joints' global transforms.
+struct BuildInputs<'a, 'w, 's> {
+    meshes: &'a mut Assets<Mesh>,
+    bindposes: &'a Assets<SkinnedMeshInverseBindposes>,
+    globals: &'a Query<'w, 's, &'static GlobalTransform>,
+}
 
 /// Builds new and replaced cloths (and invalid ones that were edited), and turns failures into
 /// [`ClothInvalid`], logged once per failure.
 fn build_cloths(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
+    bindposes: Res<Assets<SkinnedMeshInverseBindposes>>,
     mut cloths: Query<BuildQuery>,
+    globals: Query<&'static GlobalTransform>,
 ) {
-    for (entity, cloth, config, pins, transform, subdivision, mut state, invalid) in &mut cloths {
+    for (
+        entity,
+        (cloth, config, pins),
+        transform,
+        subdivision,
+        (targets, skin, frame),
+        mut state,
+        invalid,
+    ) in &mut cloths
+    {
         let subdivision_changed = match (&subdivision, &state) {
             (Some(s), _) => s.is_changed(),
             (None, Some(state)) => state.subdivision.is_some() || state.particle_map.is_some(),
             (None, None) => false,
         };
-        let edited =
-            cloth.is_changed() || config.is_changed() || pins.is_changed() || subdivision_changed;
+        // Targets added, edited or removed, or a skin: the cloth is rebuilt.
+        let targets_changed = targets.as_ref().is_some_and(|t| t.is_changed())
+            || skin.as_ref().is_some_and(|s| s.is_changed())
+            || targets.is_none() && state.as_ref().is_some_and(|s| s.attachment.is_some());
+        let edited = cloth.is_changed()
+            || config.is_changed()
+            || pins.is_changed()
+            || subdivision_changed
+            || targets_changed;
         let failure = state
             .as_mut()
             .filter(|s| s.failure.is_some())
@@ -576,6 +670,7 @@ fn build_cloths(
         let rebuild = match &state {
             Some(state) => {
                 cloth.is_changed()
+                    || targets_changed
                     || subdivision_changed
                         && (state.particle_map.is_some()
                             || subdivision.as_deref().is_some_and(refines_sim))
@@ -583,22 +678,30 @@ fn build_cloths(
             None => !invalid || edited,
         };
         let subdivision = subdivision.as_deref();
+        let mut inputs = BuildInputs {
+            meshes: &mut meshes,
+            bindposes: &bindposes,
+            globals: &globals,
+        };
         let result = match (failure, state) {
             (Some(e), _) => Err(e),
-            (None, _) if rebuild => {
-                build_state(&cloth, &config, &pins, subdivision, transform, &mut meshes).map(
-                    |built| {
-                        if let Some((state, mesh)) = built {
-                            commands
-                                .entity(entity)
-                                .remove::<ClothInvalid>()
-                                .insert((state, Mesh3d(mesh)));
-                        }
-                    },
-                )
-            }
+            (None, _) if rebuild => build_state(
+                (&cloth, &config, &pins),
+                subdivision,
+                (targets.as_deref(), skin.as_deref(), frame),
+                transform,
+                &mut inputs,
+            )
+            .map(|built| {
+                if let Some((state, mesh)) = built {
+                    commands
+                        .entity(entity)
+                        .remove::<ClothInvalid>()
+                        .insert((state, Mesh3d(mesh)));
+                }
+            }),
             (None, Some(mut state)) if subdivision_changed => {
-                rebuild_render(&mut state, subdivision, None, &mut meshes).map(|mesh| {
+                rebuild_render(&mut state, subdivision, None, inputs.meshes).map(|mesh| {
                     commands.entity(entity).insert(Mesh3d(mesh));
                 })
             }
@@ -614,21 +717,31 @@ fn build_cloths(
     }
 }
 
-/// Builds the simulation and mesh of a cloth. `Ok(None)` means its mesh asset is not loaded yet.
+/// Builds the simulation and mesh of a cloth. `Ok(None)` means its mesh asset (or its skin's
+/// inverse bind poses) is not loaded yet.
 fn build_state(
-    cloth: &Cloth,
-    config: &ClothConfig,
-    pins: &ClothPins,
+    (cloth, config, pins): (&Cloth, &ClothConfig, &ClothPins),
     subdivision: Option<&ClothSubdivision>,
+    (targets, skin, frame): (
+        Option<&ClothTargets>,
+        Option<&ClothSkin>,
+        Option<&ClothFrame>,
+    ),
     transform: &GlobalTransform,
-    meshes: &mut Assets<Mesh>,
+    inputs: &mut BuildInputs,
 ) -> Result<Option<(ClothState, Handle<Mesh>)>, ClothError> {
+    let meshes = &mut *inputs.meshes;
+    let source_mesh = match &cloth.source {
+        ClothSource::Mesh(handle) => match meshes.get(handle) {
+            Some(mesh) => Some(mesh),
+            None => return Ok(None),
+        },
+        _ => None,
+    };
     let (model, user_mesh) = match &cloth.source {
         ClothSource::Grid(spec) => (ClothModel::grid(spec)?, None),
-        ClothSource::Mesh(handle) => {
-            let Some(source) = meshes.get(handle) else {
-                return Ok(None);
-            };
+        ClothSource::Mesh(_) => {
+            let source = source_mesh.expect("a mesh cloth's source was fetched above");
             (
                 render::model_from_mesh(source)?,
                 Some(render::prepare_user_mesh(source.clone())),
@@ -644,6 +757,13 @@ fn build_state(
             None => (model, user_mesh, None, 1.0),
             Some(sub) => {
                 check_level(sub)?;
+                if targets.is_some() {
+                    return Err(ClothError::InvalidTargets {
+                        what: "a cloth with targets is simulated at its own resolution \
+                               (subdivide its render mesh instead)"
+                            .into(),
+                    });
+                }
                 let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
                 // The user's mesh no longer matches the particles: render the refined model.
                 (
@@ -654,9 +774,50 @@ fn build_state(
                 )
             }
         };
-    let sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
+    let attachment = match targets {
+        None => None,
+        Some(targets) => {
+            let skin = match skin {
+                None => None,
+                Some(skin) => match inputs.bindposes.get(&skin.inverse_bindposes) {
+                    Some(bind) => Some((skin, &bind[..])),
+                    None => return Ok(None),
+                },
+            };
+            let mut attachment = build_attachment(&model, targets, source_mesh, skin)?;
+            let joints = skin.map_or(&[][..], |(s, _)| &s.joints[..]);
+            let globals = inputs.globals;
+            attachment.update(&transform.affine(), |j| {
+                globals.get(*joints.get(j)?).ok().map(|g| g.affine())
+            });
+            Some(attachment)
+        }
+    };
+    let meshes = &mut *inputs.meshes;
+    let mut sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
         transform.transform_point(p)
     })?;
+    // The reference frame starts where it is now.
+    let frame = frame.map_or(Some(*transform), |f| inputs.globals.get(f.0).ok().copied());
+    if let Some(frame) = frame {
+        sim.move_frame(pose_of(&frame));
+    }
+    if let Some(a) = &attachment {
+        let limited = a
+            .weighted
+            .iter()
+            .zip(&a.targets)
+            .filter(|((_, w), _)| *w > 0.0);
+        let targets: Vec<Target> = limited
+            .map(|(&(particle, weight), &(position, normal))| Target {
+                particle,
+                weight,
+                position,
+                normal,
+            })
+            .collect();
+        sim.set_targets(&targets)?;
+    }
     let mut state = ClothState {
         sim,
         mesh: Handle::default(),
@@ -668,6 +829,8 @@ fn build_state(
         normals_prev: Vec::new(),
         normals_curr: Vec::new(),
         pin_targets: Vec::new(),
+        attachment,
+        target_pins: Vec::new(),
         failure: None,
         dirty: true,
         at_rest: false,
@@ -675,6 +838,62 @@ fn build_state(
     apply_pins(&mut state, pins, transform)?;
     let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
     Ok(Some((state, mesh)))
+}
+
+/// The weighted particles of a cloth with `targets`, from its model and (for weights or a skin
+/// read from it) its source mesh, skinned by `skin` and its inverse bind poses when given.
+fn build_attachment(
+    model: &ClothModel,
+    targets: &ClothTargets,
+    source: Option<&Mesh>,
+    skin: Option<(&ClothSkin, &[bevy::math::Mat4])>,
+) -> Result<Attachment, ClothError> {
+    let n = model.particle_count();
+    let from_mesh = |what: &str| {
+        source.ok_or_else(|| ClothError::InvalidTargets {
+            what: format!("{what} needs a cloth made from a mesh asset"),
+        })
+    };
+    let weights = match &targets.weights {
+        TargetWeights::Values(w) => w.clone(),
+        TargetWeights::Color(channel) => weights_from_mesh(
+            from_mesh("weights from vertex colours")?,
+            None,
+            *channel as usize,
+        )?,
+        TargetWeights::Attribute(name) => {
+            weights_from_mesh(from_mesh("weights from a vertex attribute")?, Some(name), 0)?
+        }
+    };
+    if weights.len() != n {
+        return Err(ClothError::InvalidTargets {
+            what: format!("{} weights for a cloth of {n} particles", weights.len()),
+        });
+    }
+    // A negative weight leaves the particle free; NaN is refused by the attachment.
+    let weights: Vec<Option<f32>> = weights
+        .iter()
+        .map(|&w| (w.is_nan() || w >= 0.0).then_some(w))
+        .collect();
+    let mut normals = vec![Vec3::ZERO; n];
+    compute_normals(&model.rest_positions, &model.triangles, &mut normals);
+    let skin = match skin {
+        None => None,
+        Some((skin, bind)) => {
+            let influences = influences_from_mesh(from_mesh("a skin")?)?;
+            if bind.len() != skin.joints.len() {
+                return Err(ClothError::InvalidTargets {
+                    what: format!(
+                        "the skin has {} joints but {} inverse bind poses",
+                        skin.joints.len(),
+                        bind.len()
+                    ),
+                });
+            }
+            Some((influences, bind))
+        }
+    };
+    Attachment::new(&weights, (&model.rest_positions, &normals), skin)
 }
 
 /// Checks a subdivision level against [`MAX_CLOTH_SUBDIVISION_LEVEL`].
@@ -695,7 +914,8 @@ fn run_settings(config: &ClothConfig, mass_scale: f32) -> SolverSettings {
     settings
 }
 
-/// Replaces the pin set of a running cloth, each pin starting at its anchor's current position.
+/// Replaces the pin set of a running cloth, each pin starting at its anchor's current position:
+/// the [`ClothPins`], then the targets' weight-0 particles they do not pin.
 fn apply_pins(
     state: &mut ClothState,
     pins: &ClothPins,
@@ -721,6 +941,18 @@ fn apply_pins(
             .unwrap_or(state.sim.positions()[index]);
         state.pin_targets.push(target);
         targets.push((index as u32, target));
+    }
+    state.target_pins.clear();
+    if let Some(a) = &state.attachment {
+        for (k, (&(particle, weight), &(target, _))) in
+            a.weighted.iter().zip(&a.targets).enumerate()
+        {
+            if weight == 0.0 && !targets.iter().any(|(p, _)| *p == particle) {
+                state.target_pins.push(k);
+                state.pin_targets.push(target);
+                targets.push((particle, target));
+            }
+        }
     }
     state.sim.set_pins(targets)
 }

@@ -100,9 +100,12 @@ pub(crate) fn model_from_mesh(mesh: &Mesh) -> Result<ClothModel, ClothError> {
 }
 
 /// The same mesh with positions and normals present as `Float32x3` (normals added if missing), ready
-/// to be rewritten in place.
+/// to be rewritten in place, and without joint indices and weights.
 pub(crate) fn prepare_user_mesh(mut mesh: Mesh) -> Mesh {
     mesh.asset_usage = RenderAssetUsages::default();
+    // The cloth's mesh holds simulated positions; nothing must skin it again.
+    mesh.remove_attribute(Mesh::ATTRIBUTE_JOINT_INDEX);
+    mesh.remove_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT);
     let count = mesh.count_vertices();
     let has_normals = matches!(
         mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL),

@@ -7,6 +7,8 @@ use bevy_cloth::sim::{
     TargetLimits, Tethers,
 };
 
+mod common;
+
 const DT: f32 = 1.0 / 60.0;
 /// Gravity as usual.
 const DOWN: Vec3 = Vec3::new(0.0, -9.81, 0.0);
@@ -499,6 +501,311 @@ fn full_inertia_is_bit_for_bit_world_space() {
                     integrator.name()
                 );
             }
+        }
+    }
+}
+
+/// A skinned cape in a headless App.
+mod skinned {
+    use bevy::asset::RenderAssetUsages;
+    use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+    use bevy::mesh::{Indices, PrimitiveTopology};
+    use bevy::prelude::*;
+    use bevy_cloth::prelude::*;
+
+    use super::common;
+
+    const NX: usize = 16;
+    const NY: usize = 24;
+    /// Where the spine joint sits on the root at bind time.
+    const SPINE: Vec3 = Vec3::new(0.0, 1.0, 0.0);
+
+    /// A cape of NX × NY vertices behind a torso, from the collar (y = 1.5) to the hem
+    /// (y = 0.7): each vertex's rest position, joints (spine 1, root 0) and weights (all spine at
+    /// the collar, all root at the hem), and its target weight (0 at the collar, 1 at the hem,
+    /// in COLOR_0's red channel).
+    fn cape() -> Cape {
+        let mut rest = Vec::new();
+        let (mut joints, mut weights, mut colors) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..NY {
+            let s = j as f32 / (NY - 1) as f32;
+            for i in 0..NX {
+                let x = -0.25 + 0.5 * i as f32 / (NX - 1) as f32;
+                rest.push(Vec3::new(x, 1.5 - 0.8 * s, -0.15 - 0.05 * x * x));
+                joints.push([1u16, 0, 0, 0]);
+                weights.push([1.0 - s, s, 0.0, 0.0]);
+                colors.push([s, 0.0, 0.0, 1.0]);
+            }
+        }
+        let mut indices = Vec::new();
+        for j in 0..NY - 1 {
+            for i in 0..NX - 1 {
+                let a = (j * NX + i) as u32;
+                let (b, c, d) = (a + 1, a + NX as u32, a + NX as u32 + 1);
+                indices.extend([a, c, b, b, c, d]);
+            }
+        }
+        let mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(
+            Mesh::ATTRIBUTE_POSITION,
+            rest.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+        )
+        .with_inserted_attribute(
+            Mesh::ATTRIBUTE_JOINT_INDEX,
+            bevy::mesh::VertexAttributeValues::Uint16x4(joints.clone()),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights.clone())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
+        .with_inserted_indices(Indices::U32(indices));
+        Cape {
+            mesh,
+            rest,
+            joints,
+            weights,
+        }
+    }
+
+    /// What [`cape`] makes.
+    struct Cape {
+        mesh: Mesh,
+        rest: Vec<Vec3>,
+        joints: Vec<[u16; 4]>,
+        weights: Vec<[f32; 4]>,
+    }
+
+    /// The root's and the spine's transforms at time `t`: the root walks at 3 m/s along +Z
+    /// while the spine turns about the vertical by 90° every half second.
+    fn pose(t: f32) -> (Transform, Transform) {
+        (
+            Transform::from_xyz(0.0, 0.0, 3.0 * t),
+            Transform::from_translation(SPINE)
+                .with_rotation(Quat::from_rotation_y(std::f32::consts::PI * t)),
+        )
+    }
+
+    #[test]
+    fn a_cape_on_a_turning_walking_torso_stays_on_its_skin() {
+        let mut app = common::app();
+        let Cape {
+            mesh,
+            rest,
+            joints,
+            weights,
+        } = cape();
+        let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+        let bind = vec![Mat4::IDENTITY, Mat4::from_translation(-SPINE)];
+        let bindposes = app
+            .world_mut()
+            .resource_mut::<Assets<SkinnedMeshInverseBindposes>>()
+            .add(SkinnedMeshInverseBindposes::from(bind.clone()));
+        let (root_pose, spine_pose) = pose(0.0);
+        let root = app.world_mut().spawn(root_pose).id();
+        let spine = app.world_mut().spawn((spine_pose, ChildOf(root))).id();
+        let mut config = ClothConfig {
+            interpolate: false,
+            ..ClothConfig::default()
+        };
+        config.solver.targets.max_distance_scale = 0.3;
+        let cloth = common::spawn_valid(
+            &mut app,
+            (
+                Cloth::from_mesh(handle),
+                SkinnedMesh {
+                    inverse_bindposes: bindposes,
+                    joints: vec![root, spine],
+                },
+                ClothTargets {
+                    weights: TargetWeights::Color(0),
+                },
+                config,
+            ),
+        );
+        // The skin moved to the cloth; the renderer has nothing to skin.
+        assert!(app.world().get::<SkinnedMesh>(cloth).is_none());
+        assert!(app.world().get::<ClothSkin>(cloth).is_some());
+        let targets: Vec<_> = common::state(&app, cloth).targets().collect();
+        assert_eq!(targets.len(), NX * NY);
+        assert_eq!(targets.iter().filter(|t| t.weight == 0.0).count(), NX);
+        assert_eq!(common::sim(&app, cloth).pinned().count(), NX);
+
+        let (mut worst_pin, mut worst_excess, mut worst_skin): (f32, f32, f32) =
+            (0.0, f32::MIN, 0.0);
+        for step in 1..=600 {
+            let t = step as f32 / 60.0;
+            let (root_pose, spine_pose) = pose(t);
+            *app.world_mut().get_mut::<Transform>(root).unwrap() = root_pose;
+            *app.world_mut().get_mut::<Transform>(spine).unwrap() = spine_pose;
+            app.update();
+            // An independent skinning of every vertex: joint world matrices from the poses.
+            let world = [
+                root_pose.to_matrix(),
+                root_pose.to_matrix() * spine_pose.to_matrix(),
+            ];
+            let skinned = |v: usize| -> Vec3 {
+                (0..4)
+                    .map(|k| {
+                        let j = joints[v][k] as usize;
+                        weights[v][k] * (world[j] * bind[j]).transform_point3(rest[v])
+                    })
+                    .sum()
+            };
+            let state = common::state(&app, cloth);
+            let x = state.positions();
+            assert!(x.iter().all(|p| p.is_finite()), "step {step}: not finite");
+            for target in state.targets() {
+                let v = target.particle as usize;
+                let expected = skinned(v);
+                worst_skin = worst_skin.max(target.position.distance(expected));
+                let d = x[v].distance(expected);
+                if target.weight == 0.0 {
+                    worst_pin = worst_pin.max(d);
+                } else {
+                    worst_excess = worst_excess.max(d - 0.3 * target.weight);
+                }
+            }
+        }
+        println!(
+            "skinning {worst_skin:e} m, pins {worst_pin:e} m, past the max distance {worst_excess:e} m"
+        );
+        assert!(
+            worst_skin <= 1e-5,
+            "the plugin's skinning is {worst_skin} m off"
+        );
+        assert!(
+            worst_pin <= 1e-3,
+            "a weight-0 vertex was {worst_pin} m off its skin"
+        );
+        assert!(
+            worst_excess <= 1e-3,
+            "a vertex went {worst_excess} m past its max distance"
+        );
+    }
+
+    /// A 12×16 cape in the XY plane, weights from 0 on its top row to 1 at its hem.
+    fn grid_cape() -> (GridSpec, Vec<f32>) {
+        let spec = GridSpec::new(12, 16, 0.03).with_plane(GridPlane::Vertical);
+        let weights = (0..12 * 16).map(|p| (p / 12) as f32 / 15.0).collect();
+        (spec, weights)
+    }
+
+    #[test]
+    fn without_a_skin_targets_follow_the_cloth_transform() {
+        let mut app = common::app();
+        let (spec, weights) = grid_cape();
+        let mut config = ClothConfig {
+            interpolate: false,
+            ..ClothConfig::default()
+        };
+        config.solver.targets.max_distance_scale = 0.05;
+        let cloth = common::spawn_valid(
+            &mut app,
+            (
+                Cloth::grid(spec),
+                ClothTargets {
+                    weights: TargetWeights::Values(weights),
+                },
+                config,
+            ),
+        );
+        let rest = common::sim(&app, cloth).model().rest_positions.clone();
+        let mut worst: f32 = f32::MIN;
+        for step in 1..=120 {
+            let t = step as f32 / 60.0;
+            let pose = Transform::from_xyz(2.0 * t, 0.0, 0.0)
+                .with_rotation(Quat::from_rotation_y(2.0 * t));
+            *app.world_mut().get_mut::<Transform>(cloth).unwrap() = pose;
+            app.update();
+            let state = common::state(&app, cloth);
+            for target in state.targets() {
+                let v = target.particle as usize;
+                let expected = pose.transform_point(rest[v]);
+                assert!(target.position.distance(expected) < 1e-5, "target of {v}");
+                let d = state.positions()[v].distance(expected);
+                worst = worst.max(d - 0.05 * target.weight);
+            }
+        }
+        println!("worst excess over the max distance {worst:e} m");
+        assert!(
+            worst <= 1e-3,
+            "a particle went {worst} m past its max distance"
+        );
+    }
+
+    #[test]
+    fn with_no_linear_inertia_a_cloth_entity_at_constant_speed_hangs_as_if_still() {
+        // Pinned along its top row to its rest shape (so the pins move with the entity), the
+        // cloth's shape relative to its entity matches a still one's.
+        let run = |speed: f32, inertia: Inertia| -> Vec<Vec3> {
+            let mut app = common::app();
+            let (spec, _) = grid_cape();
+            let mut config = ClothConfig::default();
+            config.solver.inertia = inertia;
+            config.solver.gravity = Vec3::new(0.0, -9.81, -3.0);
+            config.solver.damping = 5.0;
+            config.solver.sleep_speed = 0.0;
+            let cloth =
+                common::spawn_valid(&mut app, (Cloth::grid(spec), ClothPins::new(0..12), config));
+            for step in 1..=120 {
+                let t = step as f32 / 60.0;
+                app.world_mut()
+                    .get_mut::<Transform>(cloth)
+                    .unwrap()
+                    .translation = Vec3::new(speed * t, 0.0, 0.0);
+                app.update();
+            }
+            let offset = Vec3::new(speed * 2.0, 0.0, 0.0);
+            common::state(&app, cloth)
+                .positions()
+                .iter()
+                .map(|p| *p - offset)
+                .collect()
+        };
+        let gap = |a: &[Vec3], b: &[Vec3]| {
+            a.iter()
+                .zip(b)
+                .map(|(p, q)| p.distance(*q))
+                .fold(0.0, f32::max)
+        };
+        let none = Inertia {
+            linear: 0.0,
+            angular: 1.0,
+        };
+        let still = run(0.0, none);
+        let carried = gap(&still, &run(5.0, none));
+        let felt = gap(&still, &run(5.0, Inertia::default()));
+        println!("inertia 0: {carried:e} m, inertia 1: {felt:e} m");
+        assert!(carried <= 1e-3, "{carried} m from the still cloth");
+        assert!(
+            felt > 1e-2,
+            "felt in full, the motion moved the cloth only {felt} m"
+        );
+    }
+
+    #[test]
+    fn bad_target_weights_make_the_cloth_invalid() {
+        let (spec, weights) = grid_cape();
+        let mut nan = weights.clone();
+        nan[30] = f32::NAN;
+        for (what, weights) in [
+            (
+                "too few weights",
+                TargetWeights::Values(weights[1..].to_vec()),
+            ),
+            ("a NaN weight", TargetWeights::Values(nan)),
+            ("colours of a grid", TargetWeights::Color(0)),
+            (
+                "an attribute of a grid",
+                TargetWeights::Attribute("weights".into()),
+            ),
+        ] {
+            let mut app = common::app();
+            let cloth = common::spawn(&mut app, (Cloth::grid(spec), ClothTargets { weights }));
+            let invalid = app.world().get::<ClothInvalid>(cloth);
+            assert!(invalid.is_some(), "{what} accepted");
+            println!("{what}: {}", invalid.unwrap().0);
         }
     }
 }
