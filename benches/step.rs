@@ -4,8 +4,10 @@
 //! also at 10 substeps. The explicit
 //! integrators (Verlet, symplectic Euler) on the same cloths at their stable substeps. Then the same
 //! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
-//! whole App frames with one active cloth against 100 sleeping ones. Last, self-collision's cost:
-//! a hanging 64×64 cloth and one lying crumpled on a floor, each with it off and on.
+//! whole App frames with one active cloth against 100 sleeping ones. Then self-collision's cost:
+//! a hanging 64×64 cloth and one lying crumpled on a floor, each with it off and on. Last,
+//! character cloth: App frames of a 32×32 cape skinned to a walking, turning torso against the
+//! same cape on static pins, and tethers' cost in a step.
 
 use std::hint::black_box;
 
@@ -13,10 +15,11 @@ use bevy::math::Vec3;
 use bevy::math::primitives::{InfinitePlane3d, Sphere};
 use bevy::prelude::{Quat, Transform, default};
 use bevy::tasks::TaskPoolBuilder;
+use bevy_cloth::harness::character::{Cape, spawn_cape, torso_pose};
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
-    ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Integrator,
-    Pose, ScopedThread, SelfCollision, SolverSettings, Spread, WindField,
+    ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridPlane, GridSpec,
+    Integrator, Pose, ScopedThread, SelfCollision, SolverSettings, Spread, Tethers, WindField,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -317,12 +320,88 @@ fn self_collision(c: &mut Criterion) {
     group.finish();
 }
 
+/// Character cloth. App frames (step, skinning, mesh write) of a 32×32 cape (1,024 particles)
+/// at the default settings: skinned to a torso that walks at 3 m/s while its spine turns at
+/// 1 rad/s (collar pinned to its skin, the rest within 0.3 m × weight of it), against the same
+/// cape mesh as a plain cloth pinned along its collar, standing still. Then one solver step of a
+/// 32×32 curtain pinned along its top row, tethers off and on.
+fn character(c: &mut Criterion) {
+    let mut group = c.benchmark_group("character_cape_32x32");
+    let cape = Cape::new(32, 32);
+    let solver = SolverSettings {
+        sleep_speed: 0.0,
+        ..default()
+    };
+    let mut config = ClothConfig {
+        solver,
+        ..default()
+    };
+    config.solver.targets.max_distance_scale = 0.3;
+    {
+        let mut app = bevy_cloth::harness::headless_app(1.0 / 60.0);
+        let mesh = app
+            .world_mut()
+            .resource_mut::<bevy::asset::Assets<bevy::mesh::Mesh>>()
+            .add(cape.mesh.clone());
+        app.world_mut().spawn((
+            Cloth::from_mesh(mesh),
+            ClothPins::new(0..32),
+            ClothConfig {
+                solver,
+                ..default()
+            },
+        ));
+        for _ in 0..30 {
+            app.update();
+        }
+        group.bench_function("app_static_pins", |b| b.iter(|| app.update()));
+    }
+    {
+        let mut app = bevy_cloth::harness::headless_app(1.0 / 60.0);
+        let spawned = spawn_cape(app.world_mut(), &cape, config);
+        let mut t = 0.0;
+        let mut frame = |app: &mut bevy::app::App| {
+            t += 1.0 / 60.0;
+            let (root, spine) = torso_pose(t, 3.0, 1.0);
+            *app.world_mut().get_mut::<Transform>(spawned.root).unwrap() = root;
+            *app.world_mut().get_mut::<Transform>(spawned.spine).unwrap() = spine;
+            app.update();
+        };
+        for _ in 0..30 {
+            frame(&mut app);
+        }
+        group.bench_function("app_skinned", |b| b.iter(|| frame(&mut app)));
+    }
+    let spec = GridSpec::new(32, 32, 0.8 / 31.0).with_plane(GridPlane::Vertical);
+    for enabled in [false, true] {
+        let settings = SolverSettings {
+            tethers: Tethers {
+                enabled,
+                ..default()
+            },
+            ..solver
+        };
+        let mut sim = ClothSim::new(ClothModel::grid(&spec).unwrap(), settings, |p| p).unwrap();
+        let top: Vec<(u32, Vec3)> = (0..32).map(|i| (i, sim.positions()[i as usize])).collect();
+        sim.set_pins(top).unwrap();
+        for _ in 0..30 {
+            sim.step(1.0 / 60.0).unwrap();
+        }
+        let label = if enabled { "on" } else { "off" };
+        group.bench_function(format!("solver_tethers_{label}"), |b| {
+            b.iter(|| sim.step(black_box(1.0 / 60.0)).unwrap())
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     step,
     explicit,
     environment,
     sleeping,
-    self_collision
+    self_collision,
+    character
 );
 criterion_main!(benches);

@@ -219,6 +219,12 @@ impl Default for ClothConfig {
 /// entity's global scale (see [`ColliderShape::scaled`]). Adding, moving, editing and removing
 /// colliders at runtime all take effect at the next fixed step.
 ///
+/// On a character, make the colliders children of its joints (a capsule under each leg's hip
+/// and knee joints, a sphere or capsule under the spine): each fixed step takes their pose through
+/// the joints' current transforms, and the contact test sweeps each collider from its pose at the
+/// last step to its pose now, substep by substep, so a leg kicking through a skirt pushes it
+/// rather than passing through it.
+///
 /// # Example
 /// ```
 /// use bevy::prelude::*;

@@ -507,122 +507,37 @@ fn full_inertia_is_bit_for_bit_world_space() {
 
 /// A skinned cape in a headless App.
 mod skinned {
-    use bevy::asset::RenderAssetUsages;
-    use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
-    use bevy::mesh::{Indices, PrimitiveTopology};
+    use bevy::mesh::skinning::SkinnedMesh;
     use bevy::prelude::*;
+    use bevy_cloth::harness::character::{Cape, SpawnedCape, spawn_cape, torso_pose};
     use bevy_cloth::prelude::*;
 
     use super::common;
 
     const NX: usize = 16;
     const NY: usize = 24;
-    /// Where the spine joint sits on the root at bind time.
-    const SPINE: Vec3 = Vec3::new(0.0, 1.0, 0.0);
-
-    /// A cape of NX × NY vertices behind a torso, from the collar (y = 1.5) to the hem
-    /// (y = 0.7): each vertex's rest position, joints (spine 1, root 0) and weights (all spine at
-    /// the collar, all root at the hem), and its target weight (0 at the collar, 1 at the hem,
-    /// in COLOR_0's red channel).
-    fn cape() -> Cape {
-        let mut rest = Vec::new();
-        let (mut joints, mut weights, mut colors) = (Vec::new(), Vec::new(), Vec::new());
-        for j in 0..NY {
-            let s = j as f32 / (NY - 1) as f32;
-            for i in 0..NX {
-                let x = -0.25 + 0.5 * i as f32 / (NX - 1) as f32;
-                rest.push(Vec3::new(x, 1.5 - 0.8 * s, -0.15 - 0.05 * x * x));
-                joints.push([1u16, 0, 0, 0]);
-                weights.push([1.0 - s, s, 0.0, 0.0]);
-                colors.push([s, 0.0, 0.0, 1.0]);
-            }
-        }
-        let mut indices = Vec::new();
-        for j in 0..NY - 1 {
-            for i in 0..NX - 1 {
-                let a = (j * NX + i) as u32;
-                let (b, c, d) = (a + 1, a + NX as u32, a + NX as u32 + 1);
-                indices.extend([a, c, b, b, c, d]);
-            }
-        }
-        let mesh = Mesh::new(
-            PrimitiveTopology::TriangleList,
-            RenderAssetUsages::default(),
-        )
-        .with_inserted_attribute(
-            Mesh::ATTRIBUTE_POSITION,
-            rest.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
-        )
-        .with_inserted_attribute(
-            Mesh::ATTRIBUTE_JOINT_INDEX,
-            bevy::mesh::VertexAttributeValues::Uint16x4(joints.clone()),
-        )
-        .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights.clone())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
-        .with_inserted_indices(Indices::U32(indices));
-        Cape {
-            mesh,
-            rest,
-            joints,
-            weights,
-        }
-    }
-
-    /// What [`cape`] makes.
-    struct Cape {
-        mesh: Mesh,
-        rest: Vec<Vec3>,
-        joints: Vec<[u16; 4]>,
-        weights: Vec<[f32; 4]>,
-    }
-
-    /// The root's and the spine's transforms at time `t`: the root walks at 3 m/s along +Z
-    /// while the spine turns about the vertical by 90° every half second.
-    fn pose(t: f32) -> (Transform, Transform) {
-        (
-            Transform::from_xyz(0.0, 0.0, 3.0 * t),
-            Transform::from_translation(SPINE)
-                .with_rotation(Quat::from_rotation_y(std::f32::consts::PI * t)),
-        )
-    }
 
     #[test]
     fn a_cape_on_a_turning_walking_torso_stays_on_its_skin() {
+        // The root walks at 3 m/s while the spine turns 90° every half second.
+        let pose = |t: f32| torso_pose(t, 3.0, std::f32::consts::PI);
         let mut app = common::app();
-        let Cape {
-            mesh,
-            rest,
-            joints,
-            weights,
-        } = cape();
-        let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
-        let bind = vec![Mat4::IDENTITY, Mat4::from_translation(-SPINE)];
-        let bindposes = app
-            .world_mut()
-            .resource_mut::<Assets<SkinnedMeshInverseBindposes>>()
-            .add(SkinnedMeshInverseBindposes::from(bind.clone()));
-        let (root_pose, spine_pose) = pose(0.0);
-        let root = app.world_mut().spawn(root_pose).id();
-        let spine = app.world_mut().spawn((spine_pose, ChildOf(root))).id();
+        let cape = Cape::new(NX, NY);
         let mut config = ClothConfig {
             interpolate: false,
             ..ClothConfig::default()
         };
         config.solver.targets.max_distance_scale = 0.3;
-        let cloth = common::spawn_valid(
-            &mut app,
-            (
-                Cloth::from_mesh(handle),
-                SkinnedMesh {
-                    inverse_bindposes: bindposes,
-                    joints: vec![root, spine],
-                },
-                ClothTargets {
-                    weights: TargetWeights::Color(0),
-                },
-                config,
-            ),
-        );
+        let SpawnedCape { cloth, root, spine } = spawn_cape(app.world_mut(), &cape, config);
+        app.update();
+        assert!(app.world().get::<ClothInvalid>(cloth).is_none());
+        let Cape {
+            rest,
+            joints,
+            weights,
+            inverse_bindposes: bind,
+            ..
+        } = cape;
         // The skin moved to the cloth; the renderer has nothing to skin.
         assert!(app.world().get::<SkinnedMesh>(cloth).is_none());
         assert!(app.world().get::<ClothSkin>(cloth).is_some());
@@ -807,5 +722,99 @@ mod skinned {
             assert!(invalid.is_some(), "{what} accepted");
             println!("{what}: {}", invalid.unwrap().0);
         }
+    }
+
+    #[test]
+    fn a_skirt_stays_outside_legs_that_kick_through_it() {
+        // A skirt: a tube of radius 0.2 m from the waist (y = 1) down to y = 0.45, pinned along
+        // its waist. Two legs, capsules of radius 6 cm hanging 0.8 m from hip joints at
+        // x = ±0.1, swing ±45° about X at 1.5 Hz in opposite phase (the feet reach 5.6 m/s, a
+        // capsule surface moves up to 9 cm in a step): they are moved by their joints, the
+        // colliders' own transforms never change.
+        use bevy_cloth::sim::ClothModel;
+        let (around, rows) = (32usize, 12usize);
+        let mut positions = Vec::new();
+        for j in 0..rows {
+            for i in 0..around {
+                let a = std::f32::consts::TAU * i as f32 / around as f32;
+                let y = 1.0 - 0.55 * j as f32 / (rows - 1) as f32;
+                positions.push(Vec3::new(0.2 * a.cos(), y, 0.2 * a.sin()));
+            }
+        }
+        let mut indices = Vec::new();
+        for j in 0..rows - 1 {
+            for i in 0..around {
+                let (a, b) = (
+                    (j * around + i) as u32,
+                    (j * around + (i + 1) % around) as u32,
+                );
+                let (c, d) = (a + around as u32, b + around as u32);
+                indices.extend([a, c, b, b, c, d]);
+            }
+        }
+        let model = ClothModel::from_mesh(&positions, None, &indices, 3).unwrap();
+        let mut app = common::app();
+        let (radius, half_length) = (0.06, 0.34);
+        let hips: Vec<Entity> = [-0.1f32, 0.1]
+            .iter()
+            .map(|&x| {
+                let hip = app.world_mut().spawn(Transform::from_xyz(x, 1.0, 0.0)).id();
+                app.world_mut().spawn((
+                    ClothCollider::capsule(radius, half_length),
+                    Transform::from_xyz(0.0, -0.4, 0.0),
+                    ChildOf(hip),
+                ));
+                hip
+            })
+            .collect();
+        let cloth = common::spawn_valid(
+            &mut app,
+            (
+                Cloth::from_model(model),
+                ClothPins::new(0..around as u32),
+                ClothConfig {
+                    interpolate: false,
+                    ..ClothConfig::default()
+                },
+            ),
+        );
+        let swing = |t: f32, k: usize| {
+            let phase = if k == 0 { 0.0 } else { std::f32::consts::PI };
+            std::f32::consts::FRAC_PI_4 * (std::f32::consts::TAU * 1.5 * t + phase).sin()
+        };
+        let (mut deepest, mut touching): (f32, usize) = (f32::MIN, 0);
+        for step in 1..=240 {
+            let t = step as f32 / 60.0;
+            for (k, &hip) in hips.iter().enumerate() {
+                app.world_mut().get_mut::<Transform>(hip).unwrap().rotation =
+                    Quat::from_rotation_x(swing(t, k));
+            }
+            app.update();
+            let x = common::state(&app, cloth).positions();
+            for (k, hip) in [-0.1f32, 0.1].iter().enumerate() {
+                // The leg's axis now, from the hip's pose.
+                let turn = Quat::from_rotation_x(swing(t, k));
+                let centre = Vec3::new(*hip, 1.0, 0.0) + turn * Vec3::new(0.0, -0.4, 0.0);
+                let axis = turn * Vec3::Y * half_length;
+                for p in x {
+                    let along = (*p - centre).dot(axis) / axis.length_squared();
+                    let nearest = centre + axis * along.clamp(-1.0, 1.0);
+                    let depth = radius - p.distance(nearest);
+                    deepest = deepest.max(depth);
+                    touching += usize::from(depth > -0.02);
+                }
+            }
+        }
+        println!(
+            "deepest inside a leg {deepest:e} m; particle-steps within 2 cm of one {touching}"
+        );
+        assert!(
+            touching > 1000,
+            "the legs hardly touched the skirt ({touching})"
+        );
+        assert!(
+            deepest <= 1e-3,
+            "a particle ended a step {deepest} m inside a leg"
+        );
     }
 }

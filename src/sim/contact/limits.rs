@@ -5,7 +5,9 @@
 //!   normal), so a cape follows its character without sinking into its back;
 //! - **tethers** (long-range attachments): a free particle stays within its geodesic rest
 //!   distance, times `1 + slack`, of the nearest pinned particle, so that stretch under a sudden
-//!   pull does not depend on how many iterations the springs get.
+//!   pull does not depend on how many iterations the springs get. They act once per step, at the
+//!   end of its last substep: what a step ends in (and shows) is within them, at a small share
+//!   of the cost of projecting them every substep (each tether is a gather from its anchor).
 //!
 //! Each limit is a one-sided distance constraint between the particle and a point that moves on
 //! its own (the target, interpolated across the step like a pin; the pinned anchor, already at
@@ -154,10 +156,12 @@ impl Limits {
     }
 
     /// Projects every free particle that has left its limits back onto them at the end of the
-    /// substep `[t0, t1]` (fractions of the step) of length `h`.
+    /// substep `[t0, t1]` (fractions of the step) of length `h`: its targets' every substep,
+    /// its tether at the end of the step's last substep (`t1 == 1`).
     pub fn resolve<S: ContactState>(&self, (t0, t1, h): (f32, f32, f32), state: &mut S) {
         let inv_h = 1.0 / h;
-        for t in &self.tethers {
+        let tethers = if t1 >= 1.0 { &self.tethers[..] } else { &[] };
+        for t in tethers {
             let i = state.slot(t.particle);
             if state.inv_mass(i) == 0.0 {
                 continue;
