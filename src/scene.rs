@@ -27,8 +27,8 @@ use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
 
 use crate::components::{
-    AIR_DENSITY, Cloth, ClothCollider, ClothConfig, ClothPins, DEFAULT_COLLIDER_MARGIN, Wind,
-    WindZone,
+    AIR_DENSITY, Cloth, ClothCollider, ClothConfig, ClothPins, ClothTargets,
+    DEFAULT_COLLIDER_MARGIN, TargetWeights, Wind, WindZone,
 };
 use crate::error::{ClothError, finite_vec3, non_negative, positive};
 use crate::plugin::ClothSystems;
@@ -408,6 +408,11 @@ pub struct ClothScene {
     /// Particles pinned at their initial positions.
     #[serde(default)]
     pub pins: Vec<u32>,
+    /// Target weights, one per particle ([`ClothTargets`] with [`TargetWeights::Values`]): each
+    /// particle with a weight stays near its rest position under the cloth's transform (weight 0
+    /// pins it; a negative weight leaves it free). None by default.
+    #[serde(default)]
+    pub target_weights: Option<Vec<f32>>,
     /// The fixed time step, s: [`MIN_FIXED_STEP`](crate::plugin::MIN_FIXED_STEP)`..=`
     /// [`MAX_FIXED_STEP`](crate::plugin::MAX_FIXED_STEP).
     #[serde(default = "default_dt")]
@@ -454,6 +459,23 @@ impl ClothScene {
         if let Some(&index) = self.pins.iter().find(|&&p| p as usize >= count) {
             return Err(ClothError::PinOutOfRange { index, count });
         }
+        if let Some(weights) = &self.target_weights {
+            if weights.len() != count {
+                return Err(ClothError::InvalidTargets {
+                    what: format!(
+                        "target_weights has {} weights for a cloth of {count} particles",
+                        weights.len()
+                    ),
+                });
+            }
+            if let Some(&w) = weights.iter().find(|w| !w.is_finite()) {
+                return Err(ClothError::InvalidValue {
+                    field: "target_weights",
+                    expected: "finite",
+                    value: w as f64,
+                });
+            }
+        }
         finite_placement(self.translation, self.rotation_degrees)?;
         for (i, c) in self.colliders.iter().enumerate() {
             c.validate().map_err(|e| ClothError::InScene {
@@ -486,7 +508,18 @@ impl ClothScene {
             }
             world.insert_resource(wind.resource());
         }
-        Ok(world.spawn(self.bundle()).id())
+        let mut cloth = world.spawn(self.bundle());
+        if let Some(targets) = self.targets() {
+            cloth.insert(targets);
+        }
+        Ok(cloth.id())
+    }
+
+    /// The cloth's targets, when the scene gives target weights.
+    pub fn targets(&self) -> Option<ClothTargets> {
+        self.target_weights.as_ref().map(|w| ClothTargets {
+            weights: TargetWeights::Values(w.clone()),
+        })
     }
 
     /// The cloth's topology.
@@ -496,8 +529,9 @@ impl ClothScene {
         }
     }
 
-    /// The components of the scene's cloth entity. Display interpolation is off, so the mesh
-    /// shows exactly the simulated state.
+    /// The components of the scene's cloth entity (but its [`targets`](Self::targets), which
+    /// [`spawn`](Self::spawn) adds). Display interpolation is off, so the mesh shows exactly the
+    /// simulated state.
     pub fn bundle(&self) -> impl Bundle {
         let cloth = match &self.cloth {
             SceneCloth::Grid(spec) => Cloth::grid(*spec),

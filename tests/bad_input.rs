@@ -835,6 +835,31 @@ fn scenes_with_out_of_range_values_name_the_field() {
         scene(", rotation_degrees: (0.0, 0.0, -inf)").map(drop),
         "rotation_degrees.z",
     );
+    invalid_value(
+        scene(", solver: (inertia: (linear: 1.5))").map(drop),
+        "inertia.linear",
+    );
+    invalid_value(
+        scene(", solver: (tethers: (enabled: true, slack: -0.1))").map(drop),
+        "tethers.slack",
+    );
+    invalid_value(
+        scene(", solver: (targets: (backstop_radius: -1.0))").map(drop),
+        "targets.backstop_radius",
+    );
+    err_naming(
+        scene(", target_weights: Some([0.0, 1.0])"),
+        &["target_weights", "2 weights", "12 particles"],
+    );
+    invalid_value(
+        scene(
+            ", target_weights: Some([0.0, 0.1, 0.2, 0.3, 0.4, NaN, 0.6, 0.7, 0.8, 0.9, 1.0, 1.0])",
+        )
+        .map(drop),
+        "target_weights",
+    );
+    scene(", target_weights: Some([0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, -1.0]), solver: (tethers: (enabled: true), inertia: (linear: 0.5, angular: 0.0), targets: (max_distance_scale: 0.2, backstop_radius: 0.5))")
+        .unwrap();
 }
 
 #[test]

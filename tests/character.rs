@@ -817,4 +817,23 @@ mod skinned {
             "a particle ended a step {deepest} m inside a leg"
         );
     }
+
+    #[test]
+    fn a_ron_scene_gives_a_cloth_its_target_weights() {
+        let mut app = common::app();
+        let scene = bevy_cloth::scene::ClothScene::from_ron(
+            "(cloth: Grid((nx: 4, ny: 3, spacing: 0.1, plane: Vertical)), \
+             target_weights: Some([0, 0, 0, 0, 0.5, 0.5, 0.5, 0.5, 1, 1, 1, -1]), \
+             solver: (targets: (max_distance_scale: 0.2), tethers: (enabled: true)))",
+        )
+        .unwrap();
+        let cloth = scene.spawn(app.world_mut()).unwrap();
+        app.update();
+        let state = common::state(&app, cloth);
+        // Eleven weighted particles, the four of weight 0 pinned; the last one is free.
+        assert_eq!(state.targets().count(), 11);
+        assert_eq!(state.sim().pinned().count(), 4);
+        // Seven targets with a max distance, and a tether for each of the eight free particles.
+        assert_eq!(state.sim().limit_counts(), (7, 8));
+    }
 }
