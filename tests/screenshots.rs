@@ -163,3 +163,22 @@ fn tablecloth_covers_the_table_and_hangs_above_the_floor() {
     let foot = cloth_fraction(&p, (0.4, 0.75, 0.6, 0.82));
     assert!(foot < 0.05, "cloth colour at the table's foot: {foot}");
 }
+
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn character_wears_its_cape_where_the_camera_follows_it() {
+    let p = load("character");
+    assert_not_blank(&p);
+    // The camera follows the walking character: its cape covers its back in the middle of the
+    // picture (a cloth left where the character started would be out of the frame by now).
+    let cape = cloth_fraction(&p, (0.46, 0.3, 0.52, 0.55));
+    assert!(
+        cape > 0.5,
+        "only {:.0}% cloth pixels on its back",
+        cape * 100.0
+    );
+    // Nothing red beside the character.
+    let beside =
+        cloth_fraction(&p, (0.35, 0.3, 0.42, 0.6)) + cloth_fraction(&p, (0.6, 0.3, 0.7, 0.6));
+    assert!(beside < 0.05, "cloth colour beside the character: {beside}");
+}

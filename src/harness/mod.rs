@@ -34,6 +34,14 @@ pub fn headless_app(dt: f32) -> App {
 /// [`MIN_FIXED_STEP`]`..=`[`MAX_FIXED_STEP`] is an error (see [`validate_fixed_step`]).
 ///
 pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
+    try_headless_app_with(dt, ())
+}
+
+/// [`try_headless_app`] with `plugins` added before the app is finished (a glTF loader, say).
+pub fn try_headless_app_with<M>(
+    dt: f32,
+    plugins: impl bevy::app::Plugins<M>,
+) -> Result<App, ClothError> {
     validate_fixed_step(dt)?;
     let mut app = App::new();
     app.add_plugins((
@@ -44,6 +52,7 @@ pub fn try_headless_app(dt: f32) -> Result<App, ClothError> {
         crate::ClothPlugin::default(),
         crate::scene::ScenePlugin,
     ))
+    .add_plugins(plugins)
     .insert_resource(Time::<Fixed>::from_seconds(dt as f64))
     .insert_resource(bevy::time::TimeUpdateStrategy::FixedTimesteps(1));
     app.finish();

@@ -1,0 +1,207 @@
+//! The `character` example's glTF asset (feature `gltf`): the committed file is what its
+//! generator writes; Bevy's glTF loader reads back the joints, joint weights and target weights
+//! the generator wrote; and the scene it spawns runs as character cloth.
+
+use std::path::PathBuf;
+
+use bevy::asset::{AssetServer, Assets, LoadState};
+use bevy::gltf::{Gltf, GltfAssetLabel, GltfMesh, GltfNode, GltfPlugin, GltfSkin};
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::world_serialization::{WorldAssetRoot, WorldSerializationPlugin};
+use bevy_cloth::prelude::*;
+
+#[path = "../examples/character_asset/gltf.rs"]
+mod gltf;
+
+const ASSET: &str = "character/character.gltf";
+
+fn asset_file() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(ASSET)
+}
+
+#[test]
+fn the_committed_asset_is_what_the_generator_writes() {
+    let committed = std::fs::read_to_string(asset_file()).expect("the asset is committed");
+    assert!(
+        committed == gltf::document(),
+        "{} is stale: run `cargo run --example character_asset`",
+        asset_file().display()
+    );
+}
+
+/// A headless app with the glTF loader, reading assets from the crate's `assets` folder, with
+/// `ASSET` loading.
+fn app_with_asset() -> (App, Handle<Gltf>) {
+    let mut app = bevy_cloth::harness::try_headless_app_with(
+        1.0 / 60.0,
+        (
+            WorldSerializationPlugin,
+            bevy::animation::AnimationPlugin,
+            GltfPlugin::default(),
+        ),
+    )
+    .unwrap();
+    let handle: Handle<Gltf> = app.world().resource::<AssetServer>().load(ASSET);
+    for _ in 0..1000 {
+        app.update();
+        match app.world().resource::<AssetServer>().load_state(&handle) {
+            LoadState::Loaded => return (app, handle),
+            LoadState::Failed(e) => panic!("{ASSET}: {e}"),
+            _ => std::thread::sleep(std::time::Duration::from_millis(2)),
+        }
+    }
+    panic!("{ASSET} did not load");
+}
+
+fn attribute(mesh: &Mesh, id: bevy::mesh::MeshVertexAttribute) -> &VertexAttributeValues {
+    mesh.attribute(id)
+        .unwrap_or_else(|| panic!("no {}", id.name))
+}
+
+#[test]
+fn the_loader_reads_back_the_joints_and_weights_the_generator_wrote() {
+    let (app, handle) = app_with_asset();
+    let world = app.world();
+    let gltf = world.resource::<Assets<Gltf>>().get(&handle).unwrap();
+    // The skin: the four joints by name, with the generator's inverse bind matrices.
+    let skins = world.resource::<Assets<GltfSkin>>();
+    let nodes = world.resource::<Assets<GltfNode>>();
+    assert_eq!(gltf.skins.len(), 1);
+    let skin = skins.get(&gltf.skins[0]).unwrap();
+    let names: Vec<&str> = skin
+        .joints
+        .iter()
+        .map(|j| nodes.get(j).unwrap().name.as_str())
+        .collect();
+    let expected: Vec<&str> = gltf::JOINTS.iter().map(|(name, _, _)| *name).collect();
+    assert_eq!(names, expected);
+    let bind = world
+        .resource::<Assets<SkinnedMeshInverseBindposes>>()
+        .get(&skin.inverse_bind_matrices)
+        .unwrap();
+    let written = gltf::inverse_bind_matrices();
+    assert_eq!(bind.len(), written.len());
+    for (m, w) in bind.iter().zip(&written) {
+        assert_eq!(m.to_cols_array(), *w);
+    }
+    // The cloth meshes: positions, joints, joint weights and target weights (COLOR_0's red) as
+    // written.
+    let meshes = world.resource::<Assets<Mesh>>();
+    for part in [gltf::cape(), gltf::skirt()] {
+        let gltf_mesh = world
+            .resource::<Assets<GltfMesh>>()
+            .get(&gltf.named_meshes[part.name])
+            .unwrap();
+        let mesh = meshes.get(&gltf_mesh.primitives[0].mesh).unwrap();
+        let VertexAttributeValues::Float32x3(positions) = attribute(mesh, Mesh::ATTRIBUTE_POSITION)
+        else {
+            panic!("{}: positions", part.name)
+        };
+        assert_eq!(positions, &part.positions, "{}: positions", part.name);
+        let VertexAttributeValues::Uint16x4(joints) = attribute(mesh, Mesh::ATTRIBUTE_JOINT_INDEX)
+        else {
+            panic!("{}: joint indices", part.name)
+        };
+        assert_eq!(joints, &part.joints, "{}: joints", part.name);
+        let VertexAttributeValues::Float32x4(weights) =
+            attribute(mesh, Mesh::ATTRIBUTE_JOINT_WEIGHT)
+        else {
+            panic!("{}: joint weights", part.name)
+        };
+        assert_eq!(weights, &part.weights, "{}: joint weights", part.name);
+        let VertexAttributeValues::Float32x4(colors) = attribute(mesh, Mesh::ATTRIBUTE_COLOR)
+        else {
+            panic!("{}: COLOR_0", part.name)
+        };
+        assert_eq!(colors, &part.colors, "{}: COLOR_0", part.name);
+        assert!(colors.iter().any(|c| c[0] == 0.0) && colors.iter().any(|c| c[0] == 1.0));
+    }
+}
+
+#[test]
+fn the_spawned_character_wears_its_cape_and_skirt_as_cloth() {
+    let (mut app, _handle) = app_with_asset();
+    let scene = app
+        .world()
+        .resource::<AssetServer>()
+        .load(GltfAssetLabel::Scene(0).from_asset(ASSET));
+    app.world_mut().spawn(WorldAssetRoot(scene));
+    // Wait for the scene's skinned meshes, then make each a cloth tied to its skin.
+    let mut cloths = Vec::new();
+    for _ in 0..100 {
+        app.update();
+        let world = app.world_mut();
+        let mut skinned = world.query_filtered::<(Entity, &Mesh3d), With<SkinnedMesh>>();
+        let found: Vec<(Entity, Handle<Mesh>)> =
+            skinned.iter(world).map(|(e, m)| (e, m.0.clone())).collect();
+        if found.len() == 2 {
+            for (entity, mesh) in found {
+                let mut config = ClothConfig::default();
+                config.solver.targets.max_distance_scale = 0.2;
+                world.entity_mut(entity).insert((
+                    Cloth::from_mesh(mesh),
+                    ClothTargets {
+                        weights: TargetWeights::Color(0),
+                    },
+                    config,
+                ));
+                cloths.push(entity);
+            }
+            break;
+        }
+    }
+    assert_eq!(cloths.len(), 2, "the scene's cape and skirt were not found");
+    let hips = {
+        let world = app.world_mut();
+        let mut named = world.query::<(Entity, &Name)>();
+        named
+            .iter(world)
+            .find(|(_, n)| n.as_str() == "hips")
+            .map(|(e, _)| e)
+            .expect("the hips joint")
+    };
+    // Walk the hips forward at 1.5 m/s for two seconds.
+    let start = app.world().get::<Transform>(hips).unwrap().translation;
+    for step in 1..=120 {
+        app.world_mut()
+            .get_mut::<Transform>(hips)
+            .unwrap()
+            .translation = start + Vec3::Z * (1.5 * step as f32 / 60.0);
+        app.update();
+    }
+    for &cloth in &cloths {
+        assert!(app.world().get::<ClothInvalid>(cloth).is_none());
+        assert!(app.world().get::<SkinnedMesh>(cloth).is_none());
+        let state = app.world().get::<ClothState>(cloth).expect("built");
+        let x = state.positions();
+        let (mut pinned, mut worst) = (0, f32::MIN);
+        for t in state.targets() {
+            let p = x[t.particle as usize];
+            assert!(p.is_finite());
+            if t.weight == 0.0 {
+                pinned += 1;
+                assert!(
+                    p.distance(t.position) < 1e-4,
+                    "a weight-0 vertex left its skin"
+                );
+            }
+            worst = worst.max(p.distance(t.position) - 0.2 * t.weight);
+        }
+        assert!(pinned >= 16, "{pinned} pinned vertices");
+        assert!(
+            worst <= 1e-3,
+            "a vertex went {worst} m past its max distance"
+        );
+        // The cloth went along: its mean is near the hips' new place, 3 m on.
+        let mean = x.iter().sum::<Vec3>() / x.len() as f32;
+        assert!(
+            (mean.z - 3.0).abs() < 0.4,
+            "the cloth's mean is at z = {}",
+            mean.z
+        );
+    }
+}
