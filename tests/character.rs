@@ -836,4 +836,62 @@ mod skinned {
         // Seven targets with a max distance, and a tether for each of the eight free particles.
         assert_eq!(state.sim().limit_counts(), (7, 8));
     }
+
+    #[test]
+    fn weights_come_from_a_named_vertex_attribute() {
+        // A cape mesh without a skin whose weights sit in a custom float attribute (as a glTF
+        // exporter's custom attribute arrives through the loader): the top row pinned, the rest
+        // held near the rest shape under the cloth's transform.
+        use bevy::mesh::{MeshVertexAttribute, VertexFormat};
+        const WEIGHT: MeshVertexAttribute =
+            MeshVertexAttribute::new("_CLOTH_WEIGHT", 988_540_917, VertexFormat::Float32);
+        let cape = Cape::new(8, 6);
+        let weights: Vec<f32> = (0..48).map(|v| (v / 8) as f32 / 5.0).collect();
+        let mut mesh = cape.mesh.clone();
+        mesh.insert_attribute(WEIGHT, weights.clone());
+        let mut app = common::app();
+        let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+        let mut config = ClothConfig::default();
+        config.solver.targets.max_distance_scale = 0.1;
+        let cloth = common::spawn_valid(
+            &mut app,
+            (
+                Cloth::from_mesh(handle),
+                ClothTargets {
+                    weights: TargetWeights::Attribute("_CLOTH_WEIGHT".into()),
+                },
+                config,
+            ),
+        );
+        common::run(&mut app, 60);
+        let state = common::state(&app, cloth);
+        let read: Vec<f32> = state.targets().map(|t| t.weight).collect();
+        assert_eq!(read, weights);
+        assert_eq!(state.sim().pinned().count(), 8);
+        for t in state.targets() {
+            let d = state.positions()[t.particle as usize].distance(t.position);
+            assert!(
+                d <= 0.1 * t.weight + 1e-3,
+                "vertex {} is {d} m from its target",
+                t.particle
+            );
+        }
+        // A name the mesh does not have is an error that names it.
+        let mut app = common::app();
+        let handle = app
+            .world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(cape.mesh.clone());
+        let cloth = common::spawn(
+            &mut app,
+            (
+                Cloth::from_mesh(handle),
+                ClothTargets {
+                    weights: TargetWeights::Attribute("_MISSING".into()),
+                },
+            ),
+        );
+        let invalid = app.world().get::<ClothInvalid>(cloth).expect("invalid");
+        assert!(invalid.0.to_string().contains("_MISSING"), "{}", invalid.0);
+    }
 }
