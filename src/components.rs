@@ -695,19 +695,7 @@ impl ClothState {
     /// The particles tied to targets ([`ClothTargets`]) and where their targets are after the
     /// last step (weight 0: pinned there).
     pub fn targets(&self) -> impl Iterator<Item = crate::sim::Target> + '_ {
-        self.attachment.iter().flat_map(|a| {
-            a.weighted
-                .iter()
-                .zip(&a.targets)
-                .map(
-                    |(&(particle, weight), &(position, normal))| crate::sim::Target {
-                        particle,
-                        weight,
-                        position,
-                        normal,
-                    },
-                )
-        })
+        self.attachment.iter().flat_map(|a| a.all())
     }
 
     /// The simulation (positions, velocities, settings, statistics).

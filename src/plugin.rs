@@ -23,8 +23,8 @@ use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::contact::Pose;
 use crate::sim::{
-    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, Target,
-    WindField, compute_normals,
+    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, WindField,
+    compute_normals,
 };
 use crate::skin::{Attachment, influences_from_mesh, weights_from_mesh};
 use crate::subdivision::Subdivider;
@@ -392,14 +392,9 @@ fn resolve_pin_targets(
             for (target, &k) in state.pin_targets[user..].iter_mut().zip(&state.target_pins) {
                 *target = attachment.targets[k].0;
             }
-            state.sim.move_targets(
-                attachment
-                    .weighted
-                    .iter()
-                    .zip(&attachment.targets)
-                    .filter(|((_, w), _)| *w > 0.0)
-                    .map(|(_, t)| *t),
-            );
+            state
+                .sim
+                .move_targets(attachment.limited().map(|t| (t.position, t.normal)));
         }
         state.sim.move_pins(state.pin_targets.iter().copied());
         let frame = frame.map_or(Some(*transform), |f| current_global(f.0, &helper, &anchors));
@@ -732,22 +727,17 @@ fn build_state(
 ) -> Result<Option<(ClothState, Handle<Mesh>)>, ClothError> {
     let meshes = &mut *inputs.meshes;
     let source_mesh = match &cloth.source {
-        ClothSource::Mesh(handle) => match meshes.get(handle) {
-            Some(mesh) => Some(mesh),
-            None => return Ok(None),
-        },
+        ClothSource::Mesh(handle) => meshes.get(handle),
         _ => None,
     };
-    let (model, user_mesh) = match &cloth.source {
-        ClothSource::Grid(spec) => (ClothModel::grid(spec)?, None),
-        ClothSource::Mesh(_) => {
-            let source = source_mesh.expect("a mesh cloth's source was fetched above");
-            (
-                render::model_from_mesh(source)?,
-                Some(render::prepare_user_mesh(source.clone())),
-            )
-        }
-        ClothSource::Model(shared) => {
+    let (model, user_mesh) = match (&cloth.source, source_mesh) {
+        (ClothSource::Grid(spec), _) => (ClothModel::grid(spec)?, None),
+        (ClothSource::Mesh(_), None) => return Ok(None),
+        (ClothSource::Mesh(_), Some(source)) => (
+            render::model_from_mesh(source)?,
+            Some(render::prepare_user_mesh(source.clone())),
+        ),
+        (ClothSource::Model(shared), _) => {
             shared.model().validate()?;
             (shared.model().clone(), None)
         }
@@ -803,20 +793,7 @@ fn build_state(
         sim.move_frame(pose_of(&frame));
     }
     if let Some(a) = &attachment {
-        let limited = a
-            .weighted
-            .iter()
-            .zip(&a.targets)
-            .filter(|((_, w), _)| *w > 0.0);
-        let targets: Vec<Target> = limited
-            .map(|(&(particle, weight), &(position, normal))| Target {
-                particle,
-                weight,
-                position,
-                normal,
-            })
-            .collect();
-        sim.set_targets(&targets)?;
+        sim.set_targets(&a.limited().collect::<Vec<_>>())?;
     }
     let mut state = ClothState {
         sim,

@@ -8,6 +8,7 @@ use bevy::math::{Affine3A, Mat4, Vec3};
 use bevy::mesh::{Mesh, VertexAttributeValues};
 
 use crate::error::ClothError;
+use crate::sim::Target;
 
 /// Up to four joints (index into the skin's joint list) and their weights, which sum to 1.
 pub(crate) type Influences = [(u16, f32); 4];
@@ -82,6 +83,25 @@ impl Attachment {
             skin,
             joint_matrices: Vec::new(),
         })
+    }
+
+    /// The particles with a maximum distance (weight > 0), in order, with their targets as
+    /// [`ClothSim::set_targets`](crate::sim::ClothSim::set_targets) takes them.
+    pub fn limited(&self) -> impl Iterator<Item = Target> + '_ {
+        self.all().filter(|t| t.weight > 0.0)
+    }
+
+    /// Every weighted particle with its target.
+    pub fn all(&self) -> impl Iterator<Item = Target> + '_ {
+        self.weighted
+            .iter()
+            .zip(&self.targets)
+            .map(|(&(particle, weight), &(position, normal))| Target {
+                particle,
+                weight,
+                position,
+                normal,
+            })
     }
 
     /// Computes every target: skinned, with each joint's global transform from `joint`
@@ -184,6 +204,11 @@ pub(crate) fn weights_from_mesh(
             .map(|(_, v)| v),
     };
     let what = name.unwrap_or("COLOR_0");
+    if channel > 3 {
+        return Err(targets_error(format!(
+            "colour channel {channel} (0 red, 1 green, 2 blue, 3 alpha)"
+        )));
+    }
     match values {
         Some(VertexAttributeValues::Float32(w)) if name.is_some() => Ok(w.clone()),
         Some(VertexAttributeValues::Float32x4(c)) => {

@@ -876,22 +876,22 @@ mod skinned {
                 t.particle
             );
         }
-        // A name the mesh does not have is an error that names it.
-        let mut app = common::app();
-        let handle = app
-            .world_mut()
-            .resource_mut::<Assets<Mesh>>()
-            .add(cape.mesh.clone());
-        let cloth = common::spawn(
-            &mut app,
-            (
-                Cloth::from_mesh(handle),
-                ClothTargets {
-                    weights: TargetWeights::Attribute("_MISSING".into()),
-                },
-            ),
-        );
-        let invalid = app.world().get::<ClothInvalid>(cloth).expect("invalid");
-        assert!(invalid.0.to_string().contains("_MISSING"), "{}", invalid.0);
+        // A name the mesh does not have, or a colour channel past alpha, is an error naming it.
+        for (weights, named) in [
+            (TargetWeights::Attribute("_MISSING".into()), "_MISSING"),
+            (TargetWeights::Color(7), "channel 7"),
+        ] {
+            let mut app = common::app();
+            let handle = app
+                .world_mut()
+                .resource_mut::<Assets<Mesh>>()
+                .add(cape.mesh.clone());
+            let cloth = common::spawn(
+                &mut app,
+                (Cloth::from_mesh(handle), ClothTargets { weights }),
+            );
+            let invalid = app.world().get::<ClothInvalid>(cloth).expect("invalid");
+            assert!(invalid.0.to_string().contains(named), "{}", invalid.0);
+        }
     }
 }
