@@ -156,72 +156,83 @@ fn smooth_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f32; 3]> {
         .collect()
 }
 
+impl SkinnedPart {
+    /// An empty part named `name` with triangles `indices`.
+    fn new(name: &'static str, indices: Vec<u32>) -> Self {
+        Self {
+            name,
+            positions: Vec::new(),
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            joints: Vec::new(),
+            weights: Vec::new(),
+            colors: Vec::new(),
+            indices,
+        }
+    }
+
+    /// Adds a vertex at `position` with texture coordinates `uv`, skinned to joints `joints`
+    /// with `weights`, and target weight `target` (in `COLOR_0`'s red).
+    fn push(
+        &mut self,
+        position: [f32; 3],
+        uv: [f32; 2],
+        (joints, weights): ([u16; 4], [f32; 4]),
+        target: f32,
+    ) {
+        self.positions.push(position);
+        self.uvs.push(uv);
+        self.joints.push(joints);
+        self.weights.push(weights);
+        self.colors.push([target, 0.0, 0.0, 1.0]);
+    }
+
+    /// Computes the normals once every vertex is in.
+    fn finish(mut self) -> Self {
+        self.normals = smooth_normals(&self.positions, &self.indices);
+        self
+    }
+}
+
 /// The cape: 16 × 22 vertices behind the back, from the shoulders (y = 1.68) to below the knees
 /// (y = 0.78), curved around the back; skinned to the spine at the collar and the hips at the
 /// hem; target weight 0 along the collar, growing to 1 at the hem.
 pub fn cape() -> SkinnedPart {
     let (nx, ny) = (16, 22);
-    let mut part = SkinnedPart {
-        name: "cape",
-        positions: Vec::new(),
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        joints: Vec::new(),
-        weights: Vec::new(),
-        colors: Vec::new(),
-        // Wound so that its normals face away from the back (the backstop lies behind them).
-        indices: grid_indices(nx, ny, false)
-            .chunks_exact(3)
-            .flat_map(|t| [t[0], t[2], t[1]])
-            .collect(),
-    };
+    // Wound so that its normals face away from the back (the backstop lies behind them).
+    let indices = grid_indices(nx, ny, false)
+        .chunks_exact(3)
+        .flat_map(|t| [t[0], t[2], t[1]])
+        .collect();
+    let mut part = SkinnedPart::new("cape", indices);
     for j in 0..ny {
         let s = j as f32 / (ny - 1) as f32;
         for i in 0..nx {
             let u = i as f32 / (nx - 1) as f32;
             let x = -0.2 + 0.4 * u;
-            part.positions
-                .push([x, 1.68 - 0.9 * s, -0.14 - 0.5 * x * x - 0.02 * s]);
-            part.uvs.push([u, s]);
-            let hips = s.min(1.0);
-            part.joints.push([1, 0, 0, 0]);
-            part.weights.push([1.0 - hips, hips, 0.0, 0.0]);
-            part.colors.push([s, 0.0, 0.0, 1.0]);
+            let position = [x, 1.68 - 0.9 * s, -0.14 - 0.5 * x * x - 0.02 * s];
+            part.push(position, [u, s], ([1, 0, 0, 0], [1.0 - s, s, 0.0, 0.0]), s);
         }
     }
-    part.normals = smooth_normals(&part.positions, &part.indices);
-    part
+    part.finish()
 }
 
 /// The skirt: a tube of radius 0.2 m, 28 vertices around and 9 down, from the waist (y = 1.0)
 /// to y = 0.55, skinned to the hips; target weight 0 at the waist, 1 at the hem.
 pub fn skirt() -> SkinnedPart {
     let (around, rows) = (28, 9);
-    let mut part = SkinnedPart {
-        name: "skirt",
-        positions: Vec::new(),
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        joints: Vec::new(),
-        weights: Vec::new(),
-        colors: Vec::new(),
-        indices: grid_indices(around, rows, true),
-    };
+    let mut part = SkinnedPart::new("skirt", grid_indices(around, rows, true));
     for j in 0..rows {
         let s = j as f32 / (rows - 1) as f32;
         for i in 0..around {
             let a = TAU * i as f32 / around as f32;
             let r = 0.2 + 0.04 * s;
-            part.positions
-                .push([r * a.sin(), 1.0 - 0.45 * s, r * a.cos()]);
-            part.uvs.push([2.0 * i as f32 / around as f32, 0.5 * s]);
-            part.joints.push([0, 0, 0, 0]);
-            part.weights.push([1.0, 0.0, 0.0, 0.0]);
-            part.colors.push([s, 0.0, 0.0, 1.0]);
+            let position = [r * a.sin(), 1.0 - 0.45 * s, r * a.cos()];
+            let uv = [2.0 * i as f32 / around as f32, 0.5 * s];
+            part.push(position, uv, ([0, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]), s);
         }
     }
-    part.normals = smooth_normals(&part.positions, &part.indices);
-    part
+    part.finish()
 }
 
 /// A joint's local rotation (x, y, z, w) at time `t` of the walk cycle: the legs swing ±35°

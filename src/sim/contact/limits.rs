@@ -61,7 +61,7 @@ struct Tether {
 pub(crate) struct Limits {
     targets: Vec<Moving>,
     tethers: Vec<Tether>,
-    settings: Option<TargetLimits>,
+    settings: TargetLimits,
 }
 
 impl Limits {
@@ -77,7 +77,7 @@ impl Limits {
 
     /// Sets how far targeted particles may leave their targets.
     pub fn set_settings(&mut self, settings: TargetLimits) {
-        self.settings = Some(settings);
+        self.settings = settings;
     }
 
     /// Replaces the targets; each starts the next step where it is given (no motion).
@@ -170,9 +170,7 @@ impl Limits {
             let (centre, velocity) = (state.position(a), state.velocity(a));
             within(state, i, (centre, velocity), t.length);
         }
-        let Some(s) = self.settings else {
-            return;
-        };
+        let s = self.settings;
         for t in &self.targets {
             let i = state.slot(t.particle);
             if state.inv_mass(i) == 0.0 {
