@@ -4,7 +4,9 @@
 //! Screenshot mode: set `BEVY_CLOTH_SCREENSHOT=path/to/file.png` (and optionally
 //! `BEVY_CLOTH_SCREENSHOT_FRAMES`, default 90). Time then advances by exactly 1/60 s per frame, so
 //! the picture is the same on every machine; after that many frames the window is saved and the app
-//! exits.
+//! exits. Simulated time starts only after [`START_FRAME`] frames (the renderer needs a few to
+//! compile its pipelines), so that with `BEVY_CLOTH_SCREENSHOT_START=path/to/start.png` the window
+//! is also saved in the scene's starting pose, for a check to see what moved.
 
 use std::time::Duration;
 
@@ -28,7 +30,11 @@ pub struct ExamplePlugin {
 struct ScreenshotMode {
     path: String,
     frames: u32,
+    start: Option<String>,
 }
+
+/// Frames the screenshot mode holds simulated time still for, and saves the starting pose at.
+const START_FRAME: u32 = 30;
 
 impl Plugin for ExamplePlugin {
     fn build(&self, app: &mut App) {
@@ -84,7 +90,12 @@ impl Plugin for ExamplePlugin {
                 1.0 / 60.0,
             )))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
-            .insert_resource(ScreenshotMode { path, frames })
+            .add_systems(Startup, |mut time: ResMut<Time<Virtual>>| time.pause())
+            .insert_resource(ScreenshotMode {
+                path,
+                frames,
+                start: std::env::var("BEVY_CLOTH_SCREENSHOT_START").ok(),
+            })
             .add_systems(Update, take_screenshot);
         }
     }
@@ -103,9 +114,22 @@ fn block_camera_under_egui(
     }
 }
 
-fn take_screenshot(mut commands: Commands, mode: Res<ScreenshotMode>, mut frame: Local<u32>) {
+fn take_screenshot(
+    mut commands: Commands,
+    mode: Res<ScreenshotMode>,
+    mut time: ResMut<Time<Virtual>>,
+    mut frame: Local<u32>,
+) {
     *frame += 1;
-    if *frame != mode.frames {
+    if *frame == START_FRAME {
+        if let Some(start) = &mode.start {
+            commands
+                .spawn(Screenshot::primary_window())
+                .observe(save_to_disk(start.clone()));
+        }
+        time.unpause();
+    }
+    if *frame != START_FRAME + mode.frames {
         return;
     }
     let path = mode.path.clone();
