@@ -7,7 +7,7 @@ use bevy::asset::{AssetEventSystems, Assets, Handle};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::prelude::*;
 use bevy::ecs::schedule::ScheduleLabel;
-use bevy::log::error;
+use bevy::log::{error, warn};
 use bevy::math::Vec3;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, Mesh3d};
@@ -733,10 +733,17 @@ fn build_state(
     let (model, user_mesh) = match (&cloth.source, source_mesh) {
         (ClothSource::Grid(spec), _) => (ClothModel::grid(spec)?, None),
         (ClothSource::Mesh(_), None) => return Ok(None),
-        (ClothSource::Mesh(_), Some(source)) => (
-            render::model_from_mesh(source)?,
-            Some(render::prepare_user_mesh(source.clone())),
-        ),
+        (ClothSource::Mesh(_), Some(source)) => {
+            let model = render::model_from_mesh(source)?;
+            if model.triangles.len() > 3 && shares_no_vertex(&model.triangles) {
+                warn!(
+                    "a cloth mesh shares no vertex between its triangles, so its triangles move \
+                     apart; was it exported without normals (Bevy's glTF loader then splits \
+                     every vertex) or unwelded?"
+                );
+            }
+            (model, Some(render::prepare_user_mesh(source.clone())))
+        }
         (ClothSource::Model(shared), _) => {
             shared.model().validate()?;
             (shared.model().clone(), None)
@@ -815,6 +822,15 @@ fn build_state(
     apply_pins(&mut state, pins, transform)?;
     let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
     Ok(Some((state, mesh)))
+}
+
+/// Whether no vertex is used by more than one of the `triangles` (a mesh split into loose
+/// triangles).
+fn shares_no_vertex(triangles: &[u32]) -> bool {
+    let mut seen = vec![false; triangles.iter().max().map_or(0, |&m| m as usize + 1)];
+    triangles
+        .iter()
+        .all(|&v| !std::mem::replace(&mut seen[v as usize], true))
 }
 
 /// The weighted particles of a cloth with `targets`, from its model and (for weights or a skin
@@ -987,5 +1003,17 @@ pub fn validate_fixed_step(dt: f32) -> Result<(), ClothError> {
             expected: "in 1e-6..=1 s",
             value: dt as f64,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loose_triangles_share_no_vertex_and_a_welded_strip_does() {
+        assert!(shares_no_vertex(&[0, 1, 2, 3, 4, 5]));
+        assert!(!shares_no_vertex(&[0, 1, 2, 2, 1, 3]));
+        assert!(shares_no_vertex(&[]));
     }
 }
