@@ -21,9 +21,8 @@ pub const STABILITY_FRACTION: f32 = 0.9;
 /// rest length (a hanging cloth of the default stiffness stretches by under 2%).
 pub const AUTO_MAX_STRETCH: f32 = 0.1;
 
-/// The time integration method. Every integrator solves the same canonical model (the crate's
-/// README, "The model"): the
-/// same springs, masses, gravity, pins (pinned particles follow their targets, interpolated across
+/// The time integration method. Every integrator solves the same canonical model
+/// (`docs/guide.md`, "The model"): the same springs, masses, gravity, pins (pinned particles follow their targets, interpolated across
 /// substeps) and damping (velocities decay as `exp(-damping t)`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
 pub enum Integrator {

@@ -21,7 +21,7 @@ pub enum GridPlane {
 /// real time, and small enough that building the cloth's springs fits in memory.
 pub const MAX_PARTICLES: usize = 1 << 24;
 
-/// The canonical rectangular grid cloth (the crate's README, "The model").
+/// The canonical rectangular grid cloth (docs/guide.md, "The model").
 ///
 /// Particle `(i, j)` has index `j * nx + i`. Springs: structural `(i,j)-(i+1,j)`, `(i,j)-(i,j+1)`;
 /// shear `(i,j)-(i+1,j+1)`, `(i+1,j)-(i,j+1)`; bend `(i,j)-(i+2,j)`, `(i,j)-(i,j+2)`. Rest lengths are

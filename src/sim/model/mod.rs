@@ -1,7 +1,7 @@
 //! Cloth topology, built once: rest positions, the spring set (coloured for deterministic
 //! Gauss-Seidel solving), the triangle list for rendering, and texture coordinates.
 //!
-//! This is where the canonical grid cloth (the crate's README, "The model") is defined, and where a cloth is derived from an
+//! This is where the canonical grid cloth (docs/guide.md, "The model") is defined, and where a cloth is derived from an
 //! arbitrary triangle or quad mesh. Nothing here runs per step.
 
 use glam::{Vec2, Vec3};
