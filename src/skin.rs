@@ -47,6 +47,13 @@ impl Attachment {
         let skin = match skin {
             None => None,
             Some((influences, inverse_bindposes)) => {
+                if influences.len() != weights.len() {
+                    return Err(targets_error(format!(
+                        "{} vertices have joint influences, but the cloth has {}",
+                        influences.len(),
+                        weights.len()
+                    )));
+                }
                 let joints = inverse_bindposes.len();
                 let mut chosen = Vec::with_capacity(weighted.len());
                 for &(i, _) in &weighted {
@@ -260,6 +267,19 @@ mod tests {
         assert!(
             (n - Vec3::new(-1.0, 1.0, 0.0).normalize()).length() < 1e-6,
             "{n}"
+        );
+        // Influences for fewer vertices than the cloth has are an error.
+        let one = vec![[(0, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)]];
+        let two = [Vec3::ZERO, Vec3::X];
+        let e = Attachment::new(
+            &[Some(0.5), Some(1.0)],
+            (&two, &[Vec3::Y; 2]),
+            Some((one, &bind)),
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("1 vertices have joint influences"),
+            "{e}"
         );
         // A joint index past the skin is an error.
         let bad = vec![[(2, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)]];
