@@ -327,9 +327,9 @@ fn bad_targets_are_errors_that_change_nothing() {
 
 /// The settings of [`ride`]: gravity tilted out of the curtain's plane and strong damping, so
 /// that the curtain settles into one shape. (Hanging in its plane, a curtain that sags buckles
-/// out of it either way and rounding alone decides which; lightly damped, it swings so that a
-/// perturbation of 1e-7 m grows a thousandfold in two seconds. Either would hide what is
-/// measured here under rounding.) Implicit Euler gets enough conjugate-gradient iterations to
+/// out of it either way and rounding alone decides which; lightly damped, it swings so that
+/// rounding differences grow by orders of magnitude within the run. Either would hide what is
+/// measured here; BENCHMARKS.md, "Character cloth", has the figures.) Implicit Euler gets enough conjugate-gradient iterations to
 /// converge, so that its first guess, not the frame, does not decide the result.
 fn ride_settings(integrator: Integrator, inertia: Inertia) -> SolverSettings {
     SolverSettings {
@@ -455,8 +455,8 @@ fn with_no_angular_inertia_a_turning_frame_changes_nothing_but_the_pins_chords()
             integrator.name()
         );
         // Pins travel straight between their targets at the ends of a step while the frame
-        // turns along an arc: 0.05 rad a step puts the pins up to 56 µm inside it, which the
-        // cloth answers with about a millimetre (the gap shrinks as the turn rate squared).
+        // turns along an arc, so they cut inside it; the cloth's answer shrinks as the turn
+        // rate squared (BENCHMARKS.md, "Character cloth").
         assert!(
             gap <= 2e-3,
             "{}: {gap} m from the still frame's run",
