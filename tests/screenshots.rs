@@ -16,11 +16,17 @@ struct Picture {
     rgb: Vec<[u8; 3]>,
 }
 
+/// The screenshot `name` that `scripts/screenshots.sh` rendered.
 fn load(name: &str) -> Picture {
     let path =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("target/screenshots/{name}.png"));
-    let file = std::fs::File::open(&path)
-        .unwrap_or_else(|e| panic!("{}: {e}; run scripts/screenshots.sh first", path.display()));
+    load_png(&path, "run scripts/screenshots.sh first")
+}
+
+/// The picture in the PNG file at `path`; `hint` says how to make a missing one.
+fn load_png(path: &std::path::Path, hint: &str) -> Picture {
+    let file =
+        std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}; {hint}", path.display()));
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
     let mut reader = decoder.read_info().expect("a PNG");
@@ -301,26 +307,12 @@ fn every_example_matches_its_reference_picture() {
             save_reference(name, &now);
             continue;
         }
-        let path = reference_path(name);
-        let file = std::fs::File::open(&path).unwrap_or_else(|e| {
-            panic!(
-                "{}: {e}; UPDATE_SCREENSHOT_REFERENCES=1 writes it",
-                path.display()
-            )
-        });
-        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
-            .read_info()
-            .unwrap();
-        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-        let info = reader.next_frame(&mut buf).unwrap();
-        let reference: Vec<[u8; 3]> = buf[..info.buffer_size()]
-            .chunks_exact(3)
-            .map(|p| [p[0], p[1], p[2]])
-            .collect();
-        assert_eq!(
-            (info.width as usize, info.height as usize),
-            (now.width, now.height)
+        let reference = load_png(
+            &reference_path(name),
+            "UPDATE_SCREENSHOT_REFERENCES=1 writes it",
         );
+        assert_eq!((reference.width, reference.height), (now.width, now.height));
+        let reference = reference.rgb;
         let (x0, x1) = (
             (SCENE.0 * now.width as f32) as usize,
             (SCENE.2 * now.width as f32) as usize,
