@@ -937,10 +937,14 @@ fn apply_pins(
     }
     state.target_pins.clear();
     if let Some(a) = &state.attachment {
+        let mut pinned = vec![false; state.sim.positions().len()];
+        for &(p, _) in &targets {
+            pinned[p as usize] = true;
+        }
         for (k, (&(particle, weight), &(target, _))) in
             a.weighted.iter().zip(&a.targets).enumerate()
         {
-            if weight == 0.0 && !targets.iter().any(|(p, _)| *p == particle) {
+            if weight == 0.0 && !pinned[particle as usize] {
                 state.target_pins.push(k);
                 state.pin_targets.push(target);
                 targets.push((particle, target));

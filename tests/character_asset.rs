@@ -97,27 +97,28 @@ fn the_loader_reads_back_the_joints_and_weights_the_generator_wrote() {
             .get(&gltf.named_meshes[part.name])
             .unwrap();
         let mesh = meshes.get(&gltf_mesh.primitives[0].mesh).unwrap();
-        let VertexAttributeValues::Float32x3(positions) = attribute(mesh, Mesh::ATTRIBUTE_POSITION)
-        else {
-            panic!("{}: positions", part.name)
-        };
-        assert_eq!(positions, &part.positions, "{}: positions", part.name);
-        let VertexAttributeValues::Uint16x4(joints) = attribute(mesh, Mesh::ATTRIBUTE_JOINT_INDEX)
-        else {
-            panic!("{}: joint indices", part.name)
-        };
-        assert_eq!(joints, &part.joints, "{}: joints", part.name);
-        let VertexAttributeValues::Float32x4(weights) =
-            attribute(mesh, Mesh::ATTRIBUTE_JOINT_WEIGHT)
-        else {
-            panic!("{}: joint weights", part.name)
-        };
-        assert_eq!(weights, &part.weights, "{}: joint weights", part.name);
-        let VertexAttributeValues::Float32x4(colors) = attribute(mesh, Mesh::ATTRIBUTE_COLOR)
-        else {
-            panic!("{}: COLOR_0", part.name)
-        };
-        assert_eq!(colors, &part.colors, "{}: COLOR_0", part.name);
+        use VertexAttributeValues as Values;
+        for (id, written) in [
+            (
+                Mesh::ATTRIBUTE_POSITION,
+                Values::Float32x3(part.positions.clone()),
+            ),
+            (
+                Mesh::ATTRIBUTE_JOINT_INDEX,
+                Values::Uint16x4(part.joints.clone()),
+            ),
+            (
+                Mesh::ATTRIBUTE_JOINT_WEIGHT,
+                Values::Float32x4(part.weights.clone()),
+            ),
+            (
+                Mesh::ATTRIBUTE_COLOR,
+                Values::Float32x4(part.colors.clone()),
+            ),
+        ] {
+            assert_eq!(attribute(mesh, id), &written, "{}: {}", part.name, id.name);
+        }
+        let colors = &part.colors;
         assert!(colors.iter().any(|c| c[0] == 0.0) && colors.iter().any(|c| c[0] == 1.0));
     }
 }

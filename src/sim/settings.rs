@@ -22,8 +22,9 @@ pub const STABILITY_FRACTION: f32 = 0.9;
 pub const AUTO_MAX_STRETCH: f32 = 0.1;
 
 /// The time integration method. Every integrator solves the same canonical model
-/// (`docs/guide.md`, "The model"): the same springs, masses, gravity, pins (pinned particles follow their targets, interpolated across
-/// substeps) and damping (velocities decay as `exp(-damping t)`).
+/// (`docs/guide.md`, "The model"): the same springs, masses, gravity, pins (pinned particles
+/// follow their targets, interpolated across substeps) and damping (velocities decay as
+/// `exp(-damping t)`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
 pub enum Integrator {
     /// Extended position-based dynamics with substeps: springs as compliant distance constraints
@@ -284,15 +285,16 @@ impl SelfCollision {
 
 /// Limits on particles tied to an animated target (a skinned position, or the rest shape carried
 /// by the cloth's transform): a particle of weight `w > 0` stays within `w × max_distance_scale`
-/// of its target, and outside a backstop sphere behind it. A weight of 0 is a pin.
+/// of its target, and outside a backstop sphere behind it (weight 0 keeps it on its target; the
+/// plugin pins such vertices instead).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
 #[serde(default, deny_unknown_fields)]
 pub struct TargetLimits {
     /// Maximum distance from the target per unit weight, m.
     pub max_distance_scale: f32,
     /// Radius of the backstop sphere, m (0: no backstop). Its centre lies behind the target
-    /// along the target's normal, at `backstop_radius + backstop_offset`, so a particle stays at
-    /// least `backstop_offset` in front of the animated surface near its target.
+    /// along the target's normal, at `backstop_radius + backstop_offset`, so a particle may go at
+    /// most `backstop_offset` behind its target (a negative offset keeps it in front).
     pub backstop_radius: f32,
     /// How far behind the target the backstop sphere begins, m (negative: in front of it).
     pub backstop_offset: f32,

@@ -464,9 +464,11 @@ impl ClothSim {
         let count = self.particles.positions.len();
         for t in targets {
             if t.particle as usize >= count {
-                return Err(ClothError::PinOutOfRange {
-                    index: t.particle,
-                    count,
+                return Err(ClothError::InvalidTargets {
+                    what: format!(
+                        "target particle {} is out of range: the cloth has {count} particles",
+                        t.particle
+                    ),
                 });
             }
             crate::error::non_negative("target weight", t.weight)?;

@@ -992,7 +992,19 @@ mod tests {
         v: &mut [Vec3],
         w: &[f32],
     ) {
-        contacts.begin_step(0.0);
+        resolve_within(contacts, 0.0, start, x, v, w);
+    }
+
+    /// [`resolve`] in a step whose particles may move `reach` relative to each other.
+    fn resolve_within(
+        contacts: &mut SelfContacts,
+        reach: f32,
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        w: &[f32],
+    ) {
+        contacts.begin_step(reach);
         let mut state = Vectors {
             x,
             v,
@@ -1112,14 +1124,7 @@ mod tests {
         let mut c = SelfContacts::new(&triangles, &rest, 0.005, 0.0);
         let w = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
         let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; 7]);
-        c.begin_step(0.05);
-        let mut state = Vectors {
-            x: &mut x,
-            v: &mut v,
-            start: &start,
-            inv_mass: &w,
-        };
-        c.resolve(1.0 / 1200.0, &mut state);
+        resolve_within(&mut c, 0.05, &start, &mut x, &mut v, &w);
         assert!(c.vt.contains(&(3, 0)), "{:?}", c.vt);
         // Stored order: 0 1 2 4 3 5 6.
         let order = [0, 1, 2, 4, 3, 5, 6];
@@ -1175,14 +1180,7 @@ mod tests {
         let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; start.len()]);
         let w = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
         // A reach wide enough for the tilted triangle to be a candidate.
-        c.begin_step(0.01);
-        let mut state = Vectors {
-            x: &mut x,
-            v: &mut v,
-            start: &start,
-            inv_mass: &w,
-        };
-        c.resolve(1.0 / 1200.0, &mut state);
+        resolve_within(&mut c, 0.01, &start, &mut x, &mut v, &w);
         let p = x[6];
         let floor = p.y;
         let tilted = (p - q).dot(n2);

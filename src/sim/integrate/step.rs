@@ -62,9 +62,9 @@ pub(crate) fn add_contact_work(work: &mut Option<f64>, before: f64, after: f64) 
     }
 }
 
-/// The part of the reference frame's motion over the substep `[t0, t1]` (fractions of the step)
-/// that the cloth does not feel, to carry its free particles along by at the substep's start
-/// (`frame`: see [`Step::frame`]).
+/// The part of the reference frame's motion over `[t0, t1]` (fractions of the step) that the
+/// cloth does not feel (`frame`: see [`Step::frame`]). Each stepper carries its free particles
+/// by it where, in its substep, they and the pins stand at the same time.
 pub(crate) fn frame_shift(frame: Option<(Pose, Pose, Inertia)>, t0: f32, t1: f32) -> Option<Shift> {
     let (from, to, inertia) = frame?;
     // The frame turns at a constant rate (its rotation is slerped): over any part of the step,
