@@ -3,7 +3,7 @@
 //! runs as many as you like.
 
 use bevy_cloth::harness::stress::{StressCase, StressLimits, StressOutcome, draw_case, run_case};
-use bevy_cloth::sim::Integrator::{self, ImplicitEuler};
+use bevy_cloth::sim::Integrator::{self, ImplicitEuler, Xpbd};
 
 const SEED: u64 = 0x5EED_C10A;
 
@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 2] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 4] = [
     (
         45762,
         13,
@@ -78,6 +78,18 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 2] = [
         111,
         ImplicitEuler,
         "CG stopped early from a stale start gained energy",
+    ),
+    (
+        45762,
+        72,
+        ImplicitEuler,
+        "a particle that fell into a thin box was pushed out of its far face",
+    ),
+    (
+        45762,
+        139,
+        Xpbd,
+        "a particle in contact went through a thin box and across its corner",
     ),
 ];
 

@@ -16,10 +16,17 @@
 //!    ball (or plane), less how far it moved, exceeds the ball's radius, the margin and the
 //!    collider's travel. Each remaining free particle is taken into the collider's local frame and
 //!    tested by the shape's signed distance `d`. A particle with `d < margin` is in contact. A
-//!    particle that ends the substep outside, but whose path in the collider's frame (start to end
-//!    of the substep) passes within the margin, tunnelled: a swept test (sphere tracing along that
-//!    path, exact because every signed distance here is exact) finds the first touching point and
-//!    puts it back there.
+//!    particle that started the substep clear and whose path in the collider's frame (start to
+//!    end of the substep) passes within the margin, whether it ends outside (it tunnelled) or
+//!    inside, goes back to the first touching point of that path, found by a swept test (sphere
+//!    tracing, exact because every signed distance here is exact): the nearest surface of where
+//!    it ended may be the far side of a thin collider. A particle that started in contact is
+//!    pushed out along the nearest surface, unless it went through: it ends inside where the
+//!    nearest surface faces away from or across the one it started at, or ends outside after its
+//!    path reached more than the margin below the surface (through a thin collider, or across a
+//!    corner). Then it is pushed out to the tangent plane of where it started, plus the margin:
+//!    a convex shape lies behind that plane, so the particle ends clear on its own side and keeps
+//!    its motion along the surface.
 //!    Spheres smaller than the cloth's longest edge are also tested against every triangle, so a
 //!    small sphere cannot slip between particles.
 //! 3. **Response**, per contact: the particle is projected to the surface plus margin, along the

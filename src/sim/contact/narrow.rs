@@ -129,11 +129,33 @@ fn collide_particle<S: ContactState>(
     if d >= margin && still && d - margin > x.distance(start) {
         return;
     }
-    if d >= margin {
-        let local0 = pose0.inverse_transform_point(start);
-        match sweep(shape, local0, local, margin) {
-            Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
-            None => return,
+    // A particle that started the substep clear goes back to where its path (in the collider's
+    // frame) first came within the margin, whether it ends outside (it passed through) or
+    // inside: the nearest surface of its end point may be the far side of a thin collider.
+    let local0 = pose0.inverse_transform_point(start);
+    match sweep(shape, local0, local, margin) {
+        Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
+        None => {
+            let (d0, n0) = shape.signed_distance(local0);
+            // Started in contact: it went through if it ends inside where the nearest surface
+            // faces away from (or across) the one it started at, or ends outside having been
+            // deep inside on the way.
+            let through = d0 <= margin
+                && if d < margin {
+                    normal.dot(n0) <= 0.0
+                } else {
+                    went_through(shape, (local0, d0), (local, d), margin)
+                };
+            if through {
+                // Out to the tangent plane where it started, plus the margin: the shape lies
+                // behind that plane (it is convex), so the particle ends clear of it on its own
+                // side, keeping the motion along the surface.
+                (d, normal) = (d0 + (local - local0).dot(n0), n0);
+            } else if d >= margin {
+                return;
+            }
+            // Otherwise it started in contact (resting, or reached by the collider's own
+            // motion) and goes out along the nearest surface.
         }
     }
     let mut x = pose1.transform_point(local + normal * (margin - d));
@@ -180,13 +202,42 @@ fn respond(
     *v = vc + n * vn.max(0.0) + vt * (1.0 - stop);
 }
 
+/// Whether a particle that started in contact, at `from` (distance `d0`), went through the shape
+/// on its straight path to `to` (distance `d`, outside the margin): the path reaches more than
+/// `margin` below the surface on the way. A particle sliding along the surface and off it cuts
+/// the surface by its path's sagitta, far less.
+/// The signed distance of a convex shape is convex along a line, so a ternary search finds the
+/// deepest point. The signed distance changes no faster than the point moves, so a path shorter
+/// than the way down and back up (every resting particle's) is not searched.
+fn went_through(
+    shape: &ColliderShape,
+    (from, d0): (Vec3, f32),
+    (to, d): (Vec3, f32),
+    margin: f32,
+) -> bool {
+    if from.distance(to) <= d0 + d + 2.0 * margin {
+        return false;
+    }
+    let depth = |t: f32| shape.signed_distance(from.lerp(to, t)).0;
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..32 {
+        let (a, b) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+        if depth(a) < depth(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    depth(0.5 * (lo + hi)) < -margin
+}
+
 /// Sphere tracing from `from` to `to` (collider frame): the first point of the path within
 /// `margin` of the surface, with its distance and normal; `None` if the path stays clear or starts
 /// in contact (a particle leaving the surface).
 fn sweep(shape: &ColliderShape, from: Vec3, to: Vec3, margin: f32) -> Option<(Vec3, f32, Vec3)> {
     let delta = to - from;
     let len = delta.length();
-    if len <= margin || shape.signed_distance(from).0 < margin {
+    if len <= margin || shape.signed_distance(from).0 <= margin {
         return None;
     }
     let dir = delta / len;

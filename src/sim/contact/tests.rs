@@ -154,6 +154,60 @@ fn a_fast_particle_cannot_tunnel_through_a_thin_box() {
 }
 
 #[test]
+fn a_particle_ending_inside_a_thin_box_goes_back_to_the_side_it_came_from() {
+    // A 6 cm slab; the particle falls 5 cm into it from above in one substep and ends 1 cm from
+    // the bottom face, the nearest one: pushing it out there would let it through.
+    let collider = Collider::fixed(
+        ColliderShape::Cuboid(Cuboid::new(2.0, 0.06, 2.0)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.005,
+    );
+    let mut c = active(collider, 0.01, 0.1);
+    c.begin_substep(&[Vec3::new(0.1, 0.031, 0.0)]);
+    let (mut x, mut v) = ([Vec3::new(0.1, -0.02, 0.0)], [Vec3::new(0.0, -5.0, 0.0)]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    assert!((x[0].y - 0.035).abs() < 1e-4, "{}", x[0]);
+    assert!(v[0].y >= 0.0);
+}
+
+#[test]
+fn a_particle_in_contact_cannot_pass_through_a_thin_box_or_cut_its_corner() {
+    // Resting on the top face of a 6 cm slab (within the margin), it moves in one substep to
+    // beyond the bottom face, to beside a side face through the slab's inside, or to just past
+    // the slab's middle (where the bottom face is nearest).
+    let collider = Collider::fixed(
+        ColliderShape::Cuboid(Cuboid::new(0.4, 0.06, 0.4)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.005,
+    );
+    let start = Vec3::new(0.15, 0.034, 0.0);
+    let ends = [
+        Vec3::new(0.15, -0.04, 0.0),
+        Vec3::new(0.21, 0.0, 0.0),
+        Vec3::new(0.15, -0.005, 0.0),
+    ];
+    for end in ends {
+        let mut c = active(collider, 0.01, 0.1);
+        c.begin_substep(&[start]);
+        let (mut x, mut v) = ([end], [(end - start) / 0.01]);
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+        // Back up to the top face plus the margin, keeping its motion along the face.
+        let expected = Vec3::new(end.x, 0.035, end.z);
+        assert!((x[0] - expected).length() < 1e-4, "{end}: {}", x[0]);
+        assert!(v[0].y >= 0.0, "{end}: {}", v[0]);
+    }
+    // Sliding along the face and off its edge is not passing through.
+    let mut c = active(collider, 0.01, 0.1);
+    c.begin_substep(&[start]);
+    let end = Vec3::new(0.25, 0.04, 0.0);
+    let (mut x, mut v) = ([end], [(end - start) / 0.01]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    assert_eq!(x[0], end);
+}
+
+#[test]
 fn friction_sticks_below_the_cone_and_slides_above() {
     let plane = ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y));
     for (mu, sticks) in [(0.8, true), (0.3, false)] {
