@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 4] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 5] = [
     (
         45762,
         13,
@@ -90,6 +90,12 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 4] = [
         139,
         Xpbd,
         "a particle in contact went through a thin box and across its corner",
+    ),
+    (
+        777,
+        91,
+        ImplicitEuler,
+        "contacts pushed out against a stiff solve that ignored them gave the cloth energy",
     ),
 ];
 

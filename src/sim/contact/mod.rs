@@ -80,6 +80,18 @@ struct Vectors<'a> {
     v: &'a mut [Vec3],
     start: &'a [Vec3],
     inv_mass: &'a [f32],
+    /// Where given, each touched particle's [`Touch`].
+    touches: Option<&'a mut [Touch]>,
+}
+
+/// A collider's contact with one particle in a substep, as [`Contacts::resolve`] reports it: the
+/// outward normal (zero: no contact) and the velocity of the collider's surface there.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Touch {
+    /// Outward unit normal; zero for a particle no collider touched.
+    pub normal: Vec3,
+    /// Velocity of the collider's surface at the contact, m/s.
+    pub surface: Vec3,
 }
 
 impl ContactState for Vectors<'_> {
@@ -103,6 +115,11 @@ impl ContactState for Vectors<'_> {
     }
     fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
         (self.x[i], self.v[i]) = (x, v);
+    }
+    fn touched(&mut self, i: usize, normal: Vec3, surface: Vec3) {
+        if let Some(touches) = self.touches.as_deref_mut() {
+            touches[i] = Touch { normal, surface };
+        }
     }
     fn clearances(&self, near: Near, out: &mut [f32]) {
         for ((o, x), s) in out.iter_mut().zip(&*self.x).zip(self.start) {
@@ -255,7 +272,8 @@ impl Contacts {
     }
 
     /// [`Self::resolve_state`] for positions `x` and velocities `v` in the particles' own order,
-    /// which started the substep where [`Self::begin_substep`] recorded.
+    /// which started the substep where [`Self::begin_substep`] recorded. With `touches`, each
+    /// particle a collider pushed gets its [`Touch`] there (the others are left as they were).
     #[allow(clippy::too_many_arguments)]
     pub fn resolve(
         &mut self,
@@ -264,8 +282,8 @@ impl Contacts {
         h: f32,
         triangles: &[u32],
         inv_mass: &[f32],
-        x: &mut [Vec3],
-        v: &mut [Vec3],
+        (x, v): (&mut [Vec3], &mut [Vec3]),
+        touches: Option<&mut [Touch]>,
     ) {
         let Self {
             active,
@@ -280,6 +298,7 @@ impl Contacts {
             v,
             start,
             inv_mass,
+            touches,
         };
         resolve_all(
             (active, clearance, self_contacts.as_mut(), limits),

@@ -49,6 +49,10 @@ pub(crate) trait ContactState {
     fn velocity(&self, i: usize) -> Vec3;
     /// Moves particle `i` to `x` with velocity `v`; its start stays where it was.
     fn set(&mut self, i: usize, x: Vec3, v: Vec3);
+    /// Records that a collider pushed particle `i` out along the outward `normal` while its
+    /// surface there moved at `surface`, for a stepper that holds contacts in its next solve
+    /// (implicit Euler); others forget it.
+    fn touched(&mut self, _i: usize, _normal: Vec3, _surface: Vec3) {}
     /// For every particle, `near.distance(x) − |x − start|` into `out`: a lower bound on its
     /// distance from `near`'s point or plane all along its path over the substep.
     fn clearances(&self, near: Near, out: &mut [f32]);
@@ -162,9 +166,10 @@ fn collide_particle<S: ContactState>(
     let push = (x - state.position(i)).length();
     let mut v = state.velocity(i);
     let vc = c.velocity_at(x, pose1.translation);
+    let normal = pose1.rotation * normal;
     respond(
         &c.collider.friction,
-        pose1.rotation * normal,
+        normal,
         push,
         vc,
         (h, start),
@@ -172,6 +177,7 @@ fn collide_particle<S: ContactState>(
         &mut v,
     );
     state.set(i, x, v);
+    state.touched(i, normal, vc);
 }
 
 /// The response of a contact just pushed out by `push` along the outward normal `n`, against a
@@ -341,6 +347,7 @@ fn collide_triangles<S: ContactState>(
                 &mut v,
             );
             state.set(i, x, v);
+            state.touched(i, -dir, vc);
         }
     }
     moved

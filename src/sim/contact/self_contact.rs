@@ -1010,6 +1010,7 @@ mod tests {
             v,
             start,
             inv_mass: w,
+            touches: None,
         };
         contacts.resolve(1.0 / 1200.0, &mut state);
     }
@@ -1147,6 +1148,7 @@ mod tests {
                 v: &mut v,
                 start: &stored_start,
                 inv_mass: &stored_w,
+                touches: None,
             },
             slot: vec![0, 1, 2, 4, 3, 5, 6],
         };

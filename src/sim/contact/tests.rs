@@ -124,7 +124,7 @@ fn a_particle_is_pushed_out_and_loses_only_inward_velocity() {
     let (mut x, mut v) = ([Vec3::new(0.0, 0.99, 0.0)], [Vec3::new(2.0, -3.0, 0.0)]);
     let mut c = contacts;
     c.begin_substep(&[Vec3::new(-0.02, 1.02, 0.0)]);
-    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
     assert!((x[0].length() - 1.05).abs() < 1e-6);
     // Frictionless: the tangential velocity survives, the inward normal part is gone.
     let n = x[0].normalize();
@@ -132,7 +132,7 @@ fn a_particle_is_pushed_out_and_loses_only_inward_velocity() {
     assert!((v[0] - n * v[0].dot(n)).length() > 1.9);
     // Outward velocity is left alone.
     let (mut x, mut v) = ([Vec3::new(0.0, 1.0, 0.0)], [Vec3::new(0.0, 4.0, 0.0)]);
-    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
     assert_eq!(v[0], Vec3::new(0.0, 4.0, 0.0));
 }
 
@@ -148,7 +148,7 @@ fn a_fast_particle_cannot_tunnel_through_a_thin_box() {
     let mut c = active(collider, 0.01, 0.1);
     c.begin_substep(&[Vec3::new(0.1, 0.5, 0.0)]);
     let (mut x, mut v) = ([Vec3::new(0.1, -0.5, 0.0)], [Vec3::new(0.0, -100.0, 0.0)]);
-    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
     assert!(x[0].y >= 0.01 + 0.01 - 1e-5, "{}", x[0]);
     assert!(v[0].y >= 0.0);
 }
@@ -166,7 +166,7 @@ fn a_particle_ending_inside_a_thin_box_goes_back_to_the_side_it_came_from() {
     let mut c = active(collider, 0.01, 0.1);
     c.begin_substep(&[Vec3::new(0.1, 0.031, 0.0)]);
     let (mut x, mut v) = ([Vec3::new(0.1, -0.02, 0.0)], [Vec3::new(0.0, -5.0, 0.0)]);
-    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
     assert!((x[0].y - 0.035).abs() < 1e-4, "{}", x[0]);
     assert!(v[0].y >= 0.0);
 }
@@ -192,7 +192,7 @@ fn a_particle_in_contact_cannot_pass_through_a_thin_box_or_cut_its_corner() {
         let mut c = active(collider, 0.01, 0.1);
         c.begin_substep(&[start]);
         let (mut x, mut v) = ([end], [(end - start) / 0.01]);
-        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
         // Back up to the top face plus the margin, keeping its motion along the face.
         let expected = Vec3::new(end.x, 0.035, end.z);
         assert!((x[0] - expected).length() < 1e-4, "{end}: {}", x[0]);
@@ -203,7 +203,7 @@ fn a_particle_in_contact_cannot_pass_through_a_thin_box_or_cut_its_corner() {
     c.begin_substep(&[start]);
     let end = Vec3::new(0.25, 0.04, 0.0);
     let (mut x, mut v) = ([end], [(end - start) / 0.01]);
-    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
     assert_eq!(x[0], end);
 }
 
@@ -219,7 +219,7 @@ fn friction_sticks_below_the_cone_and_slides_above() {
             [Vec3::new(0.0005, -0.001, 0.0)],
             [Vec3::new(0.05, -0.1, 0.0)],
         );
-        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
         assert!(x[0].y.abs() < 1e-7);
         if sticks {
             assert!(x[0].x.abs() < 1e-7 && v[0].x.abs() < 1e-6);
@@ -242,7 +242,7 @@ fn a_moving_collider_drags_the_cloth_within_the_friction_cone() {
         let mut c = active(collider, 0.01, 0.1);
         c.begin_substep(&[Vec3::ZERO]);
         let (mut x, mut v) = ([Vec3::new(0.0, -0.001, 0.0)], [Vec3::new(0.0, -0.1, 0.0)]);
-        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], &mut x, &mut v);
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
         // Slow collider: the particle sticks and moves with it. Fast: kinetic friction gives it
         // μ times the normal velocity removed.
         assert!(
@@ -338,6 +338,7 @@ fn the_clearance_skip_changes_no_contact() {
                     v: &mut v,
                     start: &start,
                     inv_mass: &inv_mass,
+                    touches: None,
                 };
                 let (active, clearance) = (&contacts.active, &mut contacts.clearance);
                 let t = (0.25, 0.5, 1.0 / 240.0);

@@ -7,13 +7,20 @@
 //! semi-definite, see `forces.rs`), solved matrix-free by Jacobi-preconditioned conjugate gradients.
 //! Pinned particles are handled by filtering, as in the paper's modified CG: their `Δv` is prescribed
 //! (the velocity that takes them to their target), their rows are removed from the residual and the
-//! search directions, and their columns enter the right-hand side.
+//! search directions, and their columns enter the right-hand side. Particles a collider pushed in
+//! the previous substep are held the same way along the contact normal only (the paper's
+//! one-dimensional constraints): their normal velocity becomes the collider surface's, while the
+//! solve moves them freely along the surface. Solved without that, the linearised springs would
+//! pull them into the collider, and the response would push them back out, each substep, against
+//! springs stiff enough to give the cloth energy that way. A held particle ends the substep on
+//! the margin, not within it, so unless something pushes it in again it is free in the next one.
 //!
 //! All vectors are sized when the integrator is selected; nothing here allocates.
 
 use glam::Vec3;
 
 use super::step::{Step, add_contact_work, frame_shift};
+use crate::sim::contact::Touch;
 use crate::sim::forces::{
     SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
 };
@@ -22,6 +29,10 @@ use crate::sim::state::{Particles, drive_pins, energy_of};
 /// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
 /// right-hand side and the substep's gravity impulse `h m g` (both as Euclidean norms).
 pub const CG_TOLERANCE: f32 = 1e-5;
+
+/// A particle moving off a collider's surface faster than this (m/s, relative to the surface) is
+/// not held against it in the next solve.
+const SEPARATING_SPEED: f32 = 1e-6;
 
 /// Implicit Euler's scratch: the force sums, the linearised springs and the conjugate-gradient
 /// vectors.
@@ -52,6 +63,12 @@ struct Cg {
     inv_diag: Vec<Vec3>,
     /// CG iterations taken in the last substep.
     last_iterations: u32,
+    /// The colliders' contacts in the last substep's response, per particle.
+    touches: Vec<Touch>,
+    /// Whether `touches` may hold any contact.
+    touched: bool,
+    /// Per particle, the contact normal this substep's solve holds (zero: not held).
+    held: Vec<Vec3>,
 }
 
 impl Implicit {
@@ -73,6 +90,9 @@ impl Implicit {
                 ap: v(),
                 inv_diag: v(),
                 last_iterations: 0,
+                touches: vec![Touch::default(); particles],
+                touched: false,
+                held: v(),
             },
         };
     }
@@ -88,12 +108,44 @@ impl Implicit {
     }
 }
 
-/// `out = M p + h² K p`, then the pinned rows zeroed (the filter `S A`).
+/// The rows CG solves for: a pinned particle's (inverse mass 0) are prescribed whole, a held
+/// contact's along its normal (`held`, when any particle is held).
+#[derive(Clone, Copy)]
+struct Rows<'a> {
+    inv_mass: &'a [f32],
+    held: Option<&'a [Vec3]>,
+}
+
+impl Rows<'_> {
+    /// The filter `S`: zeroes the prescribed part of every row.
+    fn filter(&self, v: &mut [Vec3]) {
+        for (v, w) in v.iter_mut().zip(self.inv_mass) {
+            if *w == 0.0 {
+                *v = Vec3::ZERO;
+            }
+        }
+        if let Some(held) = self.held {
+            for (v, n) in v.iter_mut().zip(held) {
+                *v -= *n * n.dot(*v);
+            }
+        }
+    }
+
+    /// The prescribed part of `v`, the rest zeroed (`v - S v`).
+    fn prescribed(&self, v: &[Vec3], out: &mut [Vec3]) {
+        out.copy_from_slice(v);
+        self.filter(out);
+        for (o, v) in out.iter_mut().zip(v) {
+            *o = *v - *o;
+        }
+    }
+}
+
+/// `out = M p + h² K p`, then filtered (`S A p`).
 fn apply_system(
     springs: SpringSet<'_>,
     jacobians: &SpringJacobians,
-    mass: &[f32],
-    inv_mass: &[f32],
+    (mass, rows): (&[f32], Rows<'_>),
     h2: f32,
     p: &[Vec3],
     out: &mut [Vec3],
@@ -102,16 +154,7 @@ fn apply_system(
         *o = *p * *m;
     }
     add_stiffness_product(springs.a, springs.b, jacobians, h2, p, out);
-    filter(out, inv_mass);
-}
-
-/// Zeroes the entries of pinned particles (inverse mass 0).
-fn filter(v: &mut [Vec3], inv_mass: &[f32]) {
-    for (v, w) in v.iter_mut().zip(inv_mass) {
-        if *w == 0.0 {
-            *v = Vec3::ZERO;
-        }
-    }
+    rows.filter(out);
 }
 
 fn dot(a: &[Vec3], b: &[Vec3]) -> f32 {
@@ -157,6 +200,11 @@ impl Implicit {
             if *w > 0.0 {
                 weight2 += (h * m * g).length_squared();
             }
+        }
+        if !contacts.is_active() && s.touched {
+            // No collider in reach: none of the last contacts is held when one comes back.
+            s.touches.fill(Touch::default());
+            s.touched = false;
         }
         for sub in 0..n {
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
@@ -204,52 +252,82 @@ impl Implicit {
                 }
                 s.dv[i] = (target - x[i]) * inv_h - v[i];
             }
-            filter(&mut s.rhs, inv_mass);
+            // Particles a collider pushed in the last substep and not moving off it are held:
+            // their normal velocity is prescribed to become the surface's.
+            let mut any_held = false;
+            if contacts.is_active() {
+                for (i, (t, held)) in s.touches.iter_mut().zip(s.held.iter_mut()).enumerate() {
+                    let n = t.normal;
+                    let hold = inv_mass[i] > 0.0
+                        && n != Vec3::ZERO
+                        && (v[i] - t.surface).dot(n) <= SEPARATING_SPEED;
+                    *held = if hold {
+                        let dv = s.dv[i];
+                        s.dv[i] = dv + n * ((t.surface - v[i]).dot(n) - n.dot(dv));
+                        n
+                    } else {
+                        Vec3::ZERO
+                    };
+                    any_held |= hold;
+                    // This substep's response records its own.
+                    *t = Touch::default();
+                }
+            }
+            let rows = Rows {
+                inv_mass,
+                held: any_held.then_some(&s.held[..]),
+            };
+            rows.filter(&mut s.rhs);
             let tolerance2 = CG_TOLERANCE * CG_TOLERANCE * dot(&s.rhs, &s.rhs).max(weight2);
             // r = S (b - A Δv).
-            apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.dv, &mut s.r);
+            apply_system(springs, &s.jacobians, (mass, rows), h2, &s.dv, &mut s.r);
             for (r, b) in s.r.iter_mut().zip(&s.rhs) {
                 *r = *b - *r;
             }
-            // CG minimises φ(Δv) = ½ Δvᵀ A Δv - bᵀ Δv over the free rows, the pinned ones held at
-            // their prescribed values (the A-norm of the error, up to a constant), from its start.
-            // Stopped early, a start worse than zero (φ > φ(0)) leaves stale velocity changes in
-            // the stiff modes, which then gain energy step after step (found by the stress suite):
-            // it restarts from zero instead. With r = b - A Δv and c = A (the pinned rows of Δv)
-            // on the free rows, φ(Δv) - φ(0) = -½ Δvᵀ (b + r - c).
-            let pinned_part = !pins.is_empty();
-            if pinned_part {
-                for ((z, dv), w) in s.z.iter_mut().zip(&s.dv).zip(inv_mass.iter()) {
-                    *z = if *w > 0.0 { Vec3::ZERO } else { *dv };
-                }
-                apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.z, &mut s.ap);
+            // CG minimises φ(Δv) = ½ Δvᵀ A Δv - bᵀ Δv over the free rows, the prescribed parts
+            // (`Δv₀`) held at their values (the A-norm of the error, up to a constant), from its
+            // start. Stopped early, a start worse than `Δv₀` (φ > φ(Δv₀)) leaves stale velocity
+            // changes in the stiff modes, which then gain energy step after step (found by the
+            // stress suite): it restarts from `Δv₀` instead. With e = Δv - Δv₀ (free), r = S (b -
+            // A Δv) and c = S A Δv₀, φ(Δv) - φ(Δv₀) = -½ eᵀ (b + r - c).
+            let prescribed = !pins.is_empty() || any_held;
+            if prescribed {
+                rows.prescribed(&s.dv, &mut s.z);
+                apply_system(springs, &s.jacobians, (mass, rows), h2, &s.z, &mut s.ap);
             }
             let mut phi = 0.0;
             for (i, (dv, w)) in s.dv.iter().zip(inv_mass.iter()).enumerate() {
                 if *w > 0.0 {
-                    let c = if pinned_part { s.ap[i] } else { Vec3::ZERO };
-                    phi -= 0.5 * dv.dot(s.rhs[i] + s.r[i] - c);
+                    let (c, e) = if prescribed {
+                        (s.ap[i], *dv - s.z[i])
+                    } else {
+                        (Vec3::ZERO, *dv)
+                    };
+                    phi -= 0.5 * e.dot(s.rhs[i] + s.r[i] - c);
                 }
             }
             if phi > 0.0 {
-                // From zero on the free rows the residual is b - c (b and c are 0 on pinned rows).
+                // From Δv₀ the residual is b - c (both filtered).
                 for (i, (dv, w)) in s.dv.iter_mut().zip(inv_mass.iter()).enumerate() {
+                    let c = if prescribed { s.ap[i] } else { Vec3::ZERO };
                     if *w > 0.0 {
-                        *dv = Vec3::ZERO;
+                        *dv = if prescribed { s.z[i] } else { Vec3::ZERO };
                     }
-                    let c = if pinned_part { s.ap[i] } else { Vec3::ZERO };
                     s.r[i] = s.rhs[i] - c;
                 }
             }
-            // For the pinned rows, A Δv was filtered away and rhs is 0, so r is 0 there.
+            // For the prescribed parts, A Δv was filtered away and rhs is 0, so r is 0 there.
             for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&s.inv_diag) {
                 *z = *r * *d;
+            }
+            if any_held {
+                rows.filter(&mut s.z);
             }
             s.p.copy_from_slice(&s.z);
             let mut rz = dot(&s.r, &s.z);
             let mut iterations = 0;
             while iterations < max_iterations && dot(&s.r, &s.r) > tolerance2 {
-                apply_system(springs, &s.jacobians, mass, inv_mass, h2, &s.p, &mut s.ap);
+                apply_system(springs, &s.jacobians, (mass, rows), h2, &s.p, &mut s.ap);
                 let pap = dot(&s.p, &s.ap);
                 if pap.is_nan() || pap <= 0.0 {
                     break;
@@ -265,6 +343,9 @@ impl Implicit {
                 }
                 for ((z, r), d) in s.z.iter_mut().zip(&s.r).zip(&s.inv_diag) {
                     *z = *r * *d;
+                }
+                if any_held {
+                    rows.filter(&mut s.z);
                 }
                 let rz_new = dot(&s.r, &s.z);
                 let beta = rz_new / rz;
@@ -298,7 +379,9 @@ impl Implicit {
             if contacts.is_active() {
                 let energy = |x: &[Vec3], v: &[Vec3]| energy_of(springs, (mass, inv_mass), g, x, v);
                 let before = contact_work.map(|_| energy(x, v).total());
-                contacts.resolve(t0, t1, h, &model.triangles, inv_mass, x, v);
+                let touches = Some(&mut s.touches[..]);
+                contacts.resolve(t0, t1, h, &model.triangles, inv_mass, (x, v), touches);
+                s.touched = true;
                 if let Some(before) = before {
                     add_contact_work(contact_work, before, energy(x, v).total());
                 }

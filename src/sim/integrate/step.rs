@@ -346,7 +346,15 @@ mod tests {
 
         let (mut x, mut v) = (end.clone(), velocity.clone());
         contacts.begin_substep(&start);
-        contacts.resolve(t.0, t.1, t.2, &model.triangles, &inv_mass, &mut x, &mut v);
+        contacts.resolve(
+            t.0,
+            t.1,
+            t.2,
+            &model.triangles,
+            &inv_mass,
+            (&mut x, &mut v),
+            None,
+        );
 
         let order = layout.order();
         let mut soa = [Soa::new(n), Soa::new(n), Soa::new(n)];
