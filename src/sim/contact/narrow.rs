@@ -137,10 +137,10 @@ fn collide_particle<S: ContactState>(
     // frame) first came within the margin, whether it ends outside (it passed through) or
     // inside: the nearest surface of its end point may be the far side of a thin collider.
     let local0 = pose0.inverse_transform_point(start);
-    match sweep(shape, local0, local, margin) {
+    let (d0, n0) = shape.signed_distance(local0);
+    match sweep(shape, (local0, d0), local, margin) {
         Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
         None => {
-            let (d0, n0) = shape.signed_distance(local0);
             // Started in contact: it went through if it ends inside where the nearest surface
             // faces away from (or across) the one it started at, or ends outside having been
             // deep inside on the way.
@@ -237,13 +237,18 @@ fn went_through(
     depth(0.5 * (lo + hi)) < -margin
 }
 
-/// Sphere tracing from `from` to `to` (collider frame): the first point of the path within
-/// `margin` of the surface, with its distance and normal; `None` if the path stays clear or starts
-/// in contact (a particle leaving the surface).
-fn sweep(shape: &ColliderShape, from: Vec3, to: Vec3, margin: f32) -> Option<(Vec3, f32, Vec3)> {
+/// Sphere tracing from `from` (at distance `d0`) to `to` (collider frame): the first point of the
+/// path within `margin` of the surface, with its distance and normal; `None` if the path stays
+/// clear or starts in contact.
+fn sweep(
+    shape: &ColliderShape,
+    (from, d0): (Vec3, f32),
+    to: Vec3,
+    margin: f32,
+) -> Option<(Vec3, f32, Vec3)> {
     let delta = to - from;
     let len = delta.length();
-    if len <= margin || shape.signed_distance(from).0 <= margin {
+    if len <= margin || d0 <= margin {
         return None;
     }
     let dir = delta / len;
