@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 6] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 8] = [
     (
         45762,
         13,
@@ -102,6 +102,18 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 6] = [
         91,
         ImplicitEuler,
         "contacts pushed out against a stiff solve that ignored them gave the cloth energy",
+    ),
+    (
+        20261124,
+        104,
+        Verlet,
+        "energy ran away at h ω = 1.8 in a cloth stretched far from rest",
+    ),
+    (
+        20261124,
+        5762,
+        Verlet,
+        "past its bound at the substep cap, the energy overflowed within one step",
     ),
 ];
 

@@ -125,8 +125,8 @@ pub fn run(
     for f in &failures {
         if let StressOutcome::Failure(why) = &f.outcome {
             println!(
-                "\nFAILED case {} (seed {}): {why}\n{:?}",
-                f.case.index, f.case.seed, f.case
+                "\nFAILED case {} (seed {}, {} substeps, hω {:.2}): {why}\n{:?}",
+                f.case.index, f.case.seed, f.substeps, f.h_omega, f.case
             );
         }
     }

@@ -54,8 +54,9 @@ pub use model::{
     compute_normals,
 };
 pub use settings::{
-    AUTO_MAX_STRETCH, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS, STABILITY_FRACTION,
-    SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers,
+    AUTO_MAX_STRETCH, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
+    NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION, SelfCollision, SolverSettings, Stiffness,
+    TargetLimits, Tethers,
 };
 pub use state::Energy;
 pub use wind::{PlacedWindZone, WindField, WindZoneShape};

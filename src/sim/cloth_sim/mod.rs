@@ -12,7 +12,8 @@ use super::forces::{SpringSet, max_frequency_bound};
 use super::integrate::{Spread, Step, Steppers};
 use super::model::{ClothModel, SpringKind};
 use super::settings::{
-    AUTO_MAX_STRETCH, Integrator, MAX_SUBSTEPS, STABILITY_FRACTION, SolverSettings,
+    AUTO_MAX_STRETCH, Integrator, MAX_SUBSTEPS, NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION,
+    SolverSettings,
 };
 use super::state::{Energy, Particles, PinState, max_length};
 use super::wind::{WindField, WindScratch};
@@ -65,6 +66,8 @@ pub struct ClothSim {
 const RUNAWAY_STEPS: u32 = 5;
 /// Growth per step of the kinetic plus elastic energy that counts towards a runaway.
 const RUNAWAY_GROWTH: f64 = 1.5;
+/// Growth of the kinetic plus elastic energy within one step that is a runaway by itself.
+const RUNAWAY_STEP_GROWTH: f64 = 1e6;
 
 /// Energy watch for the explicit integrators when they run past `h ω_max < 2`.
 #[derive(Debug, Clone, Copy, Default)]
@@ -75,6 +78,8 @@ struct Runaway {
     streak_start: f64,
     /// Consecutive steps in which the energy grew by at least [`RUNAWAY_GROWTH`].
     streak: u32,
+    /// Kinetic plus elastic energy at the start of the current step, J (past the bound only).
+    before: f64,
 }
 
 /// The sleeping state of a cloth (see [`SolverSettings::sleep_speed`]).
@@ -313,20 +318,32 @@ impl ClothSim {
 
     /// Number of substeps a step of `dt` seconds takes: `substeps`, raised to the stability bound
     /// for the explicit integrators when [`SolverSettings::auto_substeps`] is on, and at most
-    /// [`MAX_SUBSTEPS`].
+    /// [`MAX_SUBSTEPS`]. While a spring is stretched by more than [`AUTO_MAX_STRETCH`], the bound
+    /// is taken at [`NONLINEAR_STABILITY_FRACTION`] instead.
     pub fn substeps_for(&self, dt: f32) -> u32 {
         let n = self.settings.substeps;
         if !(self.settings.auto_substeps && self.settings.integrator.is_explicit()) {
             return n;
         }
-        n.max(self.stable_substeps(dt).min(MAX_SUBSTEPS))
+        let fraction = if self.overstretched() {
+            NONLINEAR_STABILITY_FRACTION
+        } else {
+            STABILITY_FRACTION
+        };
+        n.max(self.substeps_within(dt, fraction).min(MAX_SUBSTEPS))
     }
 
     /// The fewest substeps per step of `dt` seconds at which the explicit integrators are within
     /// their stability bound, `h ≤ STABILITY_FRACTION · 2/ω_max` (see
     /// [`max_frequency`](Self::max_frequency)); `u32::MAX` if no count is.
     pub fn stable_substeps(&self, dt: f32) -> u32 {
-        let needed = (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil();
+        self.substeps_within(dt, STABILITY_FRACTION)
+    }
+
+    /// The fewest substeps per step of `dt` seconds with `h ≤ fraction · 2/ω_max`; `u32::MAX` if
+    /// no count is.
+    fn substeps_within(&self, dt: f32, fraction: f32) -> u32 {
+        let needed = (dt * self.omega_max / (2.0 * fraction)).ceil();
         if needed.is_finite() && needed < u32::MAX as f32 {
             (needed as u32).max(1)
         } else {
@@ -604,6 +621,11 @@ impl ClothSim {
         }
         self.active = self.choose_integrator(dt);
         let substeps = self.substeps_for(dt);
+        let past_bound = self.active.is_explicit() && dt / substeps as f32 * self.omega_max >= 2.0;
+        if past_bound {
+            let e = self.energy();
+            self.runaway.before = e.kinetic + e.elastic;
+        }
         if self.settings.self_collision.enabled {
             // Only motion relative to the cloth's mean brings its own elements together.
             let v = &self.particles.velocities;
@@ -697,8 +719,10 @@ impl ClothSim {
     /// For an explicit integrator run past its stability bound (`h ω_max ≥ 2`, possible with
     /// `auto_substeps` off or at [`MAX_SUBSTEPS`]): an error once the kinetic plus elastic energy
     /// has grown by [`RUNAWAY_GROWTH`]× in each of [`RUNAWAY_STEPS`] consecutive steps, the
-    /// signature of an unstable mode (gravity, pins or wind add energy far more slowly). Within
-    /// the bound this costs nothing.
+    /// signature of an unstable mode (gravity, pins or wind add energy far more slowly), or by
+    /// [`RUNAWAY_STEP_GROWTH`]× in one step over its start plus the whole cloth's weight lifted a
+    /// metre (a mode unstable enough to do that within a step's substeps). Within the bound this
+    /// costs nothing.
     fn check_runaway(&mut self, dt: f32, substeps: u32) -> Result<(), ClothError> {
         let h = dt / substeps as f32;
         let h_omega = h * self.omega_max;
@@ -708,7 +732,15 @@ impl ClothSim {
         }
         let e = self.energy();
         let energy = e.kinetic + e.elastic;
+        let weight: f64 = self
+            .particles
+            .mass
+            .iter()
+            .map(|m| f64::from(*m))
+            .sum::<f64>()
+            * f64::from(self.settings.gravity.length().max(1.0));
         let r = &mut self.runaway;
+        let burst = energy > RUNAWAY_STEP_GROWTH * (r.before + weight);
         if energy > RUNAWAY_GROWTH * r.energy && energy > 1e-12 {
             if r.streak == 0 {
                 r.streak_start = r.energy.max(f64::MIN_POSITIVE);
@@ -718,7 +750,12 @@ impl ClothSim {
             r.streak = 0;
         }
         r.energy = energy;
-        if r.streak >= RUNAWAY_STEPS {
+        if r.streak >= RUNAWAY_STEPS || burst {
+            let (growth, steps) = if burst {
+                (energy / r.before.max(f64::MIN_POSITIVE), 1)
+            } else {
+                (energy / r.streak_start, r.streak)
+            };
             return Err(ClothError::Unstable {
                 integrator: self.active.name(),
                 step: self.steps,
@@ -726,8 +763,8 @@ impl ClothSim {
                 omega_max: self.omega_max,
                 h_omega,
                 substeps_needed: (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil() as u32,
-                growth: energy / r.streak_start,
-                steps: r.streak,
+                growth,
+                steps,
             });
         }
         Ok(())
