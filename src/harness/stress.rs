@@ -30,6 +30,7 @@ use glam::{Quat, Vec3};
 
 use crate::error::ClothError;
 use crate::hash::{GOLDEN_GAMMA, mix64};
+use crate::sim::contact::convex_minimum;
 use crate::sim::{
     ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
     Integrator, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
@@ -698,17 +699,7 @@ fn tunnelled(shape: &ColliderShape, from: Vec3, to: Vec3) -> Option<f32> {
     if signed_distance(shape, from) < -CLEARANCE_TOLERANCE {
         return None;
     }
-    let depth = |t: f32| signed_distance(shape, from.lerp(to, t));
-    let (mut lo, mut hi) = (0.0f32, 1.0f32);
-    for _ in 0..60 {
-        let (a, b) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
-        if depth(a) < depth(b) {
-            hi = b;
-        } else {
-            lo = a;
-        }
-    }
-    let deepest = -depth(0.5 * (lo + hi));
+    let deepest = -convex_minimum(|t| signed_distance(shape, from.lerp(to, t)));
     (deepest > core).then_some(deepest)
 }
 

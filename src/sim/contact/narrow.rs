@@ -224,17 +224,22 @@ fn went_through(
     if from.distance(to) <= d0 + d + 2.0 * margin {
         return false;
     }
-    let depth = |t: f32| shape.signed_distance(from.lerp(to, t)).0;
+    convex_minimum(|t| shape.signed_distance(from.lerp(to, t)).0) < -margin
+}
+
+/// The smallest value of a convex function on `[0, 1]` (a ternary search, to within 3e-6 of the
+/// interval).
+pub(crate) fn convex_minimum(f: impl Fn(f32) -> f32) -> f32 {
     let (mut lo, mut hi) = (0.0f32, 1.0f32);
     for _ in 0..32 {
         let (a, b) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
-        if depth(a) < depth(b) {
+        if f(a) < f(b) {
             hi = b;
         } else {
             lo = a;
         }
     }
-    depth(0.5 * (lo + hi)) < -margin
+    f(0.5 * (lo + hi))
 }
 
 /// Sphere tracing from `from` (at distance `d0`) to `to` (collider frame): the first point of the
