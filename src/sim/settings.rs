@@ -165,7 +165,9 @@ pub struct SolverSettings {
     pub iterations: u32,
     /// For the explicit integrators (symplectic Euler, Verlet): raise the substep count, if needed,
     /// to what the stability bound asks for, `h ≤ STABILITY_FRACTION · 2/ω_max` with `ω_max` bounded
-    /// from each particle's springs and mass. `substeps` stays the minimum. Ignored by XPBD and
+    /// from each particle's springs and mass (`NONLINEAR_STABILITY_FRACTION` in place of
+    /// `STABILITY_FRACTION` while a spring is stretched far from rest). `substeps` stays the
+    /// minimum. Ignored by XPBD and
     /// implicit Euler, which are stable at any step, and by [`Integrator::Auto`], which runs Verlet
     /// only within the bound.
     pub auto_substeps: bool,
