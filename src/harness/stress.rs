@@ -19,7 +19,8 @@
 //! symplectic integrator's kinetic-energy inflation (a runaway check). Every check applies to
 //! every step that returns `Ok`, past an explicit integrator's stability bound too. An explicit
 //! integrator that reports [`ClothError::Unstable`] or [`ClothError::Diverged`] past its
-//! stability bound `h ω_max ≥ 2` is not a failure: that is the detection working, and the case
+//! stability bound `h ω_max ≥ 2`, or `Unstable` where its bound asks for more than
+//! [`MAX_SUBSTEPS`] substeps, is not a failure: that is the detection working, and the case
 //! records where the limit lies.
 
 use std::f32::consts::TAU;
@@ -33,7 +34,7 @@ use crate::hash::{GOLDEN_GAMMA, mix64};
 use crate::sim::contact::convex_minimum;
 use crate::sim::{
     ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
-    Integrator, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
+    Integrator, MAX_SUBSTEPS, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
 };
 
 /// How deep (m) a free particle may end a step inside a collider before the case fails.
@@ -584,6 +585,10 @@ fn run_steps(
                 ClothError::Unstable { .. } | ClothError::Diverged { .. } if past_bound => {
                     StressOutcome::DetectedUnstable(e)
                 }
+                // Its bound asked for more substeps than the cap allows.
+                ClothError::Unstable {
+                    substeps_needed, ..
+                } if substeps_needed > MAX_SUBSTEPS => StressOutcome::DetectedUnstable(e),
                 e => StressOutcome::Failure(format!("step {step}: {e}")),
             };
             return;

@@ -321,16 +321,24 @@ impl ClothSim {
     /// [`MAX_SUBSTEPS`]. While a spring is stretched by more than [`AUTO_MAX_STRETCH`], the bound
     /// is taken at [`NONLINEAR_STABILITY_FRACTION`] instead.
     pub fn substeps_for(&self, dt: f32) -> u32 {
+        self.substep_plan(dt).0
+    }
+
+    /// [`Self::substeps_for`], and the substeps the explicit integrators' bound asks for (the
+    /// configured count for the others, or with `auto_substeps` off), which may exceed
+    /// [`MAX_SUBSTEPS`].
+    fn substep_plan(&self, dt: f32) -> (u32, u32) {
         let n = self.settings.substeps;
         if !(self.settings.auto_substeps && self.settings.integrator.is_explicit()) {
-            return n;
+            return (n, n);
         }
         let fraction = if self.overstretched() {
             NONLINEAR_STABILITY_FRACTION
         } else {
             STABILITY_FRACTION
         };
-        n.max(self.substeps_within(dt, fraction).min(MAX_SUBSTEPS))
+        let wanted = n.max(self.substeps_within(dt, fraction));
+        (wanted.min(MAX_SUBSTEPS), wanted)
     }
 
     /// The fewest substeps per step of `dt` seconds at which the explicit integrators are within
@@ -620,8 +628,11 @@ impl ClothSim {
             return Ok(());
         }
         self.active = self.choose_integrator(dt);
-        let substeps = self.substeps_for(dt);
-        let past_bound = self.active.is_explicit() && dt / substeps as f32 * self.omega_max >= 2.0;
+        let (substeps, wanted) = self.substep_plan(dt);
+        // Past its bound: an explicit integrator beyond the linear limit, or held below what its
+        // bound asks for by the substep cap.
+        let past_bound = self.active.is_explicit()
+            && (dt / substeps as f32 * self.omega_max >= 2.0 || wanted > substeps);
         if past_bound {
             let e = self.energy();
             self.runaway.before = e.kinetic + e.elastic;
@@ -711,22 +722,28 @@ impl ClothSim {
                 substeps,
             });
         }
-        self.check_runaway(dt, substeps)?;
+        self.check_runaway(dt, (substeps, wanted), past_bound)?;
         self.update_sleep(env, dt);
         Ok(())
     }
 
     /// For an explicit integrator run past its stability bound (`h ω_max ≥ 2`, possible with
-    /// `auto_substeps` off or at [`MAX_SUBSTEPS`]): an error once the kinetic plus elastic energy
+    /// `auto_substeps` off or at [`MAX_SUBSTEPS`], or fewer substeps than its bound asks for,
+    /// held back by the cap): an error once the kinetic plus elastic energy
     /// has grown by [`RUNAWAY_GROWTH`]× in each of [`RUNAWAY_STEPS`] consecutive steps, the
     /// signature of an unstable mode (gravity, pins or wind add energy far more slowly), or by
     /// [`RUNAWAY_STEP_GROWTH`]× in one step over its start plus the whole cloth's weight lifted a
     /// metre (a mode unstable enough to do that within a step's substeps). Within the bound this
     /// costs nothing.
-    fn check_runaway(&mut self, dt: f32, substeps: u32) -> Result<(), ClothError> {
+    fn check_runaway(
+        &mut self,
+        dt: f32,
+        (substeps, wanted): (u32, u32),
+        past_bound: bool,
+    ) -> Result<(), ClothError> {
         let h = dt / substeps as f32;
         let h_omega = h * self.omega_max;
-        if !(self.active.is_explicit() && h_omega >= 2.0) {
+        if !past_bound {
             self.runaway = Runaway::default();
             return Ok(());
         }
@@ -762,7 +779,7 @@ impl ClothSim {
                 h,
                 omega_max: self.omega_max,
                 h_omega,
-                substeps_needed: (dt * self.omega_max / (2.0 * STABILITY_FRACTION)).ceil() as u32,
+                substeps_needed: wanted.max(self.stable_substeps(dt)),
                 growth,
                 steps,
             });
