@@ -86,13 +86,15 @@ pub enum ClothError {
         /// Number of vertices.
         count: usize,
     },
-    /// An explicit integrator ran past its stability limit `h ω_max < 2`: the cloth's energy grew
-    /// step after step with nothing to explain it. The cloth is stopped before values overflow.
+    /// An explicit integrator ran past its stability bound (`h ω_max ≥ 2`, or fewer substeps
+    /// than its bound asks for, held back by `MAX_SUBSTEPS`): the cloth's energy grew step after
+    /// step, or a millionfold within one, with nothing to explain it. The cloth is stopped before
+    /// values overflow.
     #[error(
         "{integrator} is unstable at step {step}: substep {h} s × highest spring frequency \
-         {omega_max} rad/s = {h_omega:.2} is past the limit 2 (energy grew {growth:.1e}× in \
-         {steps} steps); use at least {substeps_needed} substeps (auto_substeps), lower the \
-         stiffness, or use XPBD or implicit Euler"
+         {omega_max} rad/s = {h_omega:.2} is past its stability bound (energy grew \
+         {growth:.1e}× in {steps} steps); use at least {substeps_needed} substeps \
+         (auto_substeps), lower the stiffness, or use XPBD or implicit Euler"
     )]
     Unstable {
         /// The integrator's name.

@@ -69,7 +69,7 @@ const RUNAWAY_GROWTH: f64 = 1.5;
 /// Growth of the kinetic plus elastic energy within one step that is a runaway by itself.
 const RUNAWAY_STEP_GROWTH: f64 = 1e6;
 
-/// Energy watch for the explicit integrators when they run past `h ω_max < 2`.
+/// Energy watch for the explicit integrators when they run past their stability bound.
 #[derive(Debug, Clone, Copy, Default)]
 struct Runaway {
     /// Kinetic plus elastic energy after the last step, J.
