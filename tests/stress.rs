@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 8] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 9] = [
     (
         45762,
         13,
@@ -102,6 +102,12 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 8] = [
         91,
         ImplicitEuler,
         "contacts pushed out against a stiff solve that ignored them gave the cloth energy",
+    ),
+    (
+        777001,
+        230,
+        Verlet,
+        "elastic energy grew a thousandfold after a capsule had stretched a pinned cloth and left",
     ),
     (
         20261124,
