@@ -53,7 +53,17 @@ fn is_cloth([r, g, b]: [u8; 3]) -> bool {
 }
 
 /// Fraction of cloth pixels in the rectangle given as fractions of the picture.
-fn cloth_fraction(p: &Picture, (x0, y0, x1, y1): (f32, f32, f32, f32)) -> f32 {
+fn cloth_fraction(p: &Picture, rect: (f32, f32, f32, f32)) -> f32 {
+    fraction_where(p, rect, |i| is_cloth(p.rgb[i]))
+}
+
+/// Fraction of the pixels in the rectangle (fractions of `p`'s size) whose index in `p.rgb`
+/// satisfies `hit`.
+fn fraction_where(
+    p: &Picture,
+    (x0, y0, x1, y1): (f32, f32, f32, f32),
+    hit: impl Fn(usize) -> bool,
+) -> f32 {
     let (xa, xb) = (
         (x0 * p.width as f32) as usize,
         (x1 * p.width as f32) as usize,
@@ -62,12 +72,10 @@ fn cloth_fraction(p: &Picture, (x0, y0, x1, y1): (f32, f32, f32, f32)) -> f32 {
         (y0 * p.height as f32) as usize,
         (y1 * p.height as f32) as usize,
     );
-    let mut hits = 0;
-    for y in ya..yb {
-        for x in xa..xb {
-            hits += is_cloth(p.rgb[y * p.width + x]) as usize;
-        }
-    }
+    let hits: usize = (ya..yb)
+        .flat_map(|y| (xa..xb).map(move |x| y * p.width + x))
+        .filter(|i| hit(*i))
+        .count();
     hits as f32 / ((xb - xa) * (yb - ya)) as f32
 }
 
@@ -194,25 +202,12 @@ fn character_wears_its_cape_where_the_camera_follows_it() {
 
 /// Fraction of pixels in the rectangle (fractions of the picture) whose colour differs between
 /// `a` and `b` by more than `MOVED` (summed over the channels).
-fn changed_fraction(a: &Picture, b: &Picture, (x0, y0, x1, y1): (f32, f32, f32, f32)) -> f32 {
+fn changed_fraction(a: &Picture, b: &Picture, rect: (f32, f32, f32, f32)) -> f32 {
     assert_eq!((a.width, a.height), (b.width, b.height));
-    let (xa, xb) = (
-        (x0 * a.width as f32) as usize,
-        (x1 * a.width as f32) as usize,
-    );
-    let (ya, yb) = (
-        (y0 * a.height as f32) as usize,
-        (y1 * a.height as f32) as usize,
-    );
-    let mut changed = 0;
-    for y in ya..yb {
-        for x in xa..xb {
-            let (p, q) = (a.rgb[y * a.width + x], b.rgb[y * b.width + x]);
-            let d: u32 = (0..3).map(|c| p[c].abs_diff(q[c]) as u32).sum();
-            changed += usize::from(d > MOVED);
-        }
-    }
-    changed as f32 / ((xb - xa) * (yb - ya)) as f32
+    fraction_where(a, rect, |i| {
+        let (p, q) = (a.rgb[i], b.rgb[i]);
+        (0..3).map(|c| p[c].abs_diff(q[c]) as u32).sum::<u32>() > MOVED
+    })
 }
 
 /// A colour change (summed over the channels) that counts as a pixel having changed: well above
