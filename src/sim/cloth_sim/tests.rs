@@ -208,8 +208,8 @@ fn a_cloth_without_springs_falls_freely_with_every_integrator() {
 /// A stiff cloth (hω ≈ 60 per substep) of light particles, pinned at two corners, swings onto a
 /// thin capsule under implicit Euler. Solved without the contacts, each substep's linearised
 /// springs pulled the particles on the capsule into it and the response pushed them back out,
-/// which stretched the cloth and gave it energy (the stress suite's case 777/91: 1.2 kJ of
-/// elastic energy in a cloth that fell 0.6 m).
+/// which stretched the cloth and gave it energy (found by the stress suite's case 777/91;
+/// BENCHMARKS.md has the figures).
 #[test]
 fn implicit_euler_holds_contacts_without_giving_the_cloth_energy() {
     use crate::sim::{Collider, ColliderShape, Environment, Friction, Pose};
@@ -272,14 +272,14 @@ fn implicit_euler_holds_contacts_without_giving_the_cloth_energy() {
     let mut worst: f64 = f64::NEG_INFINITY;
     for step in 0..80 {
         sim.step_in(0.00923, &env).unwrap();
-        // The cloth reaches the capsule at step 17, where the first push-outs (of particles that
-        // arrived inside, not yet held) stretch it for a step: a transient of about a third of
-        // its fall's energy, lost again in the next step. From then on it may gain nothing.
+        // The cloth reaches the capsule before step 20, where the first push-outs (of particles
+        // that arrived inside, not yet held) stretch it for a step: a transient, lost again in
+        // the next step. From then on it may gain nothing.
         if step >= 20 {
             worst = worst.max(total(&sim) - start);
         }
     }
-    // Gravity's work over a millimetre of the whole cloth (without the hold: over 200 J).
+    // Gravity's work over a millimetre of the whole cloth.
     let tolerance = mass * 9.81 * 1e-3;
     assert!(
         worst <= tolerance,
