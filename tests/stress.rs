@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 9] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 11] = [
     (
         45762,
         13,
@@ -120,6 +120,18 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 9] = [
         5762,
         Verlet,
         "past its bound at the substep cap, the energy overflowed within one step",
+    ),
+    (
+        20261124,
+        3909,
+        ImplicitEuler,
+        "a particle flung by a stretched spring outran the broad phase into a floor",
+    ),
+    (
+        20261124,
+        4593,
+        ImplicitEuler,
+        "a particle outran the broad phase in the first step and ended inside a sphere",
     ),
 ];
 

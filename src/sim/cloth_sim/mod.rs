@@ -9,7 +9,7 @@ use glam::Vec3;
 
 use super::contact::{Collider, Contacts, Pose, SelfContacts, Target, bounds};
 use super::forces::{SpringSet, max_frequency_bound};
-use super::integrate::{Spread, Step, Steppers};
+use super::integrate::{Spread, Step, Steppers, add_contact_work};
 use super::model::{ClothModel, SpringKind};
 use super::settings::{
     AUTO_MAX_STRETCH, Integrator, MAX_SUBSTEPS, NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION,
@@ -53,7 +53,8 @@ pub struct ClothSim {
     sleep: Sleep,
     /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).
     contact_work: Option<f64>,
-    /// Positions at the start of the current step, for the sleep test (empty when sleeping is off).
+    /// Positions at the start of the current step, for the sleep test and the broad phase's
+    /// catch-up (empty when neither needs them).
     step_start: Vec<Vec3>,
     runaway: Runaway,
     /// The reference frame's pose at the start and end of the next step (see
@@ -674,7 +675,8 @@ impl ClothSim {
             return Ok(());
         }
         self.sleep.skipped = false;
-        if self.settings.sleep_speed > 0.0 {
+        let dropped = self.contacts.dropped();
+        if self.settings.sleep_speed > 0.0 || dropped {
             self.step_start.clear();
             self.step_start.extend_from_slice(&self.particles.positions);
         }
@@ -704,6 +706,23 @@ impl ClothSim {
         // `choose_integrator` never leaves `Auto` active.
         self.steppers
             .step(self.active, &mut step, (dt, substeps), spread);
+        if dropped {
+            let before = self.contact_work.map(|_| self.energy().total());
+            let p = &mut self.particles;
+            self.contacts.catch_up(
+                env.colliders,
+                env.collision_mask,
+                dt,
+                &self.model.triangles,
+                &p.inv_mass,
+                &self.step_start,
+                (&mut p.positions, &mut p.velocities),
+            );
+            if let Some(before) = before {
+                let after = self.energy().total();
+                add_contact_work(&mut self.contact_work, before, after);
+            }
+        }
         self.steps += 1;
         for pin in &mut self.pins {
             pin.from = pin.to;

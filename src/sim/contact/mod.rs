@@ -10,6 +10,9 @@
 //!    the farthest any particle can travel in the step, against each collider's box swept from its
 //!    start pose to its end pose and grown by its margin. Colliders that cannot be reached, or whose
 //!    `layers` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
+//!    The reach assumes the particles' speeds at the step's start; a particle flung farther (by a
+//!    spring stretched far from rest) is caught after the step (`Contacts::catch_up`): the
+//!    dropped colliders its straight path comes near are resolved once over the whole step.
 //! 2. **Narrow phase** (every substep, `Contacts::resolve_state`, on whatever layout the integrator
 //!    keeps its particles in: `ContactState`): the collider's pose is interpolated to the end of the
 //!    substep. A vector pass first skips every particle whose distance from the collider's bounding
@@ -146,6 +149,12 @@ pub(crate) struct Contacts {
     self_contacts: Option<SelfContacts>,
     /// Targets and tethers, resolved before the colliders.
     limits: Limits,
+    /// The box the broad phase kept colliders in reach of this step, and whether it dropped one
+    /// on the cloth's mask (see [`Self::catch_up`]).
+    reach_box: (Vec3, Vec3),
+    dropped: bool,
+    /// Colliders [`Self::catch_up`] found (scratch).
+    late: Vec<ActiveCollider>,
 }
 
 impl Contacts {
@@ -158,6 +167,9 @@ impl Contacts {
             max_edge,
             self_contacts: None,
             limits: Limits::default(),
+            reach_box: (Vec3::ZERO, Vec3::ZERO),
+            dropped: false,
+            late: Vec::new(),
         }
     }
 
@@ -212,48 +224,92 @@ impl Contacts {
         dt: f32,
     ) {
         self.active.clear();
+        self.dropped = false;
         if colliders.is_empty() || !(bounds.0.cmple(bounds.1).all()) {
             return;
         }
-        let lo = bounds.0 - Vec3::splat(reach);
-        let hi = bounds.1 + Vec3::splat(reach);
-        let inv_dt = 1.0 / dt;
+        let reach_box = (bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
+        self.reach_box = reach_box;
         for c in colliders {
             if c.layers & mask == 0 || c.validate().is_err() {
                 continue;
             }
-            let m = Vec3::splat(c.margin);
-            let reachable = match (c.shape.bounds(&c.start), c.shape.bounds(&c.end)) {
-                (Some((a0, a1)), Some((b0, b1))) => {
-                    let (c0, c1) = (a0.min(b0) - m, a1.max(b1) + m);
-                    c0.cmple(hi).all() && c1.cmpge(lo).all()
-                }
-                // A half-space: is the box's lowest corner along the normal within the margin?
-                _ => [c.start, c.end].iter().any(|pose| {
-                    let (_, n) = c.shape.signed_distance(Vec3::ZERO);
-                    let n = pose.rotation * n;
-                    let centre = 0.5 * (lo + hi);
-                    let half = 0.5 * (hi - lo);
-                    (centre - pose.translation).dot(n) - half.dot(n.abs()) < c.margin
-                }),
-            };
-            if !reachable {
+            if reachable(c, reach_box) {
+                self.active.push(ActiveCollider::new(c, dt, self.max_edge));
+            } else {
+                self.dropped = true;
+            }
+        }
+    }
+
+    /// Whether [`Self::begin_step`] dropped a collider the cloth may still reach if a particle
+    /// outruns the step's `reach`: the step then needs its start positions for
+    /// [`Self::catch_up`].
+    pub fn dropped(&self) -> bool {
+        self.dropped
+    }
+
+    /// The broad phase's safety net, after a step that started at `start` and ended at `x`: when
+    /// a particle moved farther than the reach [`Self::begin_step`] was given (its bound assumes
+    /// the particles' speeds at the step's start, and stretched springs can fling them faster),
+    /// every collider it dropped that the particles' straight paths over the step come near is
+    /// resolved once over the whole step, along those paths (contact, swept test and response,
+    /// with `dt` as the substep). Without it a particle could pass through such a collider, or
+    /// end inside it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn catch_up(
+        &mut self,
+        colliders: &[Collider],
+        mask: u32,
+        dt: f32,
+        triangles: &[u32],
+        inv_mass: &[f32],
+        start: &[Vec3],
+        (x, v): (&mut [Vec3], &mut [Vec3]),
+    ) {
+        if !self.dropped {
+            return;
+        }
+        let moved = start
+            .iter()
+            .zip(&*x)
+            .zip(inv_mass)
+            .filter(|(_, w)| **w > 0.0)
+            .map(|((a, b), _)| a.distance_squared(*b))
+            .fold(0.0, f32::max)
+            .sqrt();
+        let (lo, hi) = bounds(start);
+        let paths = (lo - Vec3::splat(moved), hi + Vec3::splat(moved));
+        let (a, b) = self.reach_box;
+        if a.cmple(paths.0).all() && b.cmpge(paths.1).all() {
+            return;
+        }
+        self.late.clear();
+        for c in colliders {
+            if c.layers & mask == 0 || c.validate().is_err() || reachable(c, self.reach_box) {
                 continue;
             }
-            let spin = c.end.rotation * c.start.rotation.inverse();
-            let (axis, angle) = spin.to_axis_angle();
-            let angle = if angle > std::f32::consts::PI {
-                angle - std::f32::consts::TAU
-            } else {
-                angle
-            };
-            self.active.push(ActiveCollider {
-                collider: *c,
-                linear: (c.end.translation - c.start.translation) * inv_dt,
-                angular: axis * (angle * inv_dt),
-                triangles: matches!(c.shape, ColliderShape::Sphere(s) if s.radius < self.max_edge),
-            });
+            if reachable(c, paths) {
+                self.late.push(ActiveCollider::new(c, dt, self.max_edge));
+            }
         }
+        if self.late.is_empty() {
+            return;
+        }
+        let mut state = Vectors {
+            x,
+            v,
+            start,
+            inv_mass,
+            touches: None,
+        };
+        resolve(
+            &self.late,
+            &mut self.clearance,
+            (0.0, 1.0, dt),
+            triangles,
+            &mut state,
+        );
     }
 
     /// Whether any collider that passed this step's broad phase moves during the step.
@@ -330,6 +386,26 @@ impl Contacts {
             triangles,
             state,
         );
+    }
+}
+
+/// Whether collider `c`, over its sweep from its start pose to its end pose and grown by its
+/// margin, meets the box `(lo, hi)`.
+fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
+    let m = Vec3::splat(c.margin);
+    match (c.shape.bounds(&c.start), c.shape.bounds(&c.end)) {
+        (Some((a0, a1)), Some((b0, b1))) => {
+            let (c0, c1) = (a0.min(b0) - m, a1.max(b1) + m);
+            c0.cmple(hi).all() && c1.cmpge(lo).all()
+        }
+        // A half-space: is the box's lowest corner along the normal within the margin?
+        _ => [c.start, c.end].iter().any(|pose| {
+            let (_, n) = c.shape.signed_distance(Vec3::ZERO);
+            let n = pose.rotation * n;
+            let centre = 0.5 * (lo + hi);
+            let half = 0.5 * (hi - lo);
+            (centre - pose.translation).dot(n) - half.dot(n.abs()) < c.margin
+        }),
     }
 }
 

@@ -25,6 +25,24 @@ pub(super) struct ActiveCollider {
 }
 
 impl ActiveCollider {
+    /// `c` over a step of `dt` seconds, for a cloth whose longest rest edge is `max_edge`.
+    pub(super) fn new(c: &Collider, dt: f32, max_edge: f32) -> Self {
+        let inv_dt = 1.0 / dt;
+        let spin = c.end.rotation * c.start.rotation.inverse();
+        let (axis, angle) = spin.to_axis_angle();
+        let angle = if angle > std::f32::consts::PI {
+            angle - std::f32::consts::TAU
+        } else {
+            angle
+        };
+        Self {
+            collider: *c,
+            linear: (c.end.translation - c.start.translation) * inv_dt,
+            angular: axis * (angle * inv_dt),
+            triangles: matches!(c.shape, ColliderShape::Sphere(s) if s.radius < max_edge),
+        }
+    }
+
     /// Velocity of the collider's material at world point `p`, with its origin at `origin`.
     fn velocity_at(&self, p: Vec3, origin: Vec3) -> Vec3 {
         self.linear + self.angular.cross(p - origin)

@@ -399,6 +399,64 @@ fn the_broad_phase_skips_far_and_masked_colliders() {
     assert_eq!(c.active[1].collider, touching);
 }
 
+#[test]
+fn the_catch_up_resolves_dropped_colliders_a_particle_outran() {
+    // A floor 1 m below a cloth whose reach this step is 5 cm: the broad phase drops it. One
+    // particle is flung 1.5 m down anyway (as a stretched spring can do) and one stays put.
+    let floor = Collider::fixed(
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y)),
+        Pose::from_translation(Vec3::new(0.0, -1.0, 0.0)),
+        Friction::NONE,
+        0.01,
+    );
+    let far = Collider::fixed(
+        ColliderShape::Sphere(Sphere::new(0.5)),
+        Pose::from_translation(Vec3::new(50.0, 0.0, 0.0)),
+        Friction::NONE,
+        0.01,
+    );
+    let start = [Vec3::ZERO, Vec3::X];
+    let mut c = Contacts::new(2, 0.1);
+    c.begin_step(&[floor, far], 1, bounds(&start), 0.05, 0.01);
+    assert_eq!(c.active_count(), 0);
+    assert!(c.dropped());
+    let (mut x, mut v) = (
+        [Vec3::new(0.0, -1.5, 0.0), Vec3::X],
+        [Vec3::new(0.0, -150.0, 0.0), Vec3::ZERO],
+    );
+    c.catch_up(
+        &[floor, far],
+        1,
+        0.01,
+        &[],
+        &[1.0, 1.0],
+        &start,
+        (&mut x, &mut v),
+    );
+    assert!((x[0].y - (-1.0 + 0.01)).abs() < 1e-5, "{}", x[0]);
+    assert!(v[0].y >= 0.0, "{}", v[0]);
+    assert_eq!((x[1], v[1]), (Vec3::X, Vec3::ZERO));
+    // Within its reach nothing is resolved again: a particle that moved 4 cm is left alone, even
+    // inside a collider (the substeps own those).
+    let (mut x, mut v) = ([Vec3::new(0.0, -0.04, 0.0), Vec3::X], [Vec3::ZERO; 2]);
+    let close = Collider {
+        start: Pose::from_translation(Vec3::new(0.0, -0.03, 0.0)),
+        end: Pose::from_translation(Vec3::new(0.0, -0.03, 0.0)),
+        ..floor
+    };
+    c.begin_step(&[close, far], 1, bounds(&start), 0.05, 0.01);
+    c.catch_up(
+        &[close, far],
+        1,
+        0.01,
+        &[],
+        &[1.0, 1.0],
+        &start,
+        (&mut x, &mut v),
+    );
+    assert_eq!(x[0], Vec3::new(0.0, -0.04, 0.0));
+}
+
 /// The clearances of 103 particles (a partial last batch) from `near`, by the kernel's `build`
 /// (`AHEAD` as the kernel's), if the CPU has it.
 fn clearances_in<const AHEAD: bool>(build: Build, near: Near) -> Option<Vec<u32>> {

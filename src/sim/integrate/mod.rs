@@ -15,7 +15,7 @@ mod step;
 mod xpbd;
 
 pub use implicit::CG_TOLERANCE;
-pub(crate) use step::Step;
+pub(crate) use step::{Step, add_contact_work};
 pub use xpbd::{ScopedThread, Spread};
 
 use super::model::ClothModel;
