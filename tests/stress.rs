@@ -3,7 +3,7 @@
 //! runs as many as you like.
 
 use bevy_cloth::harness::stress::{StressCase, StressLimits, StressOutcome, draw_case, run_case};
-use bevy_cloth::sim::Integrator::{self, ImplicitEuler, Verlet, Xpbd};
+use bevy_cloth::sim::Integrator::{self, ImplicitEuler, SymplecticEuler, Verlet, Xpbd};
 
 const SEED: u64 = 0x5EED_C10A;
 
@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 11] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 14] = [
     (
         45762,
         13,
@@ -132,6 +132,24 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 11] = [
         4593,
         ImplicitEuler,
         "a particle outran the broad phase in the first step and ended inside a sphere",
+    ),
+    (
+        20261124,
+        2622,
+        Verlet,
+        "held below its bound by the substep cap, a runaway paused once and broke the streak",
+    ),
+    (
+        20261124,
+        8394,
+        Verlet,
+        "held below its bound by the substep cap, the energy grew 1,500-fold over 8 steps",
+    ),
+    (
+        20261124,
+        9996,
+        SymplecticEuler,
+        "past its bound, the energy grew 100-fold a step: overflow before a five-step streak",
     ),
 ];
 

@@ -69,6 +69,9 @@ const RUNAWAY_STEPS: u32 = 5;
 const RUNAWAY_GROWTH: f64 = 1.5;
 /// Growth of the kinetic plus elastic energy within one step that is a runaway by itself.
 const RUNAWAY_STEP_GROWTH: f64 = 1e6;
+/// Growth of the kinetic plus elastic energy over a run of steps past the bound that is a runaway
+/// however slowly it grew (a mode near the bound's edge, or growth interrupted now and then).
+const RUNAWAY_PAST_GROWTH: f64 = 1e3;
 
 /// Energy watch for the explicit integrators when they run past their stability bound.
 #[derive(Debug, Clone, Copy, Default)]
@@ -81,6 +84,9 @@ struct Runaway {
     streak: u32,
     /// Kinetic plus elastic energy at the start of the current step, J (past the bound only).
     before: f64,
+    /// Kinetic plus elastic energy when the current run of steps past the bound began, J, and
+    /// that step's number; `None` within the bound.
+    entered: Option<(f64, u64)>,
 }
 
 /// The sleeping state of a cloth (see [`SolverSettings::sleep_speed`]).
@@ -636,7 +642,9 @@ impl ClothSim {
             && (dt / substeps as f32 * self.omega_max >= 2.0 || wanted > substeps);
         if past_bound {
             let e = self.energy();
-            self.runaway.before = e.kinetic + e.elastic;
+            let r = &mut self.runaway;
+            r.before = e.kinetic + e.elastic;
+            r.entered.get_or_insert((r.before, self.steps));
         }
         if self.settings.self_collision.enabled {
             // Only motion relative to the cloth's mean brings its own elements together.
@@ -752,8 +760,9 @@ impl ClothSim {
     /// has grown by [`RUNAWAY_GROWTH`]× in each of [`RUNAWAY_STEPS`] consecutive steps, the
     /// signature of an unstable mode (gravity, pins or wind add energy far more slowly), or by
     /// [`RUNAWAY_STEP_GROWTH`]× in one step over its start plus the whole cloth's weight lifted a
-    /// metre (a mode unstable enough to do that within a step's substeps). Within the bound this
-    /// costs nothing.
+    /// metre (a mode unstable enough to do that within a step's substeps), or by
+    /// [`RUNAWAY_PAST_GROWTH`]× over the same since the run of steps past the bound began. Within
+    /// the bound this costs nothing.
     fn check_runaway(
         &mut self,
         dt: f32,
@@ -777,6 +786,10 @@ impl ClothSim {
             * f64::from(self.settings.gravity.length().max(1.0));
         let r = &mut self.runaway;
         let burst = energy > RUNAWAY_STEP_GROWTH * (r.before + weight);
+        let (entered, since) = r
+            .entered
+            .unwrap_or((r.before, self.steps.saturating_sub(1)));
+        let sustained = energy > RUNAWAY_PAST_GROWTH * (entered + weight);
         if energy > RUNAWAY_GROWTH * r.energy && energy > 1e-12 {
             if r.streak == 0 {
                 r.streak_start = r.energy.max(f64::MIN_POSITIVE);
@@ -786,9 +799,12 @@ impl ClothSim {
             r.streak = 0;
         }
         r.energy = energy;
-        if r.streak >= RUNAWAY_STEPS || burst {
+        if r.streak >= RUNAWAY_STEPS || burst || sustained {
             let (growth, steps) = if burst {
                 (energy / r.before.max(f64::MIN_POSITIVE), 1)
+            } else if sustained {
+                let steps = u32::try_from(self.steps - since).unwrap_or(u32::MAX);
+                (energy / entered.max(f64::MIN_POSITIVE), steps)
             } else {
                 (energy / r.streak_start, r.streak)
             };
