@@ -66,7 +66,7 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 14] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 15] = [
     (
         45762,
         13,
@@ -132,6 +132,12 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 14] = [
         4593,
         ImplicitEuler,
         "a particle outran the broad phase in the first step and ended inside a sphere",
+    ),
+    (
+        20261124,
+        1450,
+        Verlet,
+        "a moving box pressed a particle into its springs: the contact work missed the box's work",
     ),
     (
         20261124,

@@ -558,7 +558,10 @@ fn run_steps(
     let collider_speed = case.collider.map_or(0.0, |c| c.velocity.length());
     let drive = fall + case.pin_speed + collider_speed + 1.5 * case.wind.length() + 1.0;
     let kinetic_bound = 0.5 * total_mass * (8.0 * drive as f64).powi(2);
-    // Plus whatever the contact responses of a moving collider demonstrably put in: a collider
+    // Plus the work a moving collider's contacts did (each push's impulse times the surface's
+    // velocity, plus the potential energy its projections added; a collider pressing the cloth
+    // against its springs does its work through the springs, which a response's own energy change
+    // does not show, since it also takes away what the springs just gave): a collider
     // sweeping through a soft cloth of light particles stretches its springs by far more than
     // their length, and the springs whip the particles to many times the collider's speed. A
     // collider at rest does no work, so nothing is allowed for its contacts (their responses do

@@ -715,9 +715,9 @@ impl ClothSim {
         self.steppers
             .step(self.active, &mut step, (dt, substeps), spread);
         if dropped {
-            let before = self.contact_work.map(|_| self.energy().total());
+            let before = self.contact_work.map(|_| self.energy());
             let p = &mut self.particles;
-            self.contacts.catch_up(
+            let work = self.contacts.catch_up(
                 env.colliders,
                 env.collision_mask,
                 dt,
@@ -727,8 +727,8 @@ impl ClothSim {
                 (&mut p.positions, &mut p.velocities),
             );
             if let Some(before) = before {
-                let after = self.energy().total();
-                add_contact_work(&mut self.contact_work, before, after);
+                let after = self.energy();
+                add_contact_work(&mut self.contact_work, (before, after), work);
             }
         }
         self.steps += 1;

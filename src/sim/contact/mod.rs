@@ -255,7 +255,7 @@ impl Contacts {
     /// every collider it dropped that the particles' straight paths over the step come near is
     /// resolved once over the whole step, along those paths (contact, swept test and response,
     /// with `dt` as the substep). Without it a particle could pass through such a collider, or
-    /// end inside it.
+    /// end inside it. Returns the colliders' work, as [`Self::resolve_state`] does.
     #[allow(clippy::too_many_arguments)]
     pub fn catch_up(
         &mut self,
@@ -266,9 +266,9 @@ impl Contacts {
         inv_mass: &[f32],
         start: &[Vec3],
         (x, v): (&mut [Vec3], &mut [Vec3]),
-    ) {
+    ) -> f64 {
         if !self.dropped {
-            return;
+            return 0.0;
         }
         let moved = start
             .iter()
@@ -282,7 +282,7 @@ impl Contacts {
         let paths = (lo - Vec3::splat(moved), hi + Vec3::splat(moved));
         let (a, b) = self.reach_box;
         if a.cmple(paths.0).all() && b.cmpge(paths.1).all() {
-            return;
+            return 0.0;
         }
         self.late.clear();
         for c in colliders {
@@ -294,7 +294,7 @@ impl Contacts {
             }
         }
         if self.late.is_empty() {
-            return;
+            return 0.0;
         }
         let mut state = Vectors {
             x,
@@ -309,7 +309,7 @@ impl Contacts {
             (0.0, 1.0, dt),
             triangles,
             &mut state,
-        );
+        )
     }
 
     /// Whether any collider that passed this step's broad phase moves during the step.
@@ -330,6 +330,7 @@ impl Contacts {
     /// [`Self::resolve_state`] for positions `x` and velocities `v` in the particles' own order,
     /// which started the substep where [`Self::begin_substep`] recorded. With `touches`, each
     /// particle a collider pushed gets its [`Touch`] there (the others are left as they were).
+    /// Returns the colliders' work, as [`Self::resolve_state`] does.
     #[allow(clippy::too_many_arguments)]
     pub fn resolve(
         &mut self,
@@ -340,7 +341,7 @@ impl Contacts {
         inv_mass: &[f32],
         (x, v): (&mut [Vec3], &mut [Vec3]),
         touches: Option<&mut [Touch]>,
-    ) {
+    ) -> f64 {
         let Self {
             active,
             start,
@@ -361,20 +362,23 @@ impl Contacts {
             (t0, t1, h),
             triangles,
             &mut state,
-        );
+        )
     }
 
     /// The narrow phase and response for the substep `[t0, t1]` (fractions of the step) of length
     /// `h`: every free particle (inverse mass > 0) is brought back within its targets' and
     /// tethers' limits, moved out of every active collider and its
     /// velocity corrected; then, for small spheres, every triangle; then the cloth's layers are
-    /// kept apart (with self-contacts on).
+    /// kept apart (with self-contacts on). Returns the work the colliders did on the particles'
+    /// motion, J: each push's impulse times the velocity of the collider's surface, which bounds
+    /// the kinetic energy the responses can add (with the potential energy the projections
+    /// add, what a contact gives the cloth).
     pub fn resolve_state<S: ContactState>(
         &mut self,
         (t0, t1, h): (f32, f32, f32),
         triangles: &[u32],
         state: &mut S,
-    ) {
+    ) -> f64 {
         resolve_all(
             (
                 &self.active,
@@ -385,7 +389,7 @@ impl Contacts {
             (t0, t1, h),
             triangles,
             state,
-        );
+        )
     }
 }
 
@@ -412,6 +416,7 @@ fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
 /// The limits (targets and tethers), the colliders' response, then the self-contacts' (if any);
 /// the colliders once more if the self-contacts moved anything, since pushing layers apart may
 /// push one into a collider. Colliders come after the limits so that they have the last word.
+/// Returns the colliders' work (see [`Contacts::resolve_state`]).
 fn resolve_all<S: ContactState>(
     (active, clearance, self_contacts, limits): (
         &[ActiveCollider],
@@ -422,16 +427,17 @@ fn resolve_all<S: ContactState>(
     t: (f32, f32, f32),
     triangles: &[u32],
     state: &mut S,
-) {
+) -> f64 {
     if !limits.is_empty() {
         limits.resolve(t, state);
     }
-    resolve(active, clearance, t, triangles, state);
+    let mut work = resolve(active, clearance, t, triangles, state);
     if let Some(s) = self_contacts
         && s.resolve(t.2, state)
     {
-        resolve(active, clearance, t, triangles, state);
+        work += resolve(active, clearance, t, triangles, state);
     }
+    work
 }
 
 /// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or

@@ -81,13 +81,16 @@ pub(crate) trait ContactState {
 /// radius, the margin and the collider's travel over the substep is skipped: no point of its path
 /// comes within the margin, so the exact test would leave it alone. This bound holds for colliders
 /// that do not rotate during the substep; rotating ones get the exact test everywhere.
+///
+/// Returns the work the colliders did on the particles' motion, J (see [`push_out`]).
 pub(super) fn resolve<S: ContactState>(
     active: &[ActiveCollider],
     clearance: &mut Vec<f32>,
     (t0, t1, h): (f32, f32, f32),
     triangles: &[u32],
     state: &mut S,
-) {
+) -> f64 {
+    let mut work = 0.0;
     // Sized with the cloth (`Contacts::new`), so this allocates only for a state of another size.
     clearance.resize(state.len(), 0.0);
     for c in active {
@@ -111,36 +114,58 @@ pub(super) fn resolve<S: ContactState>(
                     let i = 16 * k + close.trailing_zeros() as usize;
                     close &= close - 1;
                     if state.inv_mass(i) > 0.0 {
-                        collide_particle(c, (&pose0, &pose1, still), h, state, i);
+                        work += collide_particle(c, (&pose0, &pose1, still), h, state, i);
                     }
                 }
             }
         } else {
             for i in 0..state.len() {
                 if state.inv_mass(i) > 0.0 {
-                    collide_particle(c, (&pose0, &pose1, still), h, state, i);
+                    work += collide_particle(c, (&pose0, &pose1, still), h, state, i);
                 }
             }
         }
         if c.triangles {
             for _ in 0..TRIANGLE_PASSES {
-                if !collide_triangles(c, (&pose0, &pose1, h), triangles, state) {
+                if !collide_triangles(c, (&pose0, &pose1, h), triangles, state, &mut work) {
                     break;
                 }
             }
         }
     }
+    work
+}
+
+/// Moves particle `i` (free) to `x` with velocity `v`, the response to a collider whose surface
+/// moves at `vc` pushing it out along the outward `normal`. Returns the work that surface did on
+/// the particle's motion, J: the response's impulse times `vc`. The kinetic energy [`respond`] adds
+/// is never more (removing inward relative velocity and friction both move the velocity towards
+/// the surface's), so this bounds what a contact gives the cloth even where the response also
+/// takes away energy the springs had just put in (a moving collider pressing the cloth against
+/// its springs does its work that way).
+fn push_out<S: ContactState>(
+    state: &mut S,
+    i: usize,
+    (x, v): (Vec3, Vec3),
+    normal: Vec3,
+    vc: Vec3,
+) -> f64 {
+    let impulse = (v - state.velocity(i)) / state.inv_mass(i);
+    state.set(i, x, v);
+    state.touched(i, normal, vc);
+    f64::from(impulse.dot(vc))
 }
 
 /// Contact of particle `i` with one collider over a substep: projection, then the velocity split
-/// and Coulomb friction described in the module docs.
+/// and Coulomb friction described in the module docs. Returns the collider's work (see
+/// [`push_out`]).
 fn collide_particle<S: ContactState>(
     c: &ActiveCollider,
     (pose0, pose1, still): (&Pose, &Pose, bool),
     h: f32,
     state: &mut S,
     i: usize,
-) {
+) -> f64 {
     let shape = &c.collider.shape;
     let margin = c.collider.margin;
     let (x, start) = (state.position(i), state.start(i));
@@ -149,7 +174,7 @@ fn collide_particle<S: ContactState>(
     // The signed distance changes no faster than the point moves: a particle that ends the
     // substep farther from a collider at rest than it travelled cannot have passed through it.
     if d >= margin && still && d - margin > x.distance(start) {
-        return;
+        return 0.0;
     }
     // A particle that started the substep clear goes back to where its path (in the collider's
     // frame) first came within the margin, whether it ends outside (it passed through) or
@@ -174,7 +199,7 @@ fn collide_particle<S: ContactState>(
                 // side, keeping the motion along the surface.
                 (d, normal) = (d0 + (local - local0).dot(n0), n0);
             } else if d >= margin {
-                return;
+                return 0.0;
             }
             // Otherwise it started in contact (resting, or reached by the collider's own
             // motion) and goes out along the nearest surface.
@@ -194,8 +219,7 @@ fn collide_particle<S: ContactState>(
         &mut x,
         &mut v,
     );
-    state.set(i, x, v);
-    state.touched(i, normal, vc);
+    push_out(state, i, (x, v), normal, vc)
 }
 
 /// The response of a contact just pushed out by `push` along the outward normal `n`, against a
@@ -297,12 +321,14 @@ fn sweep(
 /// distribution). The side the sphere must stay on is the one its centre was on at the start of
 /// the substep (the direction from the triangle's closest point to the centre then), so neither a
 /// fast sphere nor a triangle folding over it lets it pop through. The moved vertices get the same response as
-/// particle contacts (friction, inward velocity removed). Returns whether any triangle was moved.
+/// particle contacts (friction, inward velocity removed), their work added to `work`. Returns whether
+/// any triangle was moved.
 fn collide_triangles<S: ContactState>(
     c: &ActiveCollider,
     (pose0, pose1, h): (&Pose, &Pose, f32),
     triangles: &[u32],
     state: &mut S,
+    work: &mut f64,
 ) -> bool {
     let ColliderShape::Sphere(sphere) = c.collider.shape else {
         return false;
@@ -374,8 +400,7 @@ fn collide_triangles<S: ContactState>(
                 &mut x,
                 &mut v,
             );
-            state.set(i, x, v);
-            state.touched(i, -dir, vc);
+            *work += push_out(state, i, (x, v), -dir, vc);
         }
     }
     moved

@@ -254,6 +254,35 @@ fn a_moving_collider_drags_the_cloth_within_the_friction_cone() {
     }
 }
 
+#[test]
+fn a_push_reports_the_work_of_the_surface_that_made_it() {
+    let plane = ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y));
+    // A floor rising 2 cm in a 10 ms substep meets a particle of 0.5 kg falling at 1 m/s and
+    // leaves it at the floor's 2 m/s: impulse 1.5 N s, work 1.5 × 2 = 3 J, of which the particle
+    // keeps ½ · 0.5 · (2² − 1²) = 0.75 J (an inelastic impact).
+    let collider = Collider {
+        end: Pose::from_translation(Vec3::new(0.0, 0.02, 0.0)),
+        ..Collider::fixed(plane, Pose::IDENTITY, Friction::NONE, 0.0)
+    };
+    let mut c = active(collider, 0.01, 0.1);
+    c.begin_substep(&[Vec3::new(0.0, 0.02, 0.0)]);
+    let (mut x, mut v) = ([Vec3::new(0.0, 0.01, 0.0)], [Vec3::new(0.0, -1.0, 0.0)]);
+    let work = c.resolve(0.0, 1.0, 0.01, &[], &[2.0], (&mut x, &mut v), None);
+    assert!((v[0].y - 2.0).abs() < 1e-4, "{}", v[0]);
+    assert!((work - 3.0).abs() < 1e-3, "{work}");
+    // A floor at rest does no work, whatever velocity its response removes.
+    let mut c = active(
+        Collider::fixed(plane, Pose::IDENTITY, Friction::new(0.5), 0.0),
+        0.01,
+        0.1,
+    );
+    c.begin_substep(&[Vec3::new(0.0, 0.02, 0.0)]);
+    let (mut x, mut v) = ([Vec3::new(0.0, -0.01, 0.0)], [Vec3::new(1.0, -3.0, 0.0)]);
+    let work = c.resolve(0.0, 1.0, 0.01, &[], &[2.0], (&mut x, &mut v), None);
+    assert!(v[0].y >= 0.0 && v[0].x < 1.0, "{}", v[0]);
+    assert_eq!(work, 0.0);
+}
+
 /// [`Vectors`] without the clearance skip: every particle gets the exact test.
 struct Exact<'a>(Vectors<'a>);
 

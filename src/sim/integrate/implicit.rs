@@ -378,12 +378,12 @@ impl Implicit {
             drive_pins(pins, t0, t1, inv_h, x, v);
             if contacts.is_active() {
                 let energy = |x: &[Vec3], v: &[Vec3]| energy_of(springs, (mass, inv_mass), g, x, v);
-                let before = contact_work.map(|_| energy(x, v).total());
+                let before = contact_work.map(|_| energy(x, v));
                 let touches = Some(&mut s.touches[..]);
-                contacts.resolve(t0, t1, h, &model.triangles, inv_mass, (x, v), touches);
+                let work = contacts.resolve(t0, t1, h, &model.triangles, inv_mass, (x, v), touches);
                 s.touched = true;
                 if let Some(before) = before {
-                    add_contact_work(contact_work, before, energy(x, v).total());
+                    add_contact_work(contact_work, (before, energy(x, v)), work);
                 }
             }
         }

@@ -47,18 +47,28 @@ impl Step<'_> {
         self.particles.energy(self.springs(), self.settings.gravity)
     }
 
-    /// Adds to tracked contact work what a contact response raised the total energy by, from
-    /// `before` to `after`, J.
-    pub fn count_contact_work(&mut self, before: f64, after: f64) {
-        add_contact_work(self.contact_work, before, after);
+    /// Adds to tracked contact work what a contact response gave the cloth (see
+    /// [`add_contact_work`]).
+    pub fn count_contact_work(&mut self, (before, after): (Energy, Energy), colliders: f64) {
+        add_contact_work(self.contact_work, (before, after), colliders);
     }
 }
 
-/// Adds to tracked contact work `work` what a contact response raised the total energy by, from
-/// `before` to `after`, J.
-pub(crate) fn add_contact_work(work: &mut Option<f64>, before: f64, after: f64) {
+/// Adds to tracked contact work `work` what a contact response that took the cloth's energy from
+/// `before` to `after` gave it, J: the larger of the total energy's rise and the potential energy's
+/// rise plus the colliders' work on the particles' motion (`colliders`, see
+/// `Contacts::resolve_state`), when positive. The second counts the work of a moving collider that
+/// presses the cloth against its springs: each response then takes away more kinetic energy (what
+/// the springs put in since the last) than the collider's push adds.
+pub(crate) fn add_contact_work(
+    work: &mut Option<f64>,
+    (before, after): (Energy, Energy),
+    colliders: f64,
+) {
     if let Some(work) = work {
-        *work += (after - before).max(0.0);
+        let potential = |e: &Energy| e.gravitational + e.elastic;
+        let pushed = potential(&after) - potential(&before) + colliders;
+        *work += (after.total() - before.total()).max(pushed).max(0.0);
     }
 }
 
@@ -239,7 +249,7 @@ impl SoaState {
         let energy = |state: &Self, step: &mut Step| {
             step.contact_work.map(|_| {
                 state.store(step.particles, order);
-                step.energy().total()
+                step.energy()
             })
         };
         let before = energy(self, step);
@@ -249,10 +259,11 @@ impl SoaState {
             order,
         };
         let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
-        step.contacts
+        let work = step
+            .contacts
             .resolve_state((t0, t1, h), &step.model.triangles, &mut state);
         if let (Some(before), Some(after)) = (before, energy(self, step)) {
-            step.count_contact_work(before, after);
+            step.count_contact_work((before, after), work);
         }
     }
 }

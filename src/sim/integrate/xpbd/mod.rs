@@ -22,7 +22,7 @@ use crate::sim::contact::{ContactState, Near, soa_clearances};
 use crate::sim::model::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
-use crate::sim::state::pin_motion;
+use crate::sim::state::{Energy, pin_motion};
 use kernel::{Column, Read, Split, Sweep};
 use layout::{LANES, Projections};
 use team::{Lead, share};
@@ -214,16 +214,16 @@ impl Xpbd {
             touched,
             entry,
         };
-        s.contacts.resolve_state(t, &s.model.triangles, &mut state);
+        let work = s.contacts.resolve_state(t, &s.model.triangles, &mut state);
         if let Some(before) = before {
             let after = self.energy_ahead(s, 1.0 / t.2);
-            s.count_contact_work(before, after);
+            s.count_contact_work((before, after), work);
         }
     }
 
-    /// The total energy of the state [`AheadOfEnd`] describes (`inv_h` = 1/substep), through the
+    /// The energy of the state [`AheadOfEnd`] describes (`inv_h` = 1/substep), through the
     /// particles, which the step rewrites at its end anyway (only for tracked contact work).
-    fn energy_ahead(&self, s: &mut Step, inv_h: f32) -> f64 {
+    fn energy_ahead(&self, s: &mut Step, inv_h: f32) -> Energy {
         let (touched, entry) = &self.contact_velocities;
         let order = self.layout.storage().order();
         for (k, &e) in entry.iter().enumerate().take(self.state.x.len()) {
@@ -236,7 +236,7 @@ impl Xpbd {
             let particles = &mut *s.particles;
             (particles.positions[p], particles.velocities[p]) = (x + d, v);
         }
-        s.energy().total()
+        s.energy()
     }
 
     /// After the end pass, the velocities the contacts set replace the displacement's: in the
