@@ -110,6 +110,27 @@ fn explicit(c: &mut Criterion) {
     group.finish();
 }
 
+/// Implicit Euler on the hanging cloth: one and four substeps a frame, at most 20 conjugate-
+/// gradient iterations each.
+fn implicit(c: &mut Criterion) {
+    let mut group = c.benchmark_group("implicit_frame");
+    for substeps in [1u32, 4] {
+        let mut sim = hanging_integrated(64, substeps, Integrator::ImplicitEuler);
+        sim.set_settings(SolverSettings {
+            iterations: 20,
+            ..*sim.settings()
+        })
+        .unwrap();
+        group.throughput(Throughput::Elements(
+            sim.model().springs.len() as u64 * substeps as u64,
+        ));
+        group.bench_function(format!("64x64_{substeps}_substeps"), |b| {
+            b.iter(|| sim.step(black_box(1.0 / 60.0)).unwrap())
+        });
+    }
+    group.finish();
+}
+
 fn sphere_at(centre: Vec3) -> Collider {
     Collider::fixed(
         ColliderShape::Sphere(Sphere::new(0.3)),
@@ -399,6 +420,7 @@ criterion_group!(
     benches,
     step,
     explicit,
+    implicit,
     environment,
     sleeping,
     self_collision,

@@ -14,6 +14,9 @@
 //! pull them into the collider, and the response would push them back out, each substep, against
 //! springs stiff enough to give the cloth energy that way. A held particle ends the substep on
 //! the margin, not within it, so unless something pushes it in again it is free in the next one.
+//! Far from the linear regime the Newton step is checked against the incremental potential that
+//! backward Euler minimises, and shortened until it is no worse than standing still
+//! (`Cg::limit_to_descent`).
 //!
 //! All vectors are sized when the integrator is selected; nothing here allocates.
 
@@ -23,12 +26,17 @@ use super::step::{Step, add_contact_work, frame_shift};
 use crate::sim::contact::Touch;
 use crate::sim::forces::{
     SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
+    spring_energy,
 };
 use crate::sim::state::{Particles, drive_pins, energy_of};
 
 /// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
 /// right-hand side and the substep's gravity impulse `h m g` (both as Euclidean norms).
 pub const CG_TOLERANCE: f32 = 1e-5;
+
+/// The smallest fraction of a substep's end velocities [`Cg::limit_to_descent`] tries before it
+/// stops the free particles.
+const MIN_DESCENT_SCALE: f32 = 1e-3;
 
 /// A particle moving off a collider's surface faster than this (m/s, relative to the surface) is
 /// not held against it in the next solve.
@@ -69,6 +77,10 @@ struct Cg {
     touched: bool,
     /// Per particle, the contact normal this substep's solve holds (zero: not held).
     held: Vec<Vec3>,
+    /// The external forces (gravity and wind) of the substep, then the positions a trial end
+    /// of the substep puts the particles at (see [`Implicit::step`]'s check).
+    external: Vec<Vec3>,
+    trial: Vec<Vec3>,
 }
 
 impl Implicit {
@@ -93,6 +105,8 @@ impl Implicit {
                 touches: vec![Touch::default(); particles],
                 touched: false,
                 held: v(),
+                external: v(),
+                trial: v(),
             },
         };
     }
@@ -157,6 +171,61 @@ fn apply_system(
     rows.filter(out);
 }
 
+impl Cg {
+    /// Backward Euler's end of a substep minimises the incremental potential
+    /// `Φ(x₁) = ½ Σ m |(x₁ - x)/h - v - h f_ext/m|² + U(x₁)`; the solve's one linearised Newton
+    /// step only approximates that. Far from the linear regime (springs turned through a
+    /// sizeable angle within the substep, stiff enough that `h ω` is in the thousands) the step
+    /// can land where `Φ` is far above its value at the particles' start, `Φ(x)`: the springs
+    /// there hold energy the cloth never had (found by the stress suite). Staying put bounds the
+    /// minimum, and `Φ(x₁) ≤ Φ(x)` bounds the elastic energy after the substep by the kinetic and
+    /// elastic energy before it (plus the external forces' impulse), so the free particles'
+    /// end velocities `v + Δv` are scaled back, halving, until the end is no worse than the start
+    /// (within a round-off tolerance), or to zero. Pinned particles keep their prescribed ends.
+    /// Within the linear regime the full step passes at once; the check costs two energy passes
+    /// over the springs.
+    fn limit_to_descent(
+        &mut self,
+        springs: SpringSet<'_>,
+        (mass, inv_mass): (&[f32], &[f32]),
+        h: f32,
+        (x, v): (&[Vec3], &[Vec3]),
+    ) {
+        let potential = |scale: f32, trial: &mut [Vec3], dv: &[Vec3], external: &[Vec3]| {
+            let mut inertia = 0.0;
+            for i in 0..x.len() {
+                let end = v[i] + dv[i];
+                if inv_mass[i] > 0.0 {
+                    let m = f64::from(mass[i]);
+                    let miss = (end * scale - v[i] - external[i] * (h * inv_mass[i])).as_dvec3();
+                    inertia += 0.5 * m * miss.length_squared();
+                    trial[i] = x[i] + end * (scale * h);
+                } else {
+                    trial[i] = x[i] + end * h;
+                }
+            }
+            inertia + spring_energy(springs, trial)
+        };
+        let start = potential(0.0, &mut self.trial, &self.dv, &self.external);
+        let tolerance = 1e-3 * start.abs() + 1e-12;
+        let mut scale = 1.0;
+        while potential(scale, &mut self.trial, &self.dv, &self.external) > start + tolerance {
+            scale *= 0.5;
+            if scale < MIN_DESCENT_SCALE {
+                scale = 0.0;
+                break;
+            }
+        }
+        if scale < 1.0 {
+            for ((dv, v), w) in self.dv.iter_mut().zip(v).zip(inv_mass) {
+                if *w > 0.0 {
+                    *dv = (*v + *dv) * scale - *v;
+                }
+            }
+        }
+    }
+}
+
 fn dot(a: &[Vec3], b: &[Vec3]) -> f32 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
@@ -216,6 +285,7 @@ impl Implicit {
             }
             // Wind enters explicitly (not linearised).
             wind.add_forces(forces);
+            s.external.copy_from_slice(forces);
             add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
             // rhs = h f - h² K v.
             for (b, f) in s.rhs.iter_mut().zip(forces.iter()) {
@@ -356,6 +426,7 @@ impl Implicit {
                 iterations += 1;
             }
             s.last_iterations = iterations;
+            s.limit_to_descent(springs, (mass, inv_mass), h, (x, v));
             for ((x, v), (dv, w)) in x
                 .iter_mut()
                 .zip(v.iter_mut())
