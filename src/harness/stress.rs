@@ -14,8 +14,8 @@
 //! straight path over a step of one substep passes through a collider's core (tunnelling), a
 //! pinned particle is off its target, the energy grows without an outside source, or
 //! (with an outside source) the kinetic energy of the cloth, or of any one particle, exceeds the
-//! whole cloth moving at eight times every driving speed added up plus the energy a moving
-//! collider's contact responses measurably added (none for a collider at rest), both times a
+//! whole cloth moving at eight times every driving speed added up plus the work a moving
+//! collider's contacts did (none for a collider at rest), both times a
 //! symplectic integrator's kinetic-energy inflation (a runaway check). Every check applies to
 //! every step that returns `Ok`, past an explicit integrator's stability bound too. An explicit
 //! integrator that reports [`ClothError::Unstable`] or [`ClothError::Diverged`] past its

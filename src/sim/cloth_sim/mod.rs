@@ -412,11 +412,13 @@ impl ClothSim {
         &self.particles.mass
     }
 
-    /// Starts adding up the energy that contact responses put into the cloth: the increase of its
-    /// total energy (kinetic, gravitational and elastic) across each response that raises it. A
-    /// collider sweeping through a cloth stretches its springs and hands it its speed; the stress
-    /// suite allows the cloth that energy. Costs an energy evaluation (one pass over the springs)
-    /// before and after each substep's contact response.
+    /// Starts adding up the energy that contact responses put into the cloth: across each
+    /// response, the larger of the rise of its total energy (kinetic, gravitational and elastic)
+    /// and the rise of its potential energy plus the colliders' work on the particles' motion
+    /// (impulse times surface velocity), when positive. A collider sweeping through a cloth
+    /// stretches its springs and hands it its speed; the stress suite allows the cloth that
+    /// energy. Costs an energy evaluation (one pass over the springs) before and after each
+    /// substep's contact response.
     #[cfg(any(test, feature = "harness"))]
     pub(crate) fn track_contact_work(&mut self) {
         self.contact_work.get_or_insert(0.0);
