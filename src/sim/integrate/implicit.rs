@@ -77,9 +77,9 @@ struct Cg {
     touched: bool,
     /// Per particle, the contact normal this substep's solve holds (zero: not held).
     held: Vec<Vec3>,
-    /// The external forces (gravity and wind) of the substep, then the positions a trial end
-    /// of the substep puts the particles at (see [`Implicit::step`]'s check).
+    /// The substep's external forces (gravity and wind), for [`Cg::limit_to_descent`].
     external: Vec<Vec3>,
+    /// Where a trial end of the substep puts the particles (scratch of the same).
     trial: Vec<Vec3>,
 }
 
@@ -177,7 +177,7 @@ impl Cg {
     /// step only approximates that. Far from the linear regime (springs turned through a
     /// sizeable angle within the substep, stiff enough that `h ω` is in the thousands) the step
     /// can land where `Φ` is far above its value at the particles' start, `Φ(x)`: the springs
-    /// there hold energy the cloth never had (found by the stress suite). Staying put bounds the
+    /// there hold energy the cloth never had. Staying put bounds the
     /// minimum, and `Φ(x₁) ≤ Φ(x)` bounds the elastic energy after the substep by the kinetic and
     /// elastic energy before it (plus the external forces' impulse), so the free particles'
     /// end velocities `v + Δv` are scaled back, halving, until the end is no worse than the start
