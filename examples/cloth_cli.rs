@@ -109,6 +109,10 @@ enum Command {
         /// Turn self-collision on in every case (thickness a quarter of the grid's spacing).
         #[arg(long)]
         self_collision: bool,
+        /// Threads to run cases on (the results do not depend on it); all the machine's by
+        /// default, one with `--trace`.
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Bit-for-bit fingerprints: one line per preset scene (assets/scenes, run through the
     /// plugin) and per stress case of every integrator, with the hash of its final positions and
@@ -415,6 +419,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             integrators,
             trace,
             self_collision,
+            threads,
         } => {
             let mut chosen = Vec::new();
             for name in &integrators {
@@ -427,7 +432,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => return Err(format!("unknown integrator {other:?}").into()),
                 });
             }
-            if !stress::run(from..from + cases, seed, &chosen, (self_collision, trace)) {
+            let threads = threads.unwrap_or_else(|| {
+                std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+            });
+            if !stress::run(
+                from..from + cases,
+                seed,
+                &chosen,
+                (self_collision, trace),
+                threads,
+            ) {
                 return Err("stress cases failed (listed above)".into());
             }
         }

@@ -2,6 +2,7 @@
 //! bar, then prints a Markdown table per integrator (cases, stable, stopped as unstable, failures,
 //! worst values, and the stability limits the cases found) and every failure.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use bevy_cloth::harness::stress::{
@@ -29,12 +30,15 @@ struct Tally {
 }
 
 /// Runs cases `cases` of suite `seed` over `integrators` (with `self_collision`, every case has
-/// it on); returns whether all passed. With `trace`, prints every step of every case.
+/// it on) on `threads` threads (one with `trace`); returns whether all passed. The cases are
+/// independent, and the tables and failures come out in case order whatever the thread count.
+/// With `trace`, prints every step of every case.
 pub fn run(
     cases: std::ops::Range<u64>,
     seed: u64,
     integrators: &[Integrator],
     (self_collision, trace): (bool, bool),
+    threads: usize,
 ) -> bool {
     let limits = StressLimits::default();
     let bar = ProgressBar::new(cases.end - cases.start);
@@ -43,12 +47,7 @@ pub fn run(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    let mut tallies: Vec<(Integrator, Tally)> = Integrator::CHOICES
-        .iter()
-        .map(|i| (*i, Tally::default()))
-        .collect();
-    let mut failures: Vec<StressResult> = Vec::new();
-    for index in cases.clone() {
+    let run_one = |index: u64| {
         let mut case = draw_case(seed, index, integrators, &limits);
         if self_collision {
             case = case.with_self_collision();
@@ -58,6 +57,38 @@ pub fn run(
                 bar.suspend(|| println!("case {index} step {step}: {}", trace_line(sim)));
             }
         });
+        bar.inc(1);
+        r
+    };
+    let threads = if trace { 1 } else { threads.max(1) };
+    let next = AtomicU64::new(cases.start);
+    let mut results: Vec<(u64, StressResult)> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut done = Vec::new();
+                    loop {
+                        let index = next.fetch_add(1, Ordering::Relaxed);
+                        if index >= cases.end {
+                            return done;
+                        }
+                        done.push((index, run_one(index)));
+                    }
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    results.sort_by_key(|(index, _)| *index);
+    let mut tallies: Vec<(Integrator, Tally)> = Integrator::CHOICES
+        .iter()
+        .map(|i| (*i, Tally::default()))
+        .collect();
+    let mut failures: Vec<StressResult> = Vec::new();
+    for (_, r) in results {
         let Some((_, t)) = tallies
             .iter_mut()
             .find(|(i, _)| *i == r.case.settings.integrator)
@@ -88,11 +119,10 @@ pub fn run(
                 failures.push(r);
             }
         }
-        bar.inc(1);
     }
     bar.finish_and_clear();
     println!(
-        "stress suite: seed {seed}, cases {}..{}, {:.1} s\n",
+        "stress suite: seed {seed}, cases {}..{}, {:.1} s on {threads} thread(s)\n",
         cases.start,
         cases.end,
         start.elapsed().as_secs_f64()
