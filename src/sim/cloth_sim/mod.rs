@@ -788,10 +788,9 @@ impl ClothSim {
             * f64::from(self.settings.gravity.length().max(1.0));
         let r = &mut self.runaway;
         let burst = energy > RUNAWAY_STEP_GROWTH * (r.before + weight);
-        let (entered, since) = r
+        let sustained = r
             .entered
-            .unwrap_or((r.before, self.steps.saturating_sub(1)));
-        let sustained = energy > RUNAWAY_PAST_GROWTH * (entered + weight);
+            .filter(|(entered, _)| energy > RUNAWAY_PAST_GROWTH * (entered + weight));
         if energy > RUNAWAY_GROWTH * r.energy && energy > 1e-12 {
             if r.streak == 0 {
                 r.streak_start = r.energy.max(f64::MIN_POSITIVE);
@@ -801,10 +800,10 @@ impl ClothSim {
             r.streak = 0;
         }
         r.energy = energy;
-        if r.streak >= RUNAWAY_STEPS || burst || sustained {
+        if r.streak >= RUNAWAY_STEPS || burst || sustained.is_some() {
             let (growth, steps) = if burst {
                 (energy / r.before.max(f64::MIN_POSITIVE), 1)
-            } else if sustained {
+            } else if let Some((entered, since)) = sustained {
                 let steps = u32::try_from(self.steps - since).unwrap_or(u32::MAX);
                 (energy / entered.max(f64::MIN_POSITIVE), steps)
             } else {
