@@ -371,6 +371,14 @@ pub struct WindZone {
     pub falloff: f32,
 }
 
+/// On a cloth: the bodies of another physics engine that it touches take the opposite of the
+/// impulses it took from them, and give way to them within the cloth's step (two-way coupling;
+/// with the `avian` feature, avian's dynamic bodies). Without it, such bodies move the cloth and
+/// feel nothing.
+#[derive(Component, Debug, Default, Clone, Copy, PartialEq, Eq, Reflect)]
+#[reflect(Component, Debug, Default)]
+pub struct ClothPushesBodies;
+
 /// Where a [`ClothCollider`] was at the last fixed step, kept by the plugin to derive its velocity.
 #[derive(Component, Debug, Clone, Copy, Default)]
 pub struct ColliderMotion {

@@ -32,8 +32,11 @@
 //! Layers: [`sim`] is the engine-free solver (plain data, every
 //! formula); [`components`] and [`plugin`] are the thin ECS layer; [`render`](crate::ClothState)
 //! writes meshes. Feature `render` brings Bevy's renderer for the windowed examples, `egui` the
-//! inspector panel, `harness` the test and benchmark harness (`harness`).
+//! inspector panel, `harness` the test and benchmark harness (`harness`), `avian` the coupling
+//! with an avian3d physics world (`avian`).
 
+#[cfg(feature = "avian")]
+pub mod avian;
 pub mod components;
 pub mod error;
 #[cfg(feature = "harness")]

@@ -157,10 +157,12 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothPins>()
             .register_type::<ClothSubdivision>()
             .register_type::<ClothCollider>()
+            .register_type::<ClothPushesBodies>()
             .register_type::<Wind>()
             .register_type::<WindZone>()
             .init_resource::<WindSnapshot>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
+            .insert_resource(ClothSchedule(self.schedule))
             .insert_resource(ClothStepBudget {
                 max_per_frame: self.max_steps_per_frame.max(1),
                 this_frame: 0,
@@ -229,7 +231,8 @@ fn current_global(
         .or_else(|| globals.get(entity).ok().copied())
 }
 
-/// Whether there are colliders to gather, or last step's must be cleared.
+/// Whether there are colliders to gather, or last step's must be cleared (including those another
+/// physics engine's colliders added after them).
 fn colliders_present(
     colliders: Query<(), With<ClothCollider>>,
     snapshot: Res<ColliderSnapshot>,
@@ -246,13 +249,18 @@ fn wind_present(
     wind.is_some() || !zones.is_empty() || snapshot.0.is_some()
 }
 
-/// The colliders of this step, with their poses at its start and end.
+/// The colliders of this step, with their poses at its start and end: the [`ClothCollider`]s,
+/// then (with the `avian` feature) avian's.
 #[derive(Resource, Debug, Default)]
-struct ColliderSnapshot(Vec<Collider>);
+pub(crate) struct ColliderSnapshot(pub(crate) Vec<Collider>);
+
+/// The schedule the cloths step in ([`ClothPlugin::schedule`]), for plugins that add to it.
+#[derive(Resource, Debug, Clone, Copy)]
+pub(crate) struct ClothSchedule(pub(crate) Interned<dyn ScheduleLabel>);
 
 /// Takes every [`ClothCollider`]'s pose now as the end of this step's motion, and its pose at the
 /// previous fixed step as the start. Bad colliders are reported once and left out.
-fn gather_colliders(
+pub(crate) fn gather_colliders(
     mut snapshot: ResMut<ColliderSnapshot>,
     mut colliders: Query<(Entity, &ClothCollider, &mut ColliderMotion)>,
     helper: TransformHelper,
@@ -269,12 +277,16 @@ fn gather_colliders(
             translation,
         };
         let sim = Collider {
-            shape: collider.shape.scaled(scale),
+            shape: collider.shape.scaled(scale).into(),
             start: motion.previous.unwrap_or(end),
             end,
             friction: collider.friction,
             margin: collider.margin,
             layers: collider.layers,
+            filters: u32::MAX,
+            inv_mass: 0.0,
+            inv_inertia: bevy::math::Mat3::ZERO,
+            acceleration: Vec3::ZERO,
         };
         motion.previous = Some(end);
         match sim.validate() {
@@ -432,7 +444,10 @@ fn step_cloths(
     time: Res<Time>,
     colliders: Res<ColliderSnapshot>,
     wind: Res<WindSnapshot>,
-    mut cloths: Query<(&ClothConfig, &mut ClothState), Without<ClothInvalid>>,
+    mut cloths: Query<
+        (&ClothConfig, &mut ClothState, Has<ClothPushesBodies>),
+        Without<ClothInvalid>,
+    >,
 ) {
     let dt = time.delta_secs();
     if dt <= 0.0 {
@@ -444,21 +459,24 @@ fn step_cloths(
     let spread = ComputeTaskPool::try_get()
         .filter(|pool| pool.thread_num() > cloth_count)
         .map(|pool| -> &dyn Spread { &**pool });
-    cloths.par_iter_mut().for_each(|(config, mut state)| {
-        let env = Environment {
-            colliders: &colliders.0,
-            collision_mask: config.collision_mask,
-            wind: wind.0.as_ref(),
-        };
-        if state.failure.is_some() {
-            return;
-        }
-        let stepped = match spread {
-            Some(spread) => state.sim.step_in_parallel(dt, &env, spread),
-            None => state.sim.step_in(dt, &env),
-        };
-        state.failure = stepped.err();
-    });
+    cloths
+        .par_iter_mut()
+        .for_each(|(config, mut state, two_way)| {
+            let env = Environment {
+                colliders: &colliders.0,
+                collision_mask: config.collision_mask,
+                wind: wind.0.as_ref(),
+                two_way,
+            };
+            if state.failure.is_some() {
+                return;
+            }
+            let stepped = match spread {
+                Some(spread) => state.sim.step_in_parallel(dt, &env, spread),
+                None => state.sim.step_in(dt, &env),
+            };
+            state.failure = stepped.err();
+        });
 }
 
 /// Keeps the last two render states (positions and normals) for display interpolation.

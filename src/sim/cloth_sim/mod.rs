@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::contact::{Collider, Contacts, Pose, SelfContacts, Target, bounds};
+use super::contact::{Collider, Contacts, Pose, Reaction, SelfContacts, Target, bounds};
 use super::forces::{SpringSet, max_frequency_bound};
 use super::integrate::{Spread, Step, Steppers, add_contact_work};
 use super::model::{ClothModel, SpringKind};
@@ -123,10 +123,13 @@ pub struct SelfContactStats {
 pub struct Environment<'a> {
     /// Colliders near or far; the broad phase drops the ones the cloth cannot reach.
     pub colliders: &'a [Collider],
-    /// The cloth collides with a collider when `collider.layers & collision_mask != 0`.
+    /// The cloth collides with a collider when [`Collider::touches`] this mask.
     pub collision_mask: u32,
     /// The air; `None` means no aerodynamic forces at all (not even drag in still air).
     pub wind: Option<&'a WindField>,
+    /// Whether colliders with a body ([`Collider::inv_mass`] above 0) give way to the cloth
+    /// within the step (two-way coupling); otherwise every collider moves as given.
+    pub two_way: bool,
 }
 
 impl Default for Environment<'_> {
@@ -136,6 +139,7 @@ impl Default for Environment<'_> {
             colliders: &[],
             collision_mask: u32::MAX,
             wind: None,
+            two_way: false,
         }
     }
 }
@@ -608,6 +612,14 @@ impl ClothSim {
         self.contacts.active_count()
     }
 
+    /// What the cloth took from each collider it touched during the last step: the sum of the
+    /// contact impulses and their moment, per collider of the step's [`Environment::colliders`]
+    /// (at most once each). The collider took the opposite: a game applies
+    /// its negation to the body to make the coupling two-way.
+    pub fn reactions(&self) -> impl Iterator<Item = &Reaction> {
+        self.contacts.reactions()
+    }
+
     /// Advances the cloth by `dt` seconds among the colliders of `env`. Returns an error (and
     /// leaves the state as it was at the failure) if a position became non-finite; the caller
     /// should stop stepping this cloth.
@@ -657,7 +669,7 @@ impl ClothSim {
         }
         if env.colliders.is_empty() {
             self.contacts
-                .begin_step(&[], 0, (Vec3::ONE, Vec3::ZERO), 0.0, dt);
+                .begin_step(&[], (0, false), (Vec3::ONE, Vec3::ZERO), 0.0, dt);
         } else {
             // Asleep, the cloth has not moved since it fell asleep: its box is kept, and every
             // particle is slower than the sleep threshold.
@@ -676,8 +688,13 @@ impl ClothSim {
                     self.reach_bound(dt, speed),
                 )
             };
-            self.contacts
-                .begin_step(env.colliders, env.collision_mask, bounds, reach, dt);
+            self.contacts.begin_step(
+                env.colliders,
+                (env.collision_mask, env.two_way),
+                bounds,
+                reach,
+                dt,
+            );
         }
         if self.sleeps_through(env) {
             self.steps += 1;

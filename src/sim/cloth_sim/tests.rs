@@ -260,8 +260,7 @@ fn implicit_euler_holds_contacts_without_giving_the_cloth_energy() {
     );
     let env = Environment {
         colliders: std::slice::from_ref(&capsule),
-        collision_mask: u32::MAX,
-        wind: None,
+        ..Environment::default()
     };
     let total = |sim: &ClothSim| {
         let e = sim.energy();
@@ -316,8 +315,7 @@ fn implicit_euler_lets_a_held_contact_go_when_the_cloth_is_lifted() {
     );
     let env = Environment {
         colliders: std::slice::from_ref(&floor),
-        collision_mask: u32::MAX,
-        wind: None,
+        ..Environment::default()
     };
     let dt = 1.0 / 60.0;
     for _ in 0..30 {

@@ -9,7 +9,7 @@
 //! 1. **Broad phase** (once per step, `Contacts::begin_step`): the cloth's bounding box, grown by
 //!    the farthest any particle can travel in the step, against each collider's box swept from its
 //!    start pose to its end pose and grown by its margin. Colliders that cannot be reached, or whose
-//!    `layers` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
+//!    `layers` or `filters` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
 //!    The reach assumes the particles' speeds at the step's start; a particle flung farther (by a
 //!    spring stretched far from rest) is caught after the step (`Contacts::catch_up`): the
 //!    dropped colliders its straight path comes near are resolved once over the whole step.
@@ -71,11 +71,12 @@ use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 pub(crate) use limits::Limits;
 pub use limits::Target;
+pub use narrow::Reaction;
 use narrow::{ActiveCollider, resolve};
 pub(crate) use narrow::{ContactState, convex_minimum};
 pub(crate) use self_contact::SelfContacts;
 pub(crate) use shapes::Near;
-pub use shapes::{Collider, ColliderShape, Friction, Pose, bounds};
+pub use shapes::{Collider, ColliderShape, Friction, Pose, Shape, Surface, bounds};
 
 /// The state as three arrays of vectors in the particles' own order.
 struct Vectors<'a> {
@@ -214,28 +215,32 @@ impl Contacts {
 
     /// The broad phase: keeps the colliders on `mask` that the cloth can reach during a step of
     /// `dt` seconds. `bounds` is the cloth's bounding box at the start of the step (see
-    /// [`bounds`]); `reach` bounds how far any particle can move in the step.
+    /// [`bounds`]); `reach` bounds how far any particle can move in the step. With `two_way`,
+    /// colliders with a body give way to the particles' pushes within the step (see
+    /// [`Collider::inv_mass`]).
     pub fn begin_step(
         &mut self,
         colliders: &[Collider],
-        mask: u32,
+        (mask, two_way): (u32, bool),
         bounds: (Vec3, Vec3),
         reach: f32,
         dt: f32,
     ) {
         self.active.clear();
+        self.late.clear();
         self.dropped = false;
         if colliders.is_empty() || !(bounds.0.cmple(bounds.1).all()) {
             return;
         }
         let reach_box = (bounds.0 - Vec3::splat(reach), bounds.1 + Vec3::splat(reach));
         self.reach_box = reach_box;
-        for c in colliders {
-            if c.layers & mask == 0 || c.validate().is_err() {
+        for (index, c) in colliders.iter().enumerate() {
+            if !c.touches(mask) || c.validate().is_err() {
                 continue;
             }
             if reachable(c, reach_box) {
-                self.active.push(ActiveCollider::new(c, dt, self.max_edge));
+                self.active
+                    .push(ActiveCollider::new(c, index, (dt, self.max_edge), two_way));
             } else {
                 self.dropped = true;
             }
@@ -285,12 +290,14 @@ impl Contacts {
             return 0.0;
         }
         self.late.clear();
-        for c in colliders {
-            if c.layers & mask == 0 || c.validate().is_err() || reachable(c, self.reach_box) {
+        for (index, c) in colliders.iter().enumerate() {
+            if !c.touches(mask) || c.validate().is_err() || reachable(c, self.reach_box) {
                 continue;
             }
             if reachable(c, paths) {
-                self.late.push(ActiveCollider::new(c, dt, self.max_edge));
+                // Resolved once over the whole step: there is no later substep to slow it for.
+                self.late
+                    .push(ActiveCollider::new(c, index, (dt, self.max_edge), false));
             }
         }
         if self.late.is_empty() {
@@ -304,12 +311,23 @@ impl Contacts {
             touches: None,
         };
         resolve(
-            &self.late,
+            &mut self.late,
             &mut self.clearance,
             (0.0, 1.0, dt),
             triangles,
             &mut state,
         )
+    }
+
+    /// What the particles took from each collider they touched during the last step, in the
+    /// substeps or in [`Self::catch_up`] (never both: it takes only colliders the broad phase
+    /// dropped).
+    pub fn reactions(&self) -> impl Iterator<Item = &Reaction> {
+        self.active
+            .iter()
+            .chain(&self.late)
+            .map(|c| &c.reaction)
+            .filter(|r| r.impulse != Vec3::ZERO || r.moment != Vec3::ZERO)
     }
 
     /// Whether any collider that passed this step's broad phase moves during the step.
@@ -381,7 +399,7 @@ impl Contacts {
     ) -> f64 {
         resolve_all(
             (
-                &self.active,
+                &mut self.active,
                 &mut self.clearance,
                 self.self_contacts.as_mut(),
                 &self.limits,
@@ -419,7 +437,7 @@ fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
 /// Returns the colliders' work (see [`Contacts::resolve_state`]).
 fn resolve_all<S: ContactState>(
     (active, clearance, self_contacts, limits): (
-        &[ActiveCollider],
+        &mut [ActiveCollider],
         &mut Vec<f32>,
         Option<&mut SelfContacts>,
         &Limits,

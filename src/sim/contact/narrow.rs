@@ -1,9 +1,9 @@
 //! The narrow phase and the response (steps 2 and 3 of the pipeline in the module docs of
 //! [`contact`](super)), on any particle layout a stepper keeps ([`ContactState`]).
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
-use super::shapes::{Collider, ColliderShape, Friction, Near, Pose};
+use super::shapes::{Collider, ColliderShape, Friction, Near, Pose, Shape};
 
 /// Sphere tracing stops after this many steps along one path (a miss).
 const MAX_SWEEP_STEPS: u32 = 64;
@@ -12,10 +12,28 @@ const MAX_SWEEP_STEPS: u32 = 64;
 /// with its neighbours, so the pass repeats (Gauss-Seidel) until nothing moves, at most this often.
 const TRIANGLE_PASSES: u32 = 4;
 
+/// The impulse the particles took from one collider over a step, and its moment.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Reaction {
+    /// Where the collider is in the list the step was given.
+    pub collider: usize,
+    /// Sum of the impulses the collider gave the particles, N s.
+    pub impulse: Vec3,
+    /// Sum of their moments about the collider's origin at the end of the step, N m s.
+    pub moment: Vec3,
+}
+
 /// A collider that passed the broad phase, with its velocity over the step.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(super) struct ActiveCollider {
     pub collider: Collider,
+    /// What the particles took from it during the step.
+    pub reaction: Reaction,
+    /// The point the reaction's moment is taken about: the collider's origin at the end of the
+    /// step as given (see [`Reaction::moment`]).
+    origin: Vec3,
+    /// Length of the step, s.
+    dt: f32,
     /// Velocity of the collider's origin, m/s.
     pub linear: Vec3,
     /// Angular velocity, rad/s.
@@ -25,8 +43,21 @@ pub(super) struct ActiveCollider {
 }
 
 impl ActiveCollider {
-    /// `c` over a step of `dt` seconds, for a cloth whose longest rest edge is `max_edge`.
-    pub(super) fn new(c: &Collider, dt: f32, max_edge: f32) -> Self {
+    /// `c`, the collider at `index` of the step's list, over a step of `dt` seconds, for a cloth
+    /// whose longest rest edge is `max_edge`. It gives way to the particles (see
+    /// [`Collider::inv_mass`]) only with `gives_way`; otherwise it moves as given.
+    pub(super) fn new(
+        c: &Collider,
+        index: usize,
+        (dt, max_edge): (f32, f32),
+        gives_way: bool,
+    ) -> Self {
+        let mut c = c.clone();
+        if !(gives_way && c.inv_mass > 0.0) {
+            c.inv_mass = 0.0;
+            c.end.translation += c.acceleration * (dt * dt);
+            c.acceleration = Vec3::ZERO;
+        }
         let inv_dt = 1.0 / dt;
         let spin = c.end.rotation * c.start.rotation.inverse();
         let (axis, angle) = spin.to_axis_angle();
@@ -35,12 +66,55 @@ impl ActiveCollider {
         } else {
             angle
         };
+        let triangles =
+            matches!(c.shape, Shape::Primitive(ColliderShape::Sphere(s)) if s.radius < max_edge);
         Self {
-            collider: *c,
+            reaction: Reaction {
+                collider: index,
+                ..Reaction::default()
+            },
+            origin: c.end.translation,
+            dt,
             linear: (c.end.translation - c.start.translation) * inv_dt,
             angular: axis * (angle * inv_dt),
-            triangles: matches!(c.shape, ColliderShape::Sphere(s) if s.radius < max_edge),
+            triangles,
+            collider: c,
         }
+    }
+
+    /// A collider with a body gives way to what the particles took from it in the substep
+    /// `[t0, t1]` (fractions of the step), `before` being its [`Reaction`] at the substep's start:
+    /// its velocity changes by its acceleration over the substep less the impulse over its mass,
+    /// its angular velocity by its inverse inertia times minus the impulses' moment about its
+    /// origin, and the rest of its path starts from its pose at `t1` with those velocities.
+    fn give_way(&mut self, before: &Reaction, (t0, t1): (f32, f32)) {
+        let c = &mut self.collider;
+        if c.inv_mass <= 0.0 {
+            return;
+        }
+        let impulse = self.reaction.impulse - before.impulse;
+        let at = c.start.lerp(&c.end, t1);
+        // The moments were taken about `origin`; about the origin's place at `t1`:
+        let moment =
+            self.reaction.moment - before.moment - (at.translation - self.origin).cross(impulse);
+        let (dv, dw) = (
+            c.acceleration * ((t1 - t0) * self.dt) - impulse * c.inv_mass,
+            c.inv_inertia * -moment,
+        );
+        if !(dv.is_finite() && dw.is_finite()) {
+            return;
+        }
+        self.linear += dv;
+        self.angular += dw;
+        let (before_t1, after_t1) = (t1 * self.dt, (1.0 - t1) * self.dt);
+        c.start = Pose {
+            rotation: Quat::from_scaled_axis(self.angular * -before_t1) * at.rotation,
+            translation: at.translation - self.linear * before_t1,
+        };
+        c.end = Pose {
+            rotation: Quat::from_scaled_axis(self.angular * after_t1) * at.rotation,
+            translation: at.translation + self.linear * after_t1,
+        };
     }
 
     /// Velocity of the collider's material at world point `p`, with its origin at `origin`.
@@ -84,7 +158,7 @@ pub(crate) trait ContactState {
 ///
 /// Returns the work the colliders did on the particles' motion, J (see [`push_out`]).
 pub(super) fn resolve<S: ContactState>(
-    active: &[ActiveCollider],
+    active: &mut [ActiveCollider],
     clearance: &mut Vec<f32>,
     (t0, t1, h): (f32, f32, f32),
     triangles: &[u32],
@@ -93,7 +167,8 @@ pub(super) fn resolve<S: ContactState>(
     let mut work = 0.0;
     // Sized with the cloth (`Contacts::new`), so this allocates only for a state of another size.
     clearance.resize(state.len(), 0.0);
-    for c in active {
+    for c in active.iter_mut() {
+        let before = c.reaction;
         let pose0 = c.collider.start.lerp(&c.collider.end, t0);
         let pose1 = c.collider.start.lerp(&c.collider.end, t1);
         let still = pose0 == pose1;
@@ -132,13 +207,15 @@ pub(super) fn resolve<S: ContactState>(
                 }
             }
         }
+        c.give_way(&before, (t0, t1));
     }
     work
 }
 
 /// Moves particle `i` (free) to `x` with velocity `v`, the response to a collider whose surface
-/// moves at `vc` pushing it out along the outward `normal`. Returns the work that surface did on
-/// the particle's motion, J: the response's impulse times `vc`. The kinetic energy [`respond`] adds
+/// moves at `vc` pushing it out along the outward `normal`, and adds the response's impulse to
+/// the collider's `reaction` (its moment about `origin`, the collider's origin at the end of the
+/// step). Returns the work that surface did on the particle's motion, J: the impulse times `vc`. The kinetic energy [`respond`] adds
 /// is never more (removing inward relative velocity and friction both move the velocity towards
 /// the surface's), so this bounds what a contact gives the cloth even where the response also
 /// takes away energy the springs had just put in (a moving collider pressing the cloth against
@@ -147,10 +224,12 @@ fn push_out<S: ContactState>(
     state: &mut S,
     i: usize,
     (x, v): (Vec3, Vec3),
-    normal: Vec3,
-    vc: Vec3,
+    (normal, vc): (Vec3, Vec3),
+    (reaction, origin): (&mut Reaction, Vec3),
 ) -> f64 {
     let impulse = (v - state.velocity(i)) / state.inv_mass(i);
+    reaction.impulse += impulse;
+    reaction.moment += (x - origin).cross(impulse);
     state.set(i, x, v);
     state.touched(i, normal, vc);
     f64::from(impulse.dot(vc))
@@ -160,7 +239,7 @@ fn push_out<S: ContactState>(
 /// and Coulomb friction described in the module docs. Returns the collider's work (see
 /// [`push_out`]).
 fn collide_particle<S: ContactState>(
-    c: &ActiveCollider,
+    c: &mut ActiveCollider,
     (pose0, pose1, still): (&Pose, &Pose, bool),
     h: f32,
     state: &mut S,
@@ -219,7 +298,7 @@ fn collide_particle<S: ContactState>(
         &mut x,
         &mut v,
     );
-    push_out(state, i, (x, v), normal, vc)
+    push_out(state, i, (x, v), (normal, vc), (&mut c.reaction, c.origin))
 }
 
 /// The response of a contact just pushed out by `push` along the outward normal `n`, against a
@@ -257,16 +336,20 @@ fn respond(
 /// The signed distance of a convex shape is convex along a line, so a ternary search finds the
 /// deepest point. The signed distance changes no faster than the point moves, so a path shorter
 /// than the way down and back up (every resting particle's) is not searched.
-fn went_through(
-    shape: &ColliderShape,
-    (from, d0): (Vec3, f32),
-    (to, d): (Vec3, f32),
-    margin: f32,
-) -> bool {
-    if from.distance(to) <= d0 + d + 2.0 * margin {
-        return false;
+/// A shell (an open [`Surface`](super::Surface)) has no inside to reach into, and a non-convex
+/// surface's distance has no single minimum along a path: a path went through such a surface if
+/// it crosses it, which a path shorter than the way to the surface and on cannot.
+fn went_through(shape: &Shape, (from, d0): (Vec3, f32), (to, d): (Vec3, f32), margin: f32) -> bool {
+    let length = from.distance(to);
+    match shape {
+        Shape::Surface(s) if s.is_shell() || !s.is_convex() => {
+            length >= d0 + d && s.crosses(from, to)
+        }
+        _ => {
+            length > d0 + d + 2.0 * margin
+                && convex_minimum(|t| shape.signed_distance(from.lerp(to, t)).0) < -margin
+        }
     }
-    convex_minimum(|t| shape.signed_distance(from.lerp(to, t)).0) < -margin
 }
 
 /// The smallest value of a convex function on `[0, 1]` (a ternary search, to within 3e-6 of the
@@ -288,7 +371,7 @@ pub(crate) fn convex_minimum(f: impl Fn(f32) -> f32) -> f32 {
 /// path within `margin` of the surface, with its distance and normal; `None` if the path stays
 /// clear or starts in contact.
 fn sweep(
-    shape: &ColliderShape,
+    shape: &Shape,
     (from, d0): (Vec3, f32),
     to: Vec3,
     margin: f32,
@@ -324,15 +407,16 @@ fn sweep(
 /// particle contacts (friction, inward velocity removed), their work added to `work`. Returns whether
 /// any triangle was moved.
 fn collide_triangles<S: ContactState>(
-    c: &ActiveCollider,
+    c: &mut ActiveCollider,
     (pose0, pose1, h): (&Pose, &Pose, f32),
     triangles: &[u32],
     state: &mut S,
     work: &mut f64,
 ) -> bool {
-    let ColliderShape::Sphere(sphere) = c.collider.shape else {
+    let Shape::Primitive(ColliderShape::Sphere(sphere)) = c.collider.shape else {
         return false;
     };
+    let origin = c.origin;
     let mut moved = false;
     let reach = sphere.radius + c.collider.margin;
     let (centre0, centre) = (pose0.translation, pose1.translation);
@@ -400,7 +484,7 @@ fn collide_triangles<S: ContactState>(
                 &mut x,
                 &mut v,
             );
-            *work += push_out(state, i, (x, v), -dir, vc);
+            *work += push_out(state, i, (x, v), (-dir, vc), (&mut c.reaction, origin));
         }
     }
     moved

@@ -1,9 +1,13 @@
-//! The colliders a cloth meets: their [`ColliderShape`] (exact signed distances and bounds),
-//! [`Pose`], [`Friction`] and margin ([`Collider`]).
+//! The colliders a cloth meets: their [`Shape`] (a primitive [`ColliderShape`] or a [`Surface`]
+//! known through queries; exact signed distances and bounds), [`Pose`], [`Friction`] and margin
+//! ([`Collider`]).
+
+use std::fmt::Debug;
+use std::sync::Arc;
 
 use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
 use bevy::reflect::Reflect;
-use glam::{Quat, Vec3};
+use glam::{Mat3, Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ClothError, non_negative, positive};
@@ -119,6 +123,119 @@ impl ColliderShape {
         let r = glam::Mat3::from_quat(pose.rotation);
         let extent = r.x_axis.abs() * half.x + r.y_axis.abs() * half.y + r.z_axis.abs() * half.z;
         Some(around(pose.translation, extent))
+    }
+}
+
+/// A collider shape the solver knows only through queries, such as another physics engine's
+/// convex hull, triangle mesh or heightfield. Distances must be exact Euclidean distances (the
+/// swept test steps along a particle's path by them).
+pub trait Surface: Send + Sync + Debug {
+    /// Signed distance from local point `p` to the surface (negative inside) and the outward unit
+    /// normal at the nearest surface point. A shell (see [`Self::is_shell`]) has no inside: its
+    /// distance is never negative and its normal points from the nearest surface point to `p`.
+    fn signed_distance(&self, p: Vec3) -> (f32, Vec3);
+    /// The shape's bounding box `(min, max)` in its own frame.
+    fn local_bounds(&self) -> (Vec3, Vec3);
+    /// Whether the shape is convex: its signed distance is then convex along any line, which the
+    /// test for a particle that went through the shape relies on.
+    fn is_convex(&self) -> bool;
+    /// Whether the shape is an open surface (a triangle mesh, a heightfield) that a particle may
+    /// meet from either side.
+    fn is_shell(&self) -> bool;
+    /// Whether the straight segment from `a` to `b` (local points) crosses the surface.
+    fn crosses(&self, a: Vec3, b: Vec3) -> bool;
+}
+
+/// The shape of a [`Collider`] as the solver sees it.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    /// One of the built-in shapes, with exact closed-form queries.
+    Primitive(ColliderShape),
+    /// Any other shape, through its [`Surface`] queries.
+    Surface(Arc<dyn Surface>),
+}
+
+impl From<ColliderShape> for Shape {
+    fn from(shape: ColliderShape) -> Self {
+        Shape::Primitive(shape)
+    }
+}
+
+impl PartialEq for Shape {
+    /// Primitives by value, surfaces by identity.
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (Shape::Primitive(a), Shape::Primitive(b)) => a == b,
+            (Shape::Surface(a), Shape::Surface(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+}
+
+impl Shape {
+    /// See [`ColliderShape::signed_distance`] and [`Surface::signed_distance`].
+    pub fn signed_distance(&self, p: Vec3) -> (f32, Vec3) {
+        match self {
+            Shape::Primitive(s) => s.signed_distance(p),
+            Shape::Surface(s) => s.signed_distance(p),
+        }
+    }
+
+    /// The primitive, if the shape is one.
+    pub fn primitive(&self) -> Option<&ColliderShape> {
+        match self {
+            Shape::Primitive(s) => Some(s),
+            Shape::Surface(_) => None,
+        }
+    }
+
+    /// Checks a primitive's dimensions, or that a surface's bounds are finite and ordered.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        match self {
+            Shape::Primitive(s) => s.validate(),
+            Shape::Surface(s) => {
+                let (lo, hi) = s.local_bounds();
+                if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
+                    Ok(())
+                } else {
+                    Err(ClothError::InvalidValue {
+                        field: "collider.bounds",
+                        expected: "a finite box",
+                        value: f64::NAN,
+                    })
+                }
+            }
+        }
+    }
+
+    /// See [`ColliderShape::near`]; a surface's ball is its bounding box's.
+    pub(super) fn near(&self, pose: &Pose) -> (Near, f32) {
+        match self {
+            Shape::Primitive(s) => s.near(pose),
+            Shape::Surface(s) => {
+                let (lo, hi) = s.local_bounds();
+                let centre = 0.5 * (lo + hi);
+                (
+                    Near::Point(pose.transform_point(centre)),
+                    0.5 * (hi - lo).length(),
+                )
+            }
+        }
+    }
+
+    /// See [`ColliderShape::bounds`]; a surface's is its rotated bounding box's.
+    pub(super) fn bounds(&self, pose: &Pose) -> Option<(Vec3, Vec3)> {
+        match self {
+            Shape::Primitive(s) => s.bounds(pose),
+            Shape::Surface(s) => {
+                let (lo, hi) = s.local_bounds();
+                let r = glam::Mat3::from_quat(pose.rotation);
+                let half = 0.5 * (hi - lo);
+                let extent =
+                    r.x_axis.abs() * half.x + r.y_axis.abs() * half.y + r.z_axis.abs() * half.z;
+                Some(around(pose.transform_point(0.5 * (lo + hi)), extent))
+            }
+        }
     }
 }
 
@@ -262,10 +379,10 @@ impl Pose {
 /// A collider as the solver sees it for one step: its shape, where it is at the start and at the
 /// end of the step (it moves between them linearly, rotating at constant rate), and its contact
 /// properties.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Collider {
     /// Shape in the collider's frame (already scaled).
-    pub shape: ColliderShape,
+    pub shape: Shape,
     /// Pose at the start of the step.
     pub start: Pose,
     /// Pose at the end of the step.
@@ -276,19 +393,46 @@ pub struct Collider {
     pub margin: f32,
     /// Collision layers: the collider touches a cloth whose mask shares a bit with these.
     pub layers: u32,
+    /// Layers the collider accepts: it touches a cloth only if the cloth's mask also shares a bit
+    /// with these (every layer for the crate's own colliders; an avian collider's filters).
+    pub filters: u32,
+    /// Inverse mass of the body the collider belongs to, 1/kg. 0 (the crate's own colliders):
+    /// it moves from `start` to `end` whatever the cloth does. Above 0, for a cloth stepped with
+    /// [`Environment::two_way`](crate::sim::Environment::two_way), the impulses it gives the
+    /// particles slow it within the step, substep by substep (its velocity changes by minus their
+    /// sum times this, its angular velocity by [`Self::inv_inertia`] times minus their moment about
+    /// its origin), so that a body does not sink into or rock on the cloth for a whole step before
+    /// its reaction arrives.
+    pub inv_mass: f32,
+    /// Inverse inertia tensor of that body, world axes, 1/(kg m²), taken about the collider's
+    /// origin (zero: the collider turns as given).
+    pub inv_inertia: Mat3,
+    /// Acceleration of that body over the step from everything but the cloth (gravity), m/s².
+    /// A collider that gives way gains it substep by substep; one that moves as given ends the
+    /// step `acceleration · dt²` beyond `end` (where a semi-implicit Euler step would put it).
+    pub acceleration: Vec3,
 }
 
 impl Collider {
     /// A collider that stays at `pose` during the step, on every layer.
-    pub fn fixed(shape: ColliderShape, pose: Pose, friction: Friction, margin: f32) -> Self {
+    pub fn fixed(shape: impl Into<Shape>, pose: Pose, friction: Friction, margin: f32) -> Self {
         Self {
-            shape,
+            shape: shape.into(),
             start: pose,
             end: pose,
             friction,
             margin,
             layers: u32::MAX,
+            filters: u32::MAX,
+            inv_mass: 0.0,
+            inv_inertia: Mat3::ZERO,
+            acceleration: Vec3::ZERO,
         }
+    }
+
+    /// Whether the collider touches a cloth with collision mask `mask`.
+    pub fn touches(&self, mask: u32) -> bool {
+        self.layers & mask != 0 && self.filters & mask != 0
     }
 
     /// Checks the shape, friction and margin.
@@ -296,6 +440,19 @@ impl Collider {
         self.shape.validate()?;
         self.friction.validate()?;
         non_negative("collider.margin", self.margin)?;
+        non_negative("collider.inv_mass", self.inv_mass)?;
+        for (field, finite) in [
+            ("collider.inv_inertia", self.inv_inertia.is_finite()),
+            ("collider.acceleration", self.acceleration.is_finite()),
+        ] {
+            if !finite {
+                return Err(ClothError::InvalidValue {
+                    field,
+                    expected: "finite",
+                    value: f64::NAN,
+                });
+            }
+        }
         let finite = |p: &Pose| p.translation.is_finite() && p.rotation.is_finite();
         if finite(&self.start) && finite(&self.end) {
             Ok(())

@@ -108,7 +108,13 @@ fn closest_point_on_triangle_matches_brute_force() {
 
 fn active(collider: Collider, dt: f32, max_edge: f32) -> Contacts {
     let mut contacts = Contacts::new(1, max_edge);
-    contacts.begin_step(&[collider], u32::MAX, (Vec3::ZERO, Vec3::ZERO), 10.0, dt);
+    contacts.begin_step(
+        &[collider],
+        (u32::MAX, true),
+        (Vec3::ZERO, Vec3::ZERO),
+        10.0,
+        dt,
+    );
     contacts
 }
 
@@ -189,7 +195,7 @@ fn a_particle_in_contact_cannot_pass_through_a_thin_box_or_cut_its_corner() {
         Vec3::new(0.15, -0.005, 0.0),
     ];
     for end in ends {
-        let mut c = active(collider, 0.01, 0.1);
+        let mut c = active(collider.clone(), 0.01, 0.1);
         c.begin_substep(&[start]);
         let (mut x, mut v) = ([end], [(end - start) / 0.01]);
         c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
@@ -369,7 +375,7 @@ fn the_clearance_skip_changes_no_contact() {
                     inv_mass: &inv_mass,
                     touches: None,
                 };
-                let (active, clearance) = (&contacts.active, &mut contacts.clearance);
+                let (active, clearance) = (&mut contacts.active, &mut contacts.clearance);
                 let t = (0.25, 0.5, 1.0 / 240.0);
                 if exact {
                     resolve(active, clearance, t, &[], &mut Exact(state));
@@ -400,9 +406,12 @@ fn the_broad_phase_skips_far_and_masked_colliders() {
     let far = Collider {
         start: Pose::from_translation(Vec3::new(50.0, 0.0, 0.0)),
         end: Pose::from_translation(Vec3::new(50.0, 0.0, 0.0)),
-        ..near
+        ..near.clone()
     };
-    let masked = Collider { layers: 2, ..near };
+    let masked = Collider {
+        layers: 2,
+        ..near.clone()
+    };
     let below = Collider::fixed(
         ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y)),
         Pose::from_translation(Vec3::new(0.0, -10.0, 0.0)),
@@ -412,13 +421,13 @@ fn the_broad_phase_skips_far_and_masked_colliders() {
     let touching = Collider {
         start: below.start,
         end: Pose::from_translation(Vec3::new(0.0, -0.055, 0.0)),
-        ..below
+        ..below.clone()
     };
     let mut c = Contacts::new(2, 0.1);
     let cloth = [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0)];
     c.begin_step(
-        &[near, far, masked, below, touching],
-        1,
+        &[near.clone(), far, masked, below, touching.clone()],
+        (1, false),
         bounds(&cloth),
         0.05,
         0.01,
@@ -446,7 +455,13 @@ fn the_catch_up_resolves_dropped_colliders_a_particle_outran() {
     );
     let start = [Vec3::ZERO, Vec3::X];
     let mut c = Contacts::new(2, 0.1);
-    c.begin_step(&[floor, far], 1, bounds(&start), 0.05, 0.01);
+    c.begin_step(
+        &[floor.clone(), far.clone()],
+        (1, false),
+        bounds(&start),
+        0.05,
+        0.01,
+    );
     assert_eq!(c.active_count(), 0);
     assert!(c.dropped());
     let (mut x, mut v) = (
@@ -454,7 +469,7 @@ fn the_catch_up_resolves_dropped_colliders_a_particle_outran() {
         [Vec3::new(0.0, -150.0, 0.0), Vec3::ZERO],
     );
     c.catch_up(
-        &[floor, far],
+        &[floor.clone(), far.clone()],
         1,
         0.01,
         &[],
@@ -473,7 +488,13 @@ fn the_catch_up_resolves_dropped_colliders_a_particle_outran() {
         end: Pose::from_translation(Vec3::new(0.0, -0.03, 0.0)),
         ..floor
     };
-    c.begin_step(&[close, far], 1, bounds(&start), 0.05, 0.01);
+    c.begin_step(
+        &[close.clone(), far.clone()],
+        (1, false),
+        bounds(&start),
+        0.05,
+        0.01,
+    );
     c.catch_up(
         &[close, far],
         1,
@@ -528,4 +549,73 @@ fn every_build_of_the_clearance_kernel_gives_the_same_bits() {
             }
         }
     }
+}
+
+/// A 2 m square sheet in the plane y = 0 (|x|, |z| ≤ 1) as a [`Surface`]: an open shell.
+#[derive(Debug)]
+struct Sheet;
+
+impl Surface for Sheet {
+    fn signed_distance(&self, p: Vec3) -> (f32, Vec3) {
+        let on = Vec3::new(p.x.clamp(-1.0, 1.0), 0.0, p.z.clamp(-1.0, 1.0));
+        let d = p.distance(on);
+        let n = if d > 1e-9 { (p - on) / d } else { Vec3::Y };
+        (d, n)
+    }
+    fn local_bounds(&self) -> (Vec3, Vec3) {
+        (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0))
+    }
+    fn is_convex(&self) -> bool {
+        true
+    }
+    fn is_shell(&self) -> bool {
+        true
+    }
+    fn crosses(&self, a: Vec3, b: Vec3) -> bool {
+        if (a.y > 0.0) == (b.y > 0.0) {
+            return false;
+        }
+        let at = a.lerp(b, a.y / (a.y - b.y));
+        at.x.abs() <= 1.0 && at.z.abs() <= 1.0
+    }
+}
+
+#[test]
+fn a_particle_cannot_pass_through_a_shell_from_either_side() {
+    let sheet = Collider::fixed(
+        Shape::Surface(std::sync::Arc::new(Sheet)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.01,
+    );
+    // (start, end, side it must end on): resting on either side within the margin and pushed
+    // through past the margin in one substep; arriving from afar; sliding off the edge.
+    let cases = [
+        (Vec3::new(0.2, 0.005, 0.0), Vec3::new(0.2, -0.03, 0.0), 1.0),
+        (
+            Vec3::new(0.2, -0.005, 0.0),
+            Vec3::new(0.25, 0.03, 0.0),
+            -1.0,
+        ),
+        (Vec3::new(0.2, 0.5, 0.0), Vec3::new(0.2, -0.5, 0.1), 1.0),
+    ];
+    for (start, end, side) in cases {
+        let mut c = active(sheet.clone(), 0.01, 0.1);
+        c.begin_substep(&[start]);
+        let (mut x, mut v) = ([end], [(end - start) / 0.01]);
+        c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
+        assert!(
+            x[0].y * side >= 0.01 - 1e-5,
+            "{start} → {end}: ended at {}",
+            x[0]
+        );
+        assert!(v[0].y * side >= 0.0, "{start} → {end}: {}", v[0]);
+    }
+    // Past the edge nothing stops it.
+    let (start, end) = (Vec3::new(1.2, 0.005, 0.0), Vec3::new(1.2, -0.03, 0.0));
+    let mut c = active(sheet, 0.01, 0.1);
+    c.begin_substep(&[start]);
+    let (mut x, mut v) = ([end], [(end - start) / 0.01]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
+    assert_eq!(x[0], end);
 }

@@ -1,0 +1,451 @@
+//! Headless App tests of cloth in an avian3d world (feature `avian`): avian's primitives act as
+//! the equivalent native colliders do, other shapes through parry without tunnelling, avian's
+//! layers, sensors and the opt-out are honoured, kinematic bodies drag the cloth, and the
+//! two-way coupling exchanges momentum without creating any.
+
+use avian3d::prelude::*;
+use bevy::prelude::*;
+use bevy_cloth::avian::{ClothAvianPlugin, ClothPushesBodies, NoClothContact};
+use bevy_cloth::prelude::*;
+use bevy_cloth::sim::ClothSim;
+
+mod common;
+use common::*;
+
+/// A headless app at 60 Hz with avian's physics and the cloth coupling.
+fn avian_app() -> App {
+    bevy_cloth::harness::try_headless_app_with(DT, (PhysicsPlugins::default(), ClothAvianPlugin))
+        .expect("a valid step")
+}
+
+/// A horizontal `n`×`n` cloth, 5 cm spacing, centred on `at`.
+fn sheet(n: u32, at: Vec3) -> impl Bundle {
+    (
+        Cloth::grid(GridSpec::new(n, n, 0.05)),
+        ClothConfig {
+            solver: SolverSettings {
+                damping: 0.5,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        Transform::from_translation(at),
+    )
+}
+
+/// Particle positions after `steps` steps of a 12×12 cloth dropped from 0.6 m over the collider
+/// that `spawn` adds to the app, a little off its centre.
+fn drop_over(avian: bool, spawn: impl FnOnce(&mut World), steps: u32) -> Vec<Vec3> {
+    let mut app = if avian { avian_app() } else { app() };
+    spawn(app.world_mut());
+    let cloth = spawn_valid(&mut app, sheet(12, Vec3::new(0.02, 0.6, -0.01)));
+    run(&mut app, steps);
+    sim(&app, cloth).positions().to_vec()
+}
+
+#[test]
+fn avian_primitives_act_as_the_equivalent_native_colliders() {
+    let tilted = Quat::from_rotation_z(0.3) * Quat::from_rotation_x(-0.2);
+    let cases: Vec<(&str, ClothCollider, Collider, Transform)> = vec![
+        (
+            "ball",
+            ClothCollider::sphere(0.3),
+            Collider::sphere(0.3),
+            Transform::from_xyz(0.05, 0.1, 0.0),
+        ),
+        (
+            "scaled ball",
+            ClothCollider::sphere(0.15),
+            Collider::sphere(0.15),
+            Transform::from_xyz(0.05, 0.1, 0.0).with_scale(Vec3::splat(2.0)),
+        ),
+        // Upright: a tilted one makes the result hang on rounding (the native collider's rotation
+        // comes back from its `GlobalTransform`'s matrix, avian's straight from its `Transform`), and
+        // a cloth sliding on a curved surface turns a 1e-7 difference into millimetres. The
+        // mapping of tilted and offset capsules is tested through distances in the crate's unit
+        // tests.
+        (
+            "capsule",
+            ClothCollider::capsule(0.15, 0.3),
+            Collider::capsule(0.15, 0.6),
+            Transform::from_xyz(0.0, 0.0, 0.0),
+        ),
+        (
+            "cuboid",
+            ClothCollider::cuboid(Vec3::new(0.3, 0.1, 0.2)),
+            Collider::cuboid(0.6, 0.2, 0.4),
+            Transform::from_xyz(0.0, 0.2, 0.0).with_rotation(tilted),
+        ),
+        (
+            "half-space",
+            ClothCollider::half_space(Vec3::Y),
+            Collider::half_space(Vec3::Y),
+            Transform::from_xyz(0.0, 0.1, 0.0).with_rotation(tilted),
+        ),
+    ];
+    for (name, native, avian, transform) in cases {
+        let expected = drop_over(
+            false,
+            |w| {
+                w.spawn((native, transform));
+            },
+            300,
+        );
+        let got = drop_over(
+            true,
+            |w| {
+                w.spawn((RigidBody::Static, avian, transform));
+            },
+            300,
+        );
+        let worst = expected
+            .iter()
+            .zip(&got)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, f32::max);
+        // The cloth touched the collider: it did not fall freely (0.5 · g · 5 s² ≫ 1 m).
+        let lowest = got.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+        assert!(lowest > -0.5, "{name}: the cloth fell past it ({lowest} m)");
+        assert!(
+            worst <= 1e-5,
+            "{name}: {worst} m from the native collider's result"
+        );
+    }
+}
+
+/// Whether a 6×6 cloth dropped 10 cm above a floor that `floor` spawns (with cloth mask `mask`)
+/// still rests on it after a second.
+fn rests_on(floor: impl Bundle, mask: u32) -> bool {
+    let mut app = avian_app();
+    app.world_mut().spawn(floor);
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(6, 6, 0.05)),
+            ClothConfig {
+                collision_mask: mask,
+                ..Default::default()
+            },
+            Transform::from_xyz(0.0, 0.1, 0.0),
+        ),
+    );
+    run(&mut app, 60);
+    centre_of_mass(&app, cloth).y > -0.1
+}
+
+#[test]
+fn collision_layers_sensors_and_the_opt_out_are_honoured() {
+    let floor = || (RigidBody::Static, Collider::half_space(Vec3::Y));
+    assert!(rests_on(floor(), u32::MAX), "a plain floor holds the cloth");
+    let layered = CollisionLayers::from_bits(0b10, u32::MAX);
+    assert!(rests_on((floor(), layered), 0b10), "a shared membership");
+    assert!(!rests_on((floor(), layered), 0b01), "no shared membership");
+    let filtered = CollisionLayers::from_bits(0b01, 0b10);
+    assert!(
+        rests_on((floor(), filtered), 0b11),
+        "filters that accept the cloth"
+    );
+    assert!(
+        !rests_on((floor(), filtered), 0b01),
+        "filters that refuse the cloth"
+    );
+    assert!(!rests_on((floor(), Sensor), u32::MAX), "a sensor");
+    assert!(!rests_on((floor(), NoClothContact), u32::MAX), "opted out");
+}
+
+/// The cloth's centre of mass after a second on a platform (friction 1) under it moving at
+/// 2 m/s along X: an avian kinematic body, or a native collider moved before each cloth step.
+fn ride(avian: bool) -> Vec3 {
+    let mut app = if avian { avian_app() } else { app() };
+    let cloth = spawn_valid(&mut app, sheet(10, Vec3::new(0.0, 0.011, 0.0)));
+    let speed = Vec3::new(2.0, 0.0, 0.0);
+    let at = Transform::from_xyz(0.0, -0.1, 0.0);
+    if avian {
+        app.world_mut().spawn((
+            RigidBody::Kinematic,
+            LinearVelocity(speed),
+            Collider::cuboid(1.0, 0.2, 1.0),
+            avian3d::prelude::Friction::new(1.0),
+            at,
+        ));
+    } else {
+        app.world_mut().spawn((
+            ClothCollider::cuboid(Vec3::new(0.5, 0.1, 0.5))
+                .with_friction(bevy_cloth::sim::Friction::new(1.0)),
+            at,
+        ));
+        app.add_systems(
+            FixedUpdate,
+            (move |mut q: Query<&mut Transform, With<ClothCollider>>, time: Res<Time>| {
+                for mut t in &mut q {
+                    t.translation += speed * time.delta_secs();
+                }
+            })
+            .before(ClothSystems::Prepare),
+        );
+    }
+    let start = centre_of_mass(&app, cloth);
+    run(&mut app, 60);
+    centre_of_mass(&app, cloth) - start
+}
+
+#[test]
+fn a_kinematic_body_drags_the_cloth_as_a_native_moving_collider_does() {
+    let (avian, native) = (ride(true), ride(false));
+    // The platform moves 2 m in the second; friction (μ = 1, at most g) takes 0.2 s to bring the
+    // cloth up to its speed, so the cloth trails it by about 0.2 m.
+    assert!(native.x > 1.7 && native.x < 2.0, "native: {native}");
+    // The native collider's first step starts where it stands (it has no earlier pose), the
+    // avian body's at its velocity: a step of platform motion apart at most.
+    assert!(
+        avian.distance(native) < 2.0 / 60.0 + 0.005,
+        "{avian} vs {native}"
+    );
+    assert!(avian.y.abs() < 0.01, "it stays on the platform: {avian}");
+}
+
+/// Height of the test terrain at `(x, z)`: gentle bumps.
+fn terrain_height(x: f32, z: f32) -> f32 {
+    0.08 * (3.0 * x).sin() * (2.0 * z).cos()
+}
+
+/// A 1.6 m × 1.6 m triangle mesh of `terrain_height` (11 × 11 vertices: 200 triangles), with the
+/// indices of its triangles.
+fn terrain() -> Collider {
+    let n = 11;
+    let mut vertices = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (x, z) = (-0.8 + 0.16 * i as f32, -0.8 + 0.16 * j as f32);
+            vertices.push(Vec3::new(x, terrain_height(x, z), z));
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let k = j * n + i;
+            indices.push([k, k + n, k + 1]);
+            indices.push([k + 1, k + n, k + n + 1]);
+        }
+    }
+    assert_eq!(indices.len(), 200);
+    Collider::trimesh(vertices, indices)
+}
+
+/// The terrain's height under `(x, z)` as the mesh has it (linear across each triangle).
+fn mesh_height(x: f32, z: f32) -> Option<f32> {
+    let (fi, fj) = ((x + 0.8) / 0.16, (z + 0.8) / 0.16);
+    if !(0.0..10.0).contains(&fi) || !(0.0..10.0).contains(&fj) {
+        return None;
+    }
+    let (i, j) = (fi.floor(), fj.floor());
+    let (u, w) = (fi - i, fj - j);
+    let h = |a: f32, b: f32| terrain_height(-0.8 + 0.16 * a, -0.8 + 0.16 * b);
+    let (h00, h10, h01, h11) = (h(i, j), h(i + 1.0, j), h(i, j + 1.0), h(i + 1.0, j + 1.0));
+    // The quad's diagonal runs from (i + 1, j) to (i, j + 1).
+    Some(if u + w <= 1.0 {
+        h00 + (h10 - h00) * u + (h01 - h00) * w
+    } else {
+        h11 + (h01 - h11) * (1.0 - u) + (h10 - h11) * (1.0 - w)
+    })
+}
+
+#[test]
+fn a_cloth_on_a_trimesh_terrain_and_a_convex_rock_never_tunnels() {
+    let mut app = avian_app();
+    app.world_mut().spawn((RigidBody::Static, terrain()));
+    let rock_at = Transform::from_xyz(0.1, 0.05, -0.05);
+    let rock_points = vec![
+        Vec3::new(-0.2, 0.0, -0.15),
+        Vec3::new(0.25, 0.0, -0.1),
+        Vec3::new(0.0, 0.0, 0.25),
+        Vec3::new(0.05, 0.3, 0.0),
+        Vec3::new(-0.1, 0.15, 0.1),
+    ];
+    let rock = Collider::convex_hull(rock_points).expect("a hull");
+    app.world_mut()
+        .spawn((RigidBody::Static, rock.clone(), rock_at));
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(32, 32, 0.04)),
+            Transform::from_xyz(0.0, 0.5, 0.0),
+        ),
+    );
+    let margin = bevy_cloth::DEFAULT_COLLIDER_MARGIN;
+    let (rock_pos, rock_rot) = (rock_at.translation, rock_at.rotation);
+    let mut deepest = (0.0f32, 0.0f32);
+    for tick in 0..300 {
+        app.update();
+        let positions = sim(&app, cloth).positions();
+        for p in positions {
+            if let Some(h) = mesh_height(p.x, p.z) {
+                let below = h - p.y;
+                assert!(
+                    below < 0.02,
+                    "tick {tick}: a particle is {below} m under the terrain"
+                );
+                deepest.0 = deepest.0.max(below + margin);
+            }
+            if rock.contains_point(rock_pos, rock_rot, *p) {
+                let (surface, _) = rock.project_point(rock_pos, rock_rot, *p, false);
+                let depth = surface.distance(*p);
+                assert!(
+                    depth < 0.02,
+                    "tick {tick}: a particle is {depth} m inside the rock"
+                );
+            }
+            let d = rock.distance_to_point(rock_pos, rock_rot, *p, true);
+            if d == 0.0 {
+                deepest.1 = deepest.1.max(margin);
+            } else {
+                deepest.1 = deepest.1.max(margin - d);
+            }
+        }
+    }
+    // At the end (5 s), within the margin plus 2 mm of both surfaces.
+    let positions = sim(&app, cloth).positions();
+    for p in positions {
+        if let Some(h) = mesh_height(p.x, p.z) {
+            assert!(
+                p.y >= h + margin - 0.002,
+                "{p} is within {} of the terrain",
+                p.y - h
+            );
+        }
+        let d = rock.distance_to_point(rock_pos, rock_rot, *p, true);
+        assert!(d >= margin - 0.002, "{p} is {d} m from the rock");
+    }
+    let lowest = positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    assert!(lowest > -0.2, "the cloth lies on the terrain ({lowest} m)");
+}
+
+/// Total linear momentum of a cloth's particles.
+fn cloth_momentum(sim: &ClothSim) -> Vec3 {
+    sim.velocities()
+        .iter()
+        .zip(sim.masses())
+        .map(|(v, m)| *v * *m)
+        .sum()
+}
+
+#[test]
+fn two_way_coupling_exchanges_momentum_without_creating_any() {
+    let mut app = avian_app();
+    app.insert_resource(Gravity(Vec3::ZERO));
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(16, 16, 0.05)),
+            ClothConfig {
+                solver: SolverSettings {
+                    gravity: Vec3::ZERO,
+                    damping: 0.0,
+                    particle_mass: 0.01,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            ClothPushesBodies,
+            Transform::IDENTITY,
+        ),
+    );
+    let ball = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::sphere(0.1),
+            Mass(0.5),
+            LinearVelocity(Vec3::new(0.0, -2.0, 0.0)),
+            Transform::from_xyz(0.0, 0.3, 0.0),
+        ))
+        .id();
+    let total = |app: &App| {
+        let v = app.world().get::<LinearVelocity>(ball).unwrap().0;
+        let m = app.world().get::<ComputedMass>(ball).unwrap().value();
+        (v * m, cloth_momentum(sim(app, cloth)))
+    };
+    let (ball0, cloth0) = total(&app);
+    run(&mut app, 60);
+    let (ball1, cloth1) = total(&app);
+    // The ball hit the cloth and gave it a good part of its momentum...
+    assert!(
+        cloth1.y < 0.3 * ball0.y,
+        "cloth {cloth1}, ball at first {ball0}"
+    );
+    // ...which the ball lost: the sum did not change.
+    let drift = (ball1 + cloth1) - (ball0 + cloth0);
+    assert!(
+        drift.length() <= 0.01 * ball0.length(),
+        "momentum drifted by {drift} (ball {ball0} → {ball1}, cloth {cloth0} → {cloth1})"
+    );
+}
+
+#[test]
+fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
+    let mut app = avian_app();
+    let n = 32;
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(n, n, 0.04)),
+            ClothConfig {
+                // 5 kg of fabric, damped as a heavy canvas.
+                solver: SolverSettings {
+                    particle_mass: 0.005,
+                    damping: 5.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            ClothPins::new([0, n - 1, n * (n - 1), n * n - 1]),
+            ClothPushesBodies,
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ),
+    );
+    let crate_ = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::cuboid(0.3, 0.3, 0.3),
+            Mass(2.0),
+            Transform::from_xyz(0.0, 1.5, 0.0),
+        ))
+        .id();
+    let mut slow_since = None;
+    for tick in 0..180 {
+        app.update();
+        let at = app.world().get::<Position>(crate_).unwrap().0;
+        let lowest = sim(&app, cloth)
+            .positions()
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::INFINITY, f32::min);
+        assert!(
+            at.y - 0.15 > lowest - 0.02,
+            "tick {tick}: the crate went through ({at})"
+        );
+        let speed = app
+            .world()
+            .get::<LinearVelocity>(crate_)
+            .unwrap()
+            .0
+            .length();
+        if speed < 0.01 {
+            slow_since.get_or_insert(tick);
+        } else {
+            slow_since = None;
+        }
+    }
+    assert!(
+        slow_since.is_some(),
+        "the crate still moves after 3 s: {} m/s",
+        app.world()
+            .get::<LinearVelocity>(crate_)
+            .unwrap()
+            .0
+            .length()
+    );
+    let at = app.world().get::<Position>(crate_).unwrap().0;
+    assert!(at.y > 0.3 && at.y < 1.1, "it rests in the hammock: {at}");
+}
