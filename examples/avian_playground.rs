@@ -19,16 +19,16 @@ use bevy_cloth::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
 /// Where the hammock's centre hangs.
-const HAMMOCK: Vec3 = Vec3::new(-0.9, 1.1, 0.0);
+const HAMMOCK: Vec3 = Vec3::new(-0.1, 1.1, 0.0);
 /// Where the terrain's centre lies.
-const TERRAIN: Vec3 = Vec3::new(1.1, 0.0, 0.0);
+const TERRAIN: Vec3 = Vec3::new(1.6, 0.0, 0.0);
 
 fn main() {
     App::new()
         .add_plugins(common::ExamplePlugin {
             title: "bevy_cloth: avian playground",
-            focus: Vec3::new(0.0, 0.6, 0.0),
-            eye: Vec3::new(0.4, 2.6, 4.2),
+            focus: Vec3::new(0.35, 0.5, 0.0),
+            eye: Vec3::new(0.45, 2.5, 3.7),
         })
         .add_plugins((
             PhysicsPlugins::default(),
@@ -115,7 +115,7 @@ fn setup(
         ClothPins::new([0, n - 1, n * (n - 1), n * n - 1]),
         ClothPushesBodies,
         MeshMaterial3d(fabric.clone()),
-        Transform::from_translation(HAMMOCK - Vec3::new(half, 0.0, half)),
+        Transform::from_translation(HAMMOCK),
     ));
     // Posts under the pinned corners, for the eye (and as colliders the cloth hangs between).
     let post = meshes.add(Cylinder::new(0.03, HAMMOCK.y).mesh());
@@ -167,7 +167,6 @@ fn setup(
     ));
     // A cloth dropped onto them.
     let m = 28;
-    let half = 0.5 * spacing * (m - 1) as f32;
     commands.spawn((
         Name::new("sheet"),
         Cloth::grid(GridSpec::new(m, m, spacing)),
@@ -179,7 +178,7 @@ fn setup(
             ..default()
         },
         MeshMaterial3d(fabric),
-        Transform::from_translation(TERRAIN + Vec3::new(-half, 0.7, -half)),
+        Transform::from_translation(TERRAIN + Vec3::new(0.0, 0.7, 0.0)),
     ));
 
     let mut drops = Drops {

@@ -200,6 +200,49 @@ fn character_wears_its_cape_where_the_camera_follows_it() {
     assert!(beside < 0.05, "cloth colour beside the character: {beside}");
 }
 
+/// The crates' wood: orange-brown, red over green over blue (and not the fabric's red).
+fn is_wood([r, g, b]: [u8; 3]) -> bool {
+    let (r, g, b) = (r as f32, g as f32, b as f32);
+    r > 90.0
+        && g > 60.0
+        && b < 110.0
+        && r > 1.15 * g
+        && g > 1.15 * b
+        && !is_cloth([r as u8, g as u8, b as u8])
+}
+
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn avian_playground_holds_the_crates_in_the_hammock_and_drapes_the_terrain() {
+    let p = load("avian_playground");
+    assert_not_blank(&p);
+    // The hammock, upper middle left, with the crates that fell into it (they start above the
+    // picture's top edge).
+    let hammock = (0.32, 0.28, 0.56, 0.46);
+    let cloth = cloth_fraction(&p, hammock);
+    assert!(cloth > 0.3, "only {:.0}% hammock pixels", cloth * 100.0);
+    let wood = fraction_where(&p, (0.32, 0.3, 0.45, 0.46), |i| is_wood(p.rgb[i]));
+    assert!(
+        wood > 0.3,
+        "only {:.0}% crate pixels in the hammock",
+        wood * 100.0
+    );
+    // Nothing fell through onto the ground below it.
+    let below = (0.32, 0.6, 0.55, 0.85);
+    let fallen = fraction_where(&p, below, |i| is_wood(p.rgb[i]) || is_cloth(p.rgb[i]));
+    assert!(
+        fallen < 0.02,
+        "crate or cloth colour under the hammock: {fallen}"
+    );
+    // The sheet lies on the terrain, lower right.
+    let sheet = cloth_fraction(&p, (0.6, 0.55, 0.82, 0.7));
+    assert!(
+        sheet > 0.5,
+        "only {:.0}% sheet pixels on the terrain",
+        sheet * 100.0
+    );
+}
+
 /// Fraction of pixels in the rectangle (fractions of the picture) whose colour differs between
 /// `a` and `b` by more than `MOVED` (summed over the channels).
 fn changed_fraction(a: &Picture, b: &Picture, rect: (f32, f32, f32, f32)) -> f32 {
@@ -226,7 +269,14 @@ fn every_simulated_example_moves_its_cloth() {
     // not move; the character's camera follows it). Each simulated example changes several times
     // the 3% asked for (BENCHMARKS.md, "Screenshot checks"); subdivision_compare, which
     // simulates nothing, is left out.
-    for name in ["hanging_cloth", "drape", "flag", "tablecloth", "character"] {
+    for name in [
+        "hanging_cloth",
+        "drape",
+        "flag",
+        "tablecloth",
+        "character",
+        "avian_playground",
+    ] {
         let changed = changed_fraction(&load(&format!("{name}_start")), &load(name), SCENE);
         assert!(
             changed > 0.03,
@@ -296,6 +346,7 @@ fn every_example_matches_its_reference_picture() {
         "flag",
         "tablecloth",
         "character",
+        "avian_playground",
     ] {
         let now = block_means(&load(name));
         if update {
