@@ -24,6 +24,13 @@ cargo clippy --all-targets --all-features -- -D warnings
 # examples and the screenshots (a plain `cargo test` stays headless and is quicker for development).
 step "cargo test (all features)"
 cargo test --all-features 2>&1 | tee -a "$log"
+# Without features: what `cargo test` builds for a game that does not use avian stays free of it.
+step "cargo test (no features: headless, without avian)"
+if cargo tree -e normal --prefix none | grep -q '^avian3d '; then
+  echo "avian3d is in the build without features"
+  exit 1
+fi
+cargo test 2>&1 | tee -a "$log"
 step "cargo doc (all features, warnings are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --all-features
 step "screenshots of the windowed examples (Xvfb + lavapipe)"

@@ -58,7 +58,7 @@ use bevy::time::Time;
 
 pub use crate::components::ClothPushesBodies;
 use crate::components::{ClothState, DEFAULT_COLLIDER_MARGIN};
-use crate::plugin::{ClothSchedule, ColliderSnapshot, gather_colliders};
+use crate::plugin::{ClothSchedule, ColliderSnapshot, gather_colliders, step_cloths};
 use crate::sim::{self, ColliderShape, Pose, Shape, Surface};
 use crate::{ClothInvalid, ClothSystems};
 
@@ -75,11 +75,18 @@ use crate::{ClothInvalid, ClothSystems};
 ///
 /// let mut app = App::new();
 /// app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
-///     .add_plugins((bevy::mesh::MeshPlugin, ClothPlugin::default()))
-///     .add_plugins((PhysicsPlugins::default(), ClothAvianPlugin));
-/// // A ball the cloth falls onto: an ordinary avian body, nothing cloth-specific.
-/// app.world_mut()
-///     .spawn((RigidBody::Static, Collider::sphere(0.5), Transform::default()));
+///     .add_plugins(bevy::mesh::MeshPlugin)
+///     .add_plugins((PhysicsPlugins::default(), ClothPlugin::default(), ClothAvianPlugin));
+/// let mut commands = app.world_mut().commands();
+/// // A hammock pinned at its four corners that holds up what falls into it...
+/// commands.spawn((
+///     Cloth::grid(GridSpec::new(32, 32, 0.05)),
+///     ClothPins::new([0, 31, 992, 1023]),
+///     ClothPushesBodies, // two-way: avian's dynamic bodies feel the cloth
+/// ));
+/// // ...and a crate: an ordinary avian body, nothing cloth-specific.
+/// commands.spawn((RigidBody::Dynamic, Collider::cuboid(0.3, 0.3, 0.3), Transform::from_xyz(0.0, 1.0, 0.0)));
+/// app.world_mut().flush();
 /// ```
 #[derive(Debug, Default, Clone, Copy)]
 pub struct ClothAvianPlugin;
@@ -102,9 +109,7 @@ impl Plugin for ClothAvianPlugin {
                 gather_avian_colliders
                     .after(gather_colliders)
                     .in_set(ClothSystems::Prepare),
-                push_bodies
-                    .after(ClothSystems::Step)
-                    .before(ClothSystems::Subdivide),
+                push_bodies.after(step_cloths).in_set(ClothSystems::Step),
             )
                 .run_if(any_with_component::<ClothState>),
         );

@@ -57,10 +57,12 @@ pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
 
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
+    #[cfg(feature = "avian")]
+    pub use crate::avian::{ClothAvianPlugin, ClothContact, NoClothContact};
     pub use crate::components::{
         Cloth, ClothCollider, ClothConfig, ClothFrame, ClothInvalid, ClothPin, ClothPins,
-        ClothSkin, ClothSource, ClothState, ClothSubdivision, ClothTargets, PinAnchor,
-        SubdivisionTarget, TargetWeights, Wind, WindZone,
+        ClothPushesBodies, ClothSkin, ClothSource, ClothState, ClothSubdivision, ClothTargets,
+        PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};

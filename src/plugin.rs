@@ -306,7 +306,7 @@ pub(crate) fn gather_colliders(
 /// The air of this step: `None` without a [`Wind`] resource (or with it disabled) and without
 /// [`WindZone`]s.
 #[derive(Resource, Debug, Default)]
-struct WindSnapshot(Option<WindField>);
+pub(crate) struct WindSnapshot(Option<WindField>);
 
 /// Samples the [`Wind`] resource and the [`WindZone`]s into this step's wind field. Bad wind is
 /// reported once and switched off until fixed.
@@ -440,7 +440,7 @@ impl Spread for TaskPool {
 /// Advances every running cloth by one step of the schedule's clock, in parallel across cloths,
 /// and a large cloth's XPBD colours on two threads where the compute pool has more threads than
 /// there are cloths.
-fn step_cloths(
+pub(crate) fn step_cloths(
     time: Res<Time>,
     colliders: Res<ColliderSnapshot>,
     wind: Res<WindSnapshot>,

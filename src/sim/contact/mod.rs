@@ -330,11 +330,12 @@ impl Contacts {
             .filter(|r| r.impulse != Vec3::ZERO || r.moment != Vec3::ZERO)
     }
 
-    /// Whether any collider that passed this step's broad phase moves during the step.
+    /// Whether any collider that passed this step's broad phase moves during the step (or may:
+    /// one that gives way and is pulled by gravity).
     pub fn any_moving(&self) -> bool {
         self.active
             .iter()
-            .any(|c| c.collider.start != c.collider.end)
+            .any(|c| c.collider.start != c.collider.end || c.collider.acceleration != Vec3::ZERO)
     }
 
     /// Records the particle positions at the start of a substep (only when a collider is active),
