@@ -34,6 +34,9 @@ pub(super) struct ActiveCollider {
     origin: Vec3,
     /// Length of the step, s.
     dt: f32,
+    /// The fraction of the step up to which a collider that gives way has gained its
+    /// acceleration (a substep may be resolved twice).
+    accelerated: f32,
     /// Velocity of the collider's origin, m/s.
     pub linear: Vec3,
     /// Angular velocity, rad/s.
@@ -75,6 +78,7 @@ impl ActiveCollider {
             },
             origin: c.end.translation,
             dt,
+            accelerated: 0.0,
             linear: (c.end.translation - c.start.translation) * inv_dt,
             angular: axis * (angle * inv_dt),
             triangles,
@@ -97,8 +101,10 @@ impl ActiveCollider {
         // The moments were taken about `origin`; about the origin's place at `t1`:
         let moment =
             self.reaction.moment - before.moment - (at.translation - self.origin).cross(impulse);
+        let pulled = (t1 - t0.max(self.accelerated)).max(0.0) * self.dt;
+        self.accelerated = self.accelerated.max(t1);
         let (dv, dw) = (
-            c.acceleration * ((t1 - t0) * self.dt) - impulse * c.inv_mass,
+            c.acceleration * pulled - impulse * c.inv_mass,
             c.inv_inertia * -moment,
         );
         if !(dv.is_finite() && dw.is_finite()) {
@@ -215,8 +221,8 @@ pub(super) fn resolve<S: ContactState>(
 /// Moves particle `i` (free) to `x` with velocity `v`, the response to a collider whose surface
 /// moves at `vc` pushing it out along the outward `normal`, and adds the response's impulse to
 /// the collider's `reaction` (its moment about `origin`, the collider's origin at the end of the
-/// step). Returns the work that surface did on the particle's motion, J: the impulse times `vc`. The kinetic energy [`respond`] adds
-/// is never more (removing inward relative velocity and friction both move the velocity towards
+/// step). Returns the work that surface did on the particle's motion, J: the impulse times `vc`.
+/// The kinetic energy [`respond`] adds is never more (removing inward relative velocity and friction both move the velocity towards
 /// the surface's), so this bounds what a contact gives the cloth even where the response also
 /// takes away energy the springs had just put in (a moving collider pressing the cloth against
 /// its springs does its work that way).

@@ -619,3 +619,42 @@ fn a_particle_cannot_pass_through_a_shell_from_either_side() {
     c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
     assert_eq!(x[0], end);
 }
+
+#[test]
+fn a_collider_that_gives_way_gains_its_acceleration_once_per_substep_and_slows_on_contact() {
+    // A 1 kg ball falling at 1 m/s under 10 m/s², and one free 10 g particle.
+    let ball = Collider {
+        start: Pose::from_translation(Vec3::new(0.0, 0.5, 0.0)),
+        end: Pose::from_translation(Vec3::new(0.0, 0.5 - 0.01, 0.0)),
+        inv_mass: 1.0,
+        acceleration: Vec3::new(0.0, -10.0, 0.0),
+        ..Collider::fixed(
+            ColliderShape::Sphere(Sphere::new(0.1)),
+            Pose::IDENTITY,
+            Friction::NONE,
+            0.01,
+        )
+    };
+    let dt = 0.01;
+    let run = |particle: Vec3| {
+        let mut c = active(ball.clone(), dt, 0.01);
+        let (mut x, mut v) = ([particle], [Vec3::ZERO]);
+        for k in 0..4 {
+            let (t0, t1) = (k as f32 / 4.0, (k + 1) as f32 / 4.0);
+            c.begin_substep(&x);
+            // Twice, as a step whose self-contacts moved something does.
+            for _ in 0..2 {
+                c.resolve(t0, t1, dt / 4.0, &[], &[100.0], (&mut x, &mut v), None);
+            }
+        }
+        (c.active[0].linear, v[0])
+    };
+    // Out of reach: 1 m/s plus 10 m/s² over the step, whatever the passes.
+    let (free, _) = run(Vec3::new(5.0, 0.0, 0.0));
+    assert!((free.y - (-1.0 - 10.0 * dt)).abs() < 1e-5, "{free}");
+    // A particle just under the ball: the ball gives it momentum and slows by as much.
+    let (slowed, pushed) = run(Vec3::new(0.0, 0.385, 0.0));
+    assert!(pushed.y < -0.5, "{pushed}");
+    let momentum = 1.0 * (slowed.y - free.y) + 0.01 * pushed.y;
+    assert!(momentum.abs() < 1e-5, "{slowed} {pushed}: {momentum}");
+}
