@@ -2,7 +2,8 @@
 //! avian's physics (feature `avian`): the ball as a native `ClothCollider` and as an avian
 //! collider, and the avian ball with 100 more avian colliders out of the cloth's reach, so the
 //! cost of going through avian's colliders can be read as ratios from one run. For scale, the
-//! native ball in an app without avian.
+//! native ball in an app without avian. Then the same cloth lying on a floor: a native
+//! half-space against an avian triangle mesh (200 triangles, queried through parry).
 //!
 //! `cargo bench --features avian --bench avian`
 
@@ -67,9 +68,32 @@ fn avian_ball(app: &mut App) {
 /// A case: its name, whether the app has avian, and what it spawns.
 type Case = (&'static str, bool, fn(&mut App));
 
+/// A flat 2 m square floor at y = 0 as a triangle mesh of 11 × 11 vertices (200 triangles).
+fn floor_mesh() -> Collider {
+    let n = 11u32;
+    let vertices = (0..n * n)
+        .map(|k| {
+            Vec3::new(
+                -1.0 + 0.2 * (k % n) as f32,
+                0.0,
+                -1.0 + 0.2 * (k / n) as f32,
+            )
+        })
+        .collect();
+    let mut indices = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let k = j * n + i;
+            indices.push([k, k + n, k + 1]);
+            indices.push([k + 1, k + n, k + n + 1]);
+        }
+    }
+    Collider::trimesh(vertices, indices)
+}
+
 fn avian_frames(c: &mut Criterion) {
     let mut group = c.benchmark_group("avian_frame_64x64");
-    let cases: [Case; 4] = [
+    let cases: [Case; 6] = [
         ("native_ball_without_avian", false, native_ball),
         ("native_ball", true, native_ball),
         ("avian_ball", true, avian_ball),
@@ -89,6 +113,13 @@ fn avian_frames(c: &mut Criterion) {
                     Transform::from_translation(at),
                 ));
             }
+        }),
+        ("native_floor", true, |app| {
+            app.world_mut()
+                .spawn((ClothCollider::half_space(Vec3::Y), Transform::default()));
+        }),
+        ("avian_trimesh_floor", true, |app| {
+            app.world_mut().spawn((RigidBody::Static, floor_mesh()));
         }),
     ];
     for (name, with_avian, spawn) in cases {
