@@ -17,9 +17,10 @@
 //! # Motion
 //! avian steps in `FixedPostUpdate`, after the cloths' `FixedUpdate` step. So that the cloth meets
 //! a body where the body will be at the end of the tick rather than a tick late, a moving body's
-//! colliders are carried over the cloth's step from their pose now along the body's velocity
-//! (with gravity's pull over the step added for a dynamic body): exact for a kinematic body, and
-//! within one step's unforeseen acceleration for a dynamic one.
+//! colliders are carried over the cloth's step from their pose now along the body's velocity,
+//! and a dynamic body's also by gravity (ending where avian's semi-implicit step would put it, or,
+//! for a two-way cloth, gaining it substep by substep): exact for a kinematic body, and within
+//! one step's unforeseen acceleration (contacts with other bodies) for a dynamic one.
 //!
 //! # Two-way coupling
 //! For a cloth with [`ClothPushesBodies`], a dynamic body's colliders give way within the cloth's
@@ -160,8 +161,8 @@ impl BodyLinks {
     }
 }
 
-/// A body's motion over the cloth's step: the pose of a point of it at the end of the step from
-/// its pose now, and the lever from its centre of mass there.
+/// A body's rigid motion over the cloth's step, as avian will integrate it from its velocities
+/// (without gravity's pull, which the solver adds itself; see `sim::Collider::acceleration`).
 #[derive(Debug, Clone, Copy)]
 struct Motion {
     /// Centre of mass now, world.
@@ -295,7 +296,6 @@ fn gather_avian_colliders(
         let layers = layers.copied().unwrap_or_default();
         parts.clear();
         shapes_of(collider.shape_scaled(), Pose::IDENTITY, &mut parts);
-        let mut reported = false;
         for (shape, local) in parts.drain(..) {
             let start = compose(&pose, &local);
             let end = if motion.dt > 0.0 {
@@ -321,11 +321,7 @@ fn gather_avian_colliders(
                     snapshot.0.push(c);
                     links.bodies.push(lever);
                 }
-                Err(e) if !reported => {
-                    bevy::log::warn_once!("avian collider {entity}: {e}; cloths ignore it");
-                    reported = true;
-                }
-                Err(_) => {}
+                Err(e) => bevy::log::warn_once!("avian collider {entity}: {e}; cloths ignore it"),
             }
         }
     }
