@@ -70,25 +70,8 @@ type Case = (&'static str, bool, fn(&mut App));
 
 /// A flat 2 m square floor at y = 0 as a triangle mesh of 11 × 11 vertices (200 triangles).
 fn floor_mesh() -> Collider {
-    let n = 11u32;
-    let vertices = (0..n * n)
-        .map(|k| {
-            Vec3::new(
-                -1.0 + 0.2 * (k % n) as f32,
-                0.0,
-                -1.0 + 0.2 * (k / n) as f32,
-            )
-        })
-        .collect();
-    let mut indices = Vec::new();
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let k = j * n + i;
-            indices.push([k, k + n, k + 1]);
-            indices.push([k + 1, k + n, k + n + 1]);
-        }
-    }
-    Collider::trimesh(vertices, indices)
+    let (vertices, triangles) = bevy_cloth::harness::heightfield_mesh(11, 2.0, |_, _| 0.0);
+    Collider::trimesh(vertices, triangles)
 }
 
 fn avian_frames(c: &mut Criterion) {

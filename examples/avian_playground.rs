@@ -133,11 +133,14 @@ fn setup(
     }
 
     // The terrain: a bumpy triangle mesh, with a convex rock on it.
-    let (vertices, indices) = terrain(TERRAIN, 17, 1.6);
+    let (vertices, indices) = bevy_cloth::harness::heightfield_mesh(17, 1.6, |x, z| {
+        0.1 * (3.0 * x).sin() * (2.5 * z).cos() + 0.05
+    });
     commands.spawn((
         RigidBody::Static,
         Collider::trimesh(vertices.clone(), indices.clone()),
         Mesh3d(meshes.add(mesh_of(&vertices, &indices))),
+        Transform::from_translation(TERRAIN),
         MeshMaterial3d(materials.add(StandardMaterial {
             base_color: Color::srgb(0.45, 0.55, 0.35),
             perceptual_roughness: 1.0,
@@ -199,28 +202,6 @@ fn setup(
     drops.drop(&mut commands, false);
     commands.insert_resource(drops);
     Ok(())
-}
-
-/// A `size` × `size` m bumpy terrain of `n` × `n` vertices centred on `centre`.
-fn terrain(centre: Vec3, n: u32, size: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let step = size / (n - 1) as f32;
-    let mut vertices = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let (x, z) = (-0.5 * size + step * i as f32, -0.5 * size + step * j as f32);
-            let bump = 0.1 * (3.0 * x).sin() * (2.5 * z).cos() + 0.05;
-            vertices.push(centre + Vec3::new(x, bump, z));
-        }
-    }
-    let mut indices = Vec::new();
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let k = j * n + i;
-            indices.push([k, k + n, k + 1]);
-            indices.push([k + 1, k + n, k + n + 1]);
-        }
-    }
-    (vertices, indices)
 }
 
 /// A render mesh of a triangle list, with flat normals.

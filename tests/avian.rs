@@ -209,27 +209,11 @@ fn terrain_height(x: f32, z: f32) -> f32 {
     0.08 * (3.0 * x).sin() * (2.0 * z).cos()
 }
 
-/// A 1.6 m × 1.6 m triangle mesh of `terrain_height` (11 × 11 vertices: 200 triangles), with the
-/// indices of its triangles.
+/// A 1.6 m × 1.6 m triangle mesh of `terrain_height` (11 × 11 vertices: 200 triangles).
 fn terrain() -> Collider {
-    let n = 11;
-    let mut vertices = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let (x, z) = (-0.8 + 0.16 * i as f32, -0.8 + 0.16 * j as f32);
-            vertices.push(Vec3::new(x, terrain_height(x, z), z));
-        }
-    }
-    let mut indices = Vec::new();
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let k = j * n + i;
-            indices.push([k, k + n, k + 1]);
-            indices.push([k + 1, k + n, k + n + 1]);
-        }
-    }
-    assert_eq!(indices.len(), 200);
-    Collider::trimesh(vertices, indices)
+    let (vertices, triangles) = bevy_cloth::harness::heightfield_mesh(11, 1.6, terrain_height);
+    assert_eq!(triangles.len(), 200);
+    Collider::trimesh(vertices, triangles)
 }
 
 /// The terrain's height under `(x, z)` as the mesh has it (linear across each triangle).

@@ -19,6 +19,36 @@ use crate::plugin::validate_fixed_step;
 #[cfg(doc)]
 use crate::plugin::{MAX_FIXED_STEP, MIN_FIXED_STEP};
 
+/// A terrain as a triangle list: `n` × `n` vertices over a `size` × `size` m square centred on
+/// the origin in the XZ plane, vertex `(i, j)` at `x = -size/2 + i·step`, `z = -size/2 + j·step`
+/// and height `height(x, z)`, stored at index `j·n + i`; each square of four is split into two
+/// triangles along its diagonal from vertex `(i + 1, j)` to `(i, j + 1)`, wound to face +Y.
+pub fn heightfield_mesh(
+    n: u32,
+    size: f32,
+    height: impl Fn(f32, f32) -> f32,
+) -> (Vec<glam::Vec3>, Vec<[u32; 3]>) {
+    let step = size / n.saturating_sub(1).max(1) as f32;
+    let vertices = (0..n * n)
+        .map(|k| {
+            let (x, z) = (
+                -0.5 * size + step * (k % n) as f32,
+                -0.5 * size + step * (k / n) as f32,
+            );
+            glam::Vec3::new(x, height(x, z), z)
+        })
+        .collect();
+    let mut triangles = Vec::new();
+    for j in 0..n.saturating_sub(1) {
+        for i in 0..n - 1 {
+            let k = j * n + i;
+            triangles.push([k, k + n, k + 1]);
+            triangles.push([k + 1, k + n, k + n + 1]);
+        }
+    }
+    (vertices, triangles)
+}
+
 /// [`try_headless_app`] for a step known to be valid.
 ///
 /// # Panics
