@@ -403,8 +403,16 @@ fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
         ))
         .id();
     let mut slow_since = None;
-    for tick in 0..180 {
+    // What the cloth took from the crate, summed over the steps: the crate must take the opposite.
+    let mut taken = Vec3::ZERO;
+    let v0 = app.world().get::<LinearVelocity>(crate_).unwrap().0;
+    let ticks = 180;
+    for tick in 0..ticks {
         app.update();
+        taken += sim(&app, cloth)
+            .reactions()
+            .map(|r| r.impulse)
+            .sum::<Vec3>();
         let at = app.world().get::<Position>(crate_).unwrap().0;
         let lowest = sim(&app, cloth)
             .positions()
@@ -438,4 +446,14 @@ fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
     );
     let at = app.world().get::<Position>(crate_).unwrap().0;
     assert!(at.y > 0.3 && at.y < 1.1, "it rests in the hammock: {at}");
+    // The crate's momentum changed by gravity's impulse and the opposite of what the cloth took
+    // from it (the pins' share stays in the cloth and its anchors).
+    let v1 = app.world().get::<LinearVelocity>(crate_).unwrap().0;
+    let gravity = 2.0 * Vec3::new(0.0, -9.81, 0.0) * (ticks as f32 * DT);
+    let change = 2.0 * (v1 - v0);
+    let expected = gravity - taken;
+    assert!(
+        (change - expected).length() <= 0.01 * gravity.length(),
+        "the crate's momentum changed by {change}, gravity and the cloth account for {expected}"
+    );
 }
