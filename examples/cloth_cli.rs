@@ -85,6 +85,10 @@ enum Command {
         /// Threads of Bevy's compute task pool (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Run the app's schedules on Bevy's single-threaded executor instead of the
+        /// multi-threaded one.
+        #[arg(long)]
+        single_threaded: bool,
     },
     /// The stress suite: seeded random cloths at the limits of every setting, checked every step
     /// (no NaN, no panic, bounded energy, nothing inside a collider, pins exact). Prints a table
@@ -378,6 +382,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             frames,
             copies,
             threads,
+            single_threaded,
         } => {
             if let Some(threads) = threads {
                 // Before the App exists, so that its TaskPoolPlugin finds this pool.
@@ -388,6 +393,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 });
             }
             let (mut app, entities, parsed) = load_copies(&scene, copies)?;
+            if single_threaded {
+                bevy_cloth::harness::use_single_threaded_executors(&mut app);
+            }
             run_counting_sleep(&mut app, &entities, 10)?;
             let (mut times, slept) = run_counting_sleep(&mut app, &entities, frames)?;
             let state = app
@@ -405,6 +413,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             line["frames"] = frames.into();
             line["copies"] = entities.len().into();
             line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
+            line["executor"] = if single_threaded { "single" } else { "multi" }.into();
             line["particles"] = state.positions().len().into();
             line["springs"] = sim.model().springs.len().into();
             line["substeps"] = sim.substeps_for(parsed.dt).into();

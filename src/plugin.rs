@@ -152,6 +152,8 @@ struct SteppedInFixedUpdate(bool);
 
 impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
+        #[cfg(feature = "avian")]
+        app.insert_resource(ClothSchedule(self.schedule));
         app.register_type::<Cloth>()
             .register_type::<ClothConfig>()
             .register_type::<ClothPins>()
@@ -162,7 +164,6 @@ impl Plugin for ClothPlugin {
             .register_type::<WindZone>()
             .init_resource::<WindSnapshot>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
-            .insert_resource(ClothSchedule(self.schedule))
             .insert_resource(ClothStepBudget {
                 max_per_frame: self.max_steps_per_frame.max(1),
                 this_frame: 0,
@@ -255,6 +256,7 @@ fn wind_present(
 pub(crate) struct ColliderSnapshot(pub(crate) Vec<Collider>);
 
 /// The schedule the cloths step in ([`ClothPlugin::schedule`]), for plugins that add to it.
+#[cfg(feature = "avian")]
 #[derive(Resource, Debug, Clone, Copy)]
 pub(crate) struct ClothSchedule(pub(crate) Interned<dyn ScheduleLabel>);
 

@@ -49,6 +49,19 @@ pub fn heightfield_mesh(
     (vertices, triangles)
 }
 
+/// Runs every schedule of `app` on Bevy's single-threaded executor (systems one after another on
+/// the calling thread; a query's parallel iteration still uses the compute task pool). On a
+/// machine with few cores, the multi-threaded executor's handing of each system to a worker
+/// thread and back can cost more than a small cloth's whole step (BENCHMARKS.md, issue 25).
+pub fn use_single_threaded_executors(app: &mut App) {
+    let mut schedules = app
+        .world_mut()
+        .resource_mut::<bevy::ecs::schedule::Schedules>();
+    for (_, schedule) in schedules.iter_mut() {
+        schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
+    }
+}
+
 /// [`try_headless_app`] for a step known to be valid.
 ///
 /// # Panics
