@@ -153,36 +153,72 @@ fn collision_layers_sensors_and_the_opt_out_are_honoured() {
     assert!(!rests_on((floor(), NoClothContact), u32::MAX), "opted out");
 }
 
-/// The cloth's centre of mass after a second on a platform (friction 1) under it moving at
-/// 2 m/s along X: an avian kinematic body, or a native collider moved before each cloth step.
-fn ride(avian: bool) -> Vec3 {
-    let mut app = if avian { avian_app() } else { app() };
+/// A platform moving at 2 m/s along X under a cloth.
+#[derive(Clone, Copy, PartialEq)]
+enum Platform {
+    /// A native collider moved before each cloth step.
+    Native,
+    /// An avian kinematic body with the collider on it.
+    Avian,
+    /// The same rising at 1 m/s instead.
+    AvianLift,
+    /// The same lift, the collider on a child entity of a body 1 m beside it.
+    AvianChildLift,
+}
+
+/// How far the cloth's centre of mass moved in a second on a platform (friction 1) of the given
+/// kind.
+fn ride(platform: Platform) -> Vec3 {
+    let mut app = if platform == Platform::Native {
+        app()
+    } else {
+        avian_app()
+    };
     let cloth = spawn_valid(&mut app, sheet(10, Vec3::new(0.0, 0.011, 0.0)));
     let speed = Vec3::new(2.0, 0.0, 0.0);
     let at = Transform::from_xyz(0.0, -0.1, 0.0);
-    if avian {
-        app.world_mut().spawn((
-            RigidBody::Kinematic,
-            LinearVelocity(speed),
+    let collider = || {
+        (
             Collider::cuboid(1.0, 0.2, 1.0),
             avian3d::prelude::Friction::new(1.0),
-            at,
-        ));
-    } else {
-        app.world_mut().spawn((
-            ClothCollider::cuboid(Vec3::new(0.5, 0.1, 0.5))
-                .with_friction(bevy_cloth::sim::Friction::new(1.0)),
-            at,
-        ));
-        app.add_systems(
-            FixedUpdate,
-            (move |mut q: Query<&mut Transform, With<ClothCollider>>, time: Res<Time>| {
-                for mut t in &mut q {
-                    t.translation += speed * time.delta_secs();
-                }
-            })
-            .before(ClothSystems::Prepare),
-        );
+        )
+    };
+    let up = Vec3::new(0.0, 1.0, 0.0);
+    match platform {
+        Platform::Avian => {
+            app.world_mut()
+                .spawn((RigidBody::Kinematic, LinearVelocity(speed), collider(), at));
+        }
+        Platform::AvianLift => {
+            app.world_mut()
+                .spawn((RigidBody::Kinematic, LinearVelocity(up), collider(), at));
+        }
+        Platform::AvianChildLift => {
+            let beside = Vec3::new(1.0, 0.0, 0.0);
+            app.world_mut()
+                .spawn((
+                    RigidBody::Kinematic,
+                    LinearVelocity(up),
+                    Transform::from_translation(at.translation + beside),
+                ))
+                .with_child((collider(), Transform::from_translation(-beside)));
+        }
+        Platform::Native => {
+            app.world_mut().spawn((
+                ClothCollider::cuboid(Vec3::new(0.5, 0.1, 0.5))
+                    .with_friction(bevy_cloth::sim::Friction::new(1.0)),
+                at,
+            ));
+            app.add_systems(
+                FixedUpdate,
+                (move |mut q: Query<&mut Transform, With<ClothCollider>>, time: Res<Time>| {
+                    for mut t in &mut q {
+                        t.translation += speed * time.delta_secs();
+                    }
+                })
+                .before(ClothSystems::Prepare),
+            );
+        }
     }
     let start = centre_of_mass(&app, cloth);
     run(&mut app, 60);
@@ -191,7 +227,7 @@ fn ride(avian: bool) -> Vec3 {
 
 #[test]
 fn a_kinematic_body_drags_the_cloth_as_a_native_moving_collider_does() {
-    let (avian, native) = (ride(true), ride(false));
+    let (avian, native) = (ride(Platform::Avian), ride(Platform::Native));
     // The platform moves 2 m in the second; friction (μ = 1, at most g) takes 0.2 s to bring the
     // cloth up to its speed, so the cloth trails it by about 0.2 m.
     assert!(native.x > 1.7 && native.x < 2.0, "native: {native}");
@@ -202,6 +238,11 @@ fn a_kinematic_body_drags_the_cloth_as_a_native_moving_collider_does() {
         "{avian} vs {native}"
     );
     assert!(avian.y.abs() < 0.01, "it stays on the platform: {avian}");
+    // A collider on a child of the moving body is where the body puts it now (its own `Position`
+    // is a step behind until avian's next step): a rising one lifts the cloth as high.
+    let (on_body, on_child) = (ride(Platform::AvianLift), ride(Platform::AvianChildLift));
+    assert!(on_body.y > 0.9, "the lift raised the cloth: {on_body}");
+    assert!(on_child.distance(on_body) < 1e-4, "{on_child} vs {on_body}");
 }
 
 /// Height of the test terrain at `(x, z)`: gentle bumps.
