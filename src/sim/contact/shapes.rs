@@ -120,9 +120,7 @@ impl ColliderShape {
             ColliderShape::Cuboid(b) => b.half_size,
             ColliderShape::HalfSpace(_) => return None,
         };
-        let r = glam::Mat3::from_quat(pose.rotation);
-        let extent = r.x_axis.abs() * half.x + r.y_axis.abs() * half.y + r.z_axis.abs() * half.z;
-        Some(around(pose.translation, extent))
+        Some(rotated_box(pose, Vec3::ZERO, half))
     }
 }
 
@@ -229,11 +227,7 @@ impl Shape {
             Shape::Primitive(s) => s.bounds(pose),
             Shape::Surface(s) => {
                 let (lo, hi) = s.local_bounds();
-                let r = glam::Mat3::from_quat(pose.rotation);
-                let half = 0.5 * (hi - lo);
-                let extent =
-                    r.x_axis.abs() * half.x + r.y_axis.abs() * half.y + r.z_axis.abs() * half.z;
-                Some(around(pose.transform_point(0.5 * (lo + hi)), extent))
+                Some(rotated_box(pose, 0.5 * (lo + hi), 0.5 * (hi - lo)))
             }
         }
     }
@@ -255,6 +249,13 @@ pub fn bounds(positions: &[Vec3]) -> (Vec3, Vec3) {
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
             (lo.min(a), hi.max(b))
         })
+}
+
+/// World-space bounding box of the local box with centre `centre` and half size `half` at `pose`.
+fn rotated_box(pose: &Pose, centre: Vec3, half: Vec3) -> (Vec3, Vec3) {
+    let r = Mat3::from_quat(pose.rotation);
+    let extent = r.x_axis.abs() * half.x + r.y_axis.abs() * half.y + r.z_axis.abs() * half.z;
+    around(pose.transform_point(centre), extent)
 }
 
 fn around(centre: Vec3, half: Vec3) -> (Vec3, Vec3) {
