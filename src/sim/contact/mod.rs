@@ -1,6 +1,7 @@
 //! Collisions between a cloth and colliders (spheres, capsules, cuboids and half-spaces, and any
-//! other shape through the `Surface` queries; moving as given, or giving way as a body does), and of a cloth with itself (`self_contact`, resolved right after the colliders in
-//! the same substeps and on the same `ContactState`s; its pipeline is in that module's docs).
+//! other shape through the `Surface` queries; moving as given, or giving way as a body does),
+//! and of a cloth with itself (`self_contact`, resolved right after the colliders in the same
+//! substeps and on the same `ContactState`s; its pipeline is in that module's docs).
 //! The limits on where a particle may go (`limits`: a maximum distance from an animated target,
 //! a backstop behind it, tethers to the pins) are resolved in the same pass, just before the
 //! colliders.
