@@ -231,12 +231,12 @@ fn gather_avian_colliders(
     bodies: Query<BodyItem>,
     gravity: Option<Res<Gravity>>,
     time: Res<Time>,
+    mut parts: Local<Vec<(Shape, Pose)>>,
 ) {
     let dt = time.delta_secs();
     links.first = snapshot.0.len();
     links.bodies.clear();
     let gravity = gravity.map_or(Vec3::ZERO, |g| g.0);
-    let mut parts = Vec::new();
     for (entity, collider, position, rotation, of, offset, layers, friction, contact) in &colliders
     {
         let own = Pose {
@@ -294,7 +294,6 @@ fn gather_avian_colliders(
             })
         });
         let layers = layers.copied().unwrap_or_default();
-        parts.clear();
         shapes_of(collider.shape_scaled(), Pose::IDENTITY, &mut parts);
         for (shape, local) in parts.drain(..) {
             let start = compose(&pose, &local);

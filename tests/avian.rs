@@ -498,3 +498,52 @@ fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
         "the crate's momentum changed by {change}, gravity and the cloth account for {expected}"
     );
 }
+
+#[test]
+fn a_cloth_holding_up_a_body_does_not_fall_asleep_under_it() {
+    // A cloth quick to sleep (below 5 cm/s for 30 steps) with a crate resting in it: asleep, it
+    // would stop pushing back and the crate would fall through.
+    let mut app = avian_app();
+    let n = 24;
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(n, n, 0.04)),
+            ClothConfig {
+                solver: SolverSettings {
+                    particle_mass: 0.005,
+                    damping: 5.0,
+                    sleep_speed: 0.05,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            ClothPins::new([0, n - 1, n * (n - 1), n * n - 1]),
+            ClothPushesBodies,
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ),
+    );
+    let crate_ = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::cuboid(0.2, 0.2, 0.2),
+            Mass(1.0),
+            Transform::from_xyz(0.0, 1.2, 0.0),
+        ))
+        .id();
+    for tick in 0..240 {
+        app.update();
+        let at = app.world().get::<Position>(crate_).unwrap().0;
+        let lowest = sim(&app, cloth)
+            .positions()
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::INFINITY, f32::min);
+        assert!(
+            at.y - 0.1 > lowest - 0.02,
+            "tick {tick}: the crate went through ({at}; cloth asleep: {})",
+            sim(&app, cloth).is_sleeping()
+        );
+    }
+}

@@ -614,8 +614,8 @@ impl ClothSim {
 
     /// What the cloth took from each collider it touched during the last step: the sum of the
     /// contact impulses and their moment, per collider of the step's [`Environment::colliders`]
-    /// (at most once each). The collider took the opposite: a game applies
-    /// its negation to the body to make the coupling two-way.
+    /// (at most once each). The collider took the opposite: a game applies its negation to the
+    /// body to make the coupling two-way.
     pub fn reactions(&self) -> impl Iterator<Item = &Reaction> {
         self.contacts.reactions()
     }

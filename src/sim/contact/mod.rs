@@ -10,7 +10,8 @@
 //! 1. **Broad phase** (once per step, `Contacts::begin_step`): the cloth's bounding box, grown by
 //!    the farthest any particle can travel in the step, against each collider's box swept from its
 //!    start pose to its end pose and grown by its margin. Colliders that cannot be reached, or whose
-//!    `layers` or `filters` do not meet the cloth's mask, are dropped for the whole step and cost nothing more.
+//!    `layers` or `filters` do not meet the cloth's mask, are dropped for the whole step and cost
+//!    nothing more.
 //!    The reach assumes the particles' speeds at the step's start; a particle flung farther (by a
 //!    spring stretched far from rest) is caught after the step (`Contacts::catch_up`): the
 //!    dropped colliders its straight path comes near are resolved once over the whole step.
@@ -331,12 +332,11 @@ impl Contacts {
             .filter(|r| r.impulse != Vec3::ZERO || r.moment != Vec3::ZERO)
     }
 
-    /// Whether any collider that passed this step's broad phase moves during the step (or may:
-    /// one that gives way and is pulled by gravity).
+    /// Whether any collider that passed this step's broad phase moves during the step.
     pub fn any_moving(&self) -> bool {
         self.active
             .iter()
-            .any(|c| c.collider.start != c.collider.end || c.collider.acceleration != Vec3::ZERO)
+            .any(|c| c.collider.start != c.collider.end)
     }
 
     /// Records the particle positions at the start of a substep (only when a collider is active),

@@ -658,3 +658,65 @@ fn a_collider_that_gives_way_gains_its_acceleration_once_per_substep_and_slows_o
     let momentum = 1.0 * (slowed.y - free.y) + 0.01 * pushed.y;
     assert!(momentum.abs() < 1e-5, "{slowed} {pushed}: {momentum}");
 }
+
+#[test]
+fn a_body_or_surface_with_bad_values_is_an_invalid_collider() {
+    let ball = Collider::fixed(
+        ColliderShape::Sphere(Sphere::new(0.1)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.01,
+    );
+    assert!(ball.validate().is_ok());
+    let bad = [
+        Collider {
+            inv_mass: -1.0,
+            ..ball.clone()
+        },
+        Collider {
+            inv_mass: f32::NAN,
+            ..ball.clone()
+        },
+        Collider {
+            inv_inertia: glam::Mat3::from_diagonal(Vec3::new(1.0, f32::INFINITY, 1.0)),
+            ..ball.clone()
+        },
+        Collider {
+            acceleration: Vec3::new(0.0, f32::NAN, 0.0),
+            ..ball.clone()
+        },
+    ];
+    for c in bad {
+        assert!(c.validate().is_err(), "{c:?}");
+    }
+    /// A surface whose bounds are not a box.
+    #[derive(Debug)]
+    struct Unbounded;
+    impl Surface for Unbounded {
+        fn signed_distance(&self, p: Vec3) -> (f32, Vec3) {
+            (p.y, Vec3::Y)
+        }
+        fn local_bounds(&self) -> (Vec3, Vec3) {
+            (Vec3::splat(f32::NEG_INFINITY), Vec3::splat(f32::INFINITY))
+        }
+        fn is_convex(&self) -> bool {
+            true
+        }
+        fn is_shell(&self) -> bool {
+            false
+        }
+        fn crosses(&self, _: Vec3, _: Vec3) -> bool {
+            false
+        }
+    }
+    let unbounded = Collider {
+        shape: Shape::Surface(std::sync::Arc::new(Unbounded)),
+        ..ball.clone()
+    };
+    assert!(unbounded.validate().is_err());
+    let sheet = Collider {
+        shape: Shape::Surface(std::sync::Arc::new(Sheet)),
+        ..ball
+    };
+    assert!(sheet.validate().is_ok());
+}
