@@ -63,6 +63,7 @@ fn float_fields() -> Vec<(&'static str, Setter<f32>)> {
         ("gravity.x", |s, v| s.gravity.x = v),
         ("gravity.y", |s, v| s.gravity.y = v),
         ("gravity.z", |s, v| s.gravity.z = v),
+        ("accuracy.tolerance", |s, v| s.accuracy.tolerance = Some(v)),
     ]
 }
 
@@ -82,10 +83,10 @@ fn solver_settings_reject_nan_infinite_negative_and_zero_where_meaningless() {
             let mut s = SolverSettings::default();
             set(&mut s, value);
             // What is legal: any finite gravity; zero stiffness, damping and aerodynamic
-            // coefficients (the term is switched off); a mass must be positive.
+            // coefficients (the term is switched off); a mass and a tolerance must be positive.
             let legal = value.is_finite()
                 && (gravity || value >= 0.0)
-                && !(field == "particle_mass" && value <= 0.0);
+                && !(matches!(field, "particle_mass" | "accuracy.tolerance") && value <= 0.0);
             match s.validate() {
                 Ok(()) => assert!(legal, "{field} = {value} was accepted"),
                 Err(e) => {
@@ -107,11 +108,17 @@ fn solver_settings_reject_nan_infinite_negative_and_zero_where_meaningless() {
 
 #[test]
 fn solver_counts_out_of_range_name_the_field_and_bounds() {
-    let cases: [(&str, u32, Setter<u32>); 4] = [
+    let cases: [(&str, u32, Setter<u32>); 6] = [
         ("substeps", 0, |s, v| s.substeps = v),
         ("substeps", MAX_SUBSTEPS + 1, |s, v| s.substeps = v),
         ("iterations", 0, |s, v| s.iterations = v),
         ("iterations", MAX_ITERATIONS + 1, |s, v| s.iterations = v),
+        ("accuracy.max_substeps", 1, |s, v| {
+            s.accuracy.max_substeps = v
+        }),
+        ("accuracy.max_substeps", MAX_SUBSTEPS + 1, |s, v| {
+            s.accuracy.max_substeps = v
+        }),
     ];
     for (field, value, set) in cases {
         let mut s = SolverSettings::default();

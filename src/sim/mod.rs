@@ -45,7 +45,7 @@ mod state;
 pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
-pub use cloth_sim::{ClothSim, Environment, SelfContactStats};
+pub use cloth_sim::{AccuracyReport, ClothSim, Environment, SelfContactStats};
 pub use contact::{Collider, ColliderShape, Friction, Pose, Reaction, Shape, Surface, Target};
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
@@ -54,7 +54,7 @@ pub use model::{
     compute_normals,
 };
 pub use settings::{
-    AUTO_MAX_STRETCH, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
+    AUTO_MAX_STRETCH, Accuracy, ErrorUnit, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
     NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION, SelfCollision, SolverSettings, Stiffness,
     TargetLimits, Tethers,
 };

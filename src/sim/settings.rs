@@ -200,6 +200,9 @@ pub struct SolverSettings {
     pub tethers: Tethers,
     /// How much of its reference frame's motion the cloth feels ([`ClothSim::move_frame`](super::ClothSim::move_frame)).
     pub inertia: Inertia,
+    /// Fixed substeps (the default), or a tolerance the solver meets by choosing the integrator
+    /// and the substeps itself, step by step.
+    pub accuracy: Accuracy,
 }
 
 impl Default for SolverSettings {
@@ -221,6 +224,7 @@ impl Default for SolverSettings {
             targets: TargetLimits::default(),
             tethers: Tethers::default(),
             inertia: Inertia::default(),
+            accuracy: Accuracy::default(),
         }
     }
 }
@@ -240,6 +244,7 @@ impl SolverSettings {
         self.targets.validate()?;
         self.tethers.validate()?;
         self.inertia.validate()?;
+        self.accuracy.validate()?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -392,4 +397,72 @@ impl Inertia {
     pub fn is_world(&self) -> bool {
         self.linear == 1.0 && self.angular == 1.0
     }
+}
+
+/// How the substeps of a step are chosen: as configured ([`SolverSettings::integrator`] at
+/// [`SolverSettings::substeps`]), or to meet a tolerance.
+///
+/// With a [`tolerance`](Self::tolerance) the solver estimates every step's error by running the
+/// step again on a copy of the cloth with fewer substeps (Richardson's estimate), and a
+/// controller picks the integrator (XPBD or Verlet) and the substep count that keep the estimated
+/// error below the tolerance, never above [`max_substeps`](Self::max_substeps). A copy that runs
+/// away (an explicit integrator past its stability limit) counts as a large error, so the
+/// controller moves away from a substep count before the cloth itself is at risk.
+/// [`ClothSim::accuracy_report`](super::ClothSim::accuracy_report) tells what it chose.
+/// [`SolverSettings::integrator`] and [`SolverSettings::auto_substeps`] are then unused and
+/// [`SolverSettings::substeps`] is the count the controller starts from.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct Accuracy {
+    /// `None`: fixed substeps. `Some(tolerance)`: the largest error per second of simulated time
+    /// the solver allows itself, in [`unit`](Self::unit)s (positive).
+    pub tolerance: Option<f32>,
+    /// What the tolerance is measured in.
+    pub unit: ErrorUnit,
+    /// The most substeps a step may take in tolerance mode (2 to [`MAX_SUBSTEPS`]): the bound on
+    /// a step's cost. Where the tolerance needs more, the step runs at the cap and the report
+    /// says so.
+    pub max_substeps: u32,
+}
+
+impl Default for Accuracy {
+    /// Fixed substeps; a tolerance, when set, relative to the cloth's size, capped at 256 substeps.
+    fn default() -> Self {
+        Self {
+            tolerance: None,
+            unit: ErrorUnit::Relative,
+            max_substeps: 256,
+        }
+    }
+}
+
+impl Accuracy {
+    /// Tolerance mode with `tolerance` relative to the cloth's size (per second), capped at
+    /// `max_substeps`.
+    pub fn relative(tolerance: f32, max_substeps: u32) -> Self {
+        Self {
+            tolerance: Some(tolerance),
+            unit: ErrorUnit::Relative,
+            max_substeps,
+        }
+    }
+
+    /// Checks the tolerance (when set) is finite and positive and the cap within
+    /// 2..=[`MAX_SUBSTEPS`] (whether or not a tolerance is set).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        if let Some(t) = self.tolerance {
+            positive("accuracy.tolerance", t)?;
+        }
+        count_in("accuracy.max_substeps", self.max_substeps, 2, MAX_SUBSTEPS)
+    }
+}
+
+/// The unit of [`Accuracy::tolerance`]: a position error per second of simulated time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
+pub enum ErrorUnit {
+    /// A fraction of the cloth's size (the diagonal of its rest shape's bounding box) per second.
+    #[default]
+    Relative,
+    /// Metres per second.
+    Metres,
 }

@@ -19,8 +19,11 @@ use super::state::{Energy, Particles, PinState, max_length};
 use super::wind::{WindField, WindScratch};
 use crate::error::ClothError;
 
+mod adaptive;
 #[cfg(test)]
 mod tests;
+
+pub use adaptive::AccuracyReport;
 
 /// A simulated cloth: its model, particle state (structure of arrays) and pins.
 ///
@@ -60,6 +63,9 @@ pub struct ClothSim {
     /// The reference frame's pose at the start and end of the next step (see
     /// [`Self::move_frame`]).
     frame: Option<(Pose, Pose)>,
+    /// Tolerance mode's copy and controller ([`SolverSettings::accuracy`]); `None` with fixed
+    /// substeps.
+    adaptive: Option<Box<adaptive::Adaptive>>,
 }
 
 /// Steps of consecutive energy growth after which an explicit integrator past its stability limit
@@ -186,6 +192,7 @@ impl ClothSim {
             step_start: Vec::with_capacity(n),
             runaway: Runaway::default(),
             frame: None,
+            adaptive: None,
         };
         sim.apply_settings();
         Ok(sim)
@@ -287,13 +294,24 @@ impl ClothSim {
         self.omega_max =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
         self.prepare_self_contacts();
+        // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.
+        let integrator = if self.settings.accuracy.tolerance.is_some() {
+            Integrator::Auto
+        } else {
+            self.settings.integrator
+        };
         self.steppers.prepare(
-            self.settings.integrator,
+            integrator,
             &self.model,
             &self.stiffness,
             &self.particles.inv_mass,
         );
         self.active = self.choose_integrator(1.0 / 60.0);
+        self.adaptive = None;
+        self.adaptive = adaptive::Adaptive::new(self).map(Box::new);
+        if let Some(a) = &self.adaptive {
+            self.active = a.report().integrator;
+        }
     }
 
     /// Builds the self-contacts' topology and exempt pairs when self-collision is turned on or its
@@ -331,8 +349,19 @@ impl ClothSim {
     /// for the explicit integrators when [`SolverSettings::auto_substeps`] is on, and at most
     /// [`MAX_SUBSTEPS`]. While a spring is stretched by more than [`AUTO_MAX_STRETCH`], the bound
     /// is taken at [`NONLINEAR_STABILITY_FRACTION`] instead.
+    /// In tolerance mode ([`SolverSettings::accuracy`]), the count its controller chose for the
+    /// next step.
     pub fn substeps_for(&self, dt: f32) -> u32 {
-        self.substep_plan(dt).0
+        match &self.adaptive {
+            Some(a) => a.substeps(),
+            None => self.substep_plan(dt).0,
+        }
+    }
+
+    /// What tolerance mode ([`SolverSettings::accuracy`]) chose and estimated; `None` with fixed
+    /// substeps.
+    pub fn accuracy_report(&self) -> Option<AccuracyReport> {
+        self.adaptive.as_ref().map(|a| a.report())
     }
 
     /// [`Self::substeps_for`], and the substeps the explicit integrators' bound asks for (the
@@ -382,15 +411,20 @@ impl ClothSim {
         if s.integrator != Integrator::Auto {
             return s.integrator;
         }
-        let jump = self
-            .pins
-            .iter()
-            .any(|p| p.from.distance(p.to) > self.longest_spring);
-        if self.stable_substeps(dt) <= s.substeps && !jump && !self.overstretched() {
+        if self.stable_substeps(dt) <= s.substeps && !self.needs_xpbd() {
             Integrator::Verlet
         } else {
             Integrator::Xpbd
         }
+    }
+
+    /// Whether the next step is one for XPBD whatever the substeps: a pin jumps farther than the
+    /// cloth's longest spring, or a spring is overstretched.
+    fn needs_xpbd(&self) -> bool {
+        self.pins
+            .iter()
+            .any(|p| p.from.distance(p.to) > self.longest_spring)
+            || self.overstretched()
     }
 
     /// Whether a spring is stretched by more than [`AUTO_MAX_STRETCH`] of its rest length. A
@@ -648,11 +682,41 @@ impl ClothSim {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
-        self.active = self.choose_integrator(dt);
-        let (substeps, wanted) = self.substep_plan(dt);
+        match self.adaptive.take() {
+            Some(mut adaptive) => {
+                let result = adaptive.step(self, dt, env, spread);
+                self.adaptive = Some(adaptive);
+                result
+            }
+            None => self.step_planned(dt, env, spread, None, true),
+        }
+    }
+
+    /// One step of `dt` (finite and positive) at `plan`'s method and substeps, or the configured
+    /// ones when `None`. With `watch`, an explicit integrator past its stability bound is watched
+    /// for a runaway (tolerance mode watches its steps by its estimates instead).
+    fn step_planned(
+        &mut self,
+        dt: f32,
+        env: &Environment,
+        spread: Option<&dyn Spread>,
+        plan: Option<(Integrator, u32)>,
+        watch: bool,
+    ) -> Result<(), ClothError> {
+        let (substeps, wanted) = match plan {
+            Some((method, substeps)) => {
+                self.active = method;
+                (substeps, substeps)
+            }
+            None => {
+                self.active = self.choose_integrator(dt);
+                self.substep_plan(dt)
+            }
+        };
         // Past its bound: an explicit integrator beyond the linear limit, or held below what its
         // bound asks for by the substep cap.
-        let past_bound = self.active.is_explicit()
+        let past_bound = watch
+            && self.active.is_explicit()
             && (dt / substeps as f32 * self.omega_max >= 2.0 || wanted > substeps);
         if past_bound {
             let e = self.energy();

@@ -106,6 +106,11 @@ impl Limits {
         }
     }
 
+    /// Takes `other`'s targets and their motion (same settings and tethers assumed).
+    pub fn sync_targets(&mut self, other: &Limits) {
+        self.targets.clone_from(&other.targets);
+    }
+
     /// Whether a target moves during the next step.
     pub fn moving(&self) -> bool {
         self.targets
