@@ -113,6 +113,10 @@ enum Command {
         /// Turn self-collision on in every case (thickness a quarter of the grid's spacing).
         #[arg(long)]
         self_collision: bool,
+        /// Run every case in tolerance mode at this tolerance (relative to the cloth's size, per
+        /// second; the default cap of substeps).
+        #[arg(long)]
+        tolerance: Option<f32>,
         /// Threads to run cases on (the results do not depend on it); all the machine's by
         /// default, one with `--trace`.
         #[arg(long)]
@@ -428,6 +432,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             integrators,
             trace,
             self_collision,
+            tolerance,
             threads,
         } => {
             let mut chosen = Vec::new();
@@ -448,7 +453,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 from..from + cases,
                 seed,
                 &chosen,
-                (self_collision, trace),
+                (self_collision, tolerance, trace),
                 threads,
             ) {
                 return Err("stress cases failed (listed above)".into());

@@ -30,14 +30,15 @@ struct Tally {
 }
 
 /// Runs cases `cases` of suite `seed` over `integrators` (with `self_collision`, every case has
-/// it on) on `threads` threads (one with `trace`); returns whether all passed. The cases are
+/// it on; with a `tolerance`, every case runs in tolerance mode) on `threads` threads (one with
+/// `trace`); returns whether all passed. The cases are
 /// independent, and the tables and failures come out in case order whatever the thread count.
 /// With `trace`, prints every step of every case.
 pub fn run(
     cases: std::ops::Range<u64>,
     seed: u64,
     integrators: &[Integrator],
-    (self_collision, trace): (bool, bool),
+    (self_collision, tolerance, trace): (bool, Option<f32>, bool),
     threads: usize,
 ) -> bool {
     let limits = StressLimits::default();
@@ -51,6 +52,9 @@ pub fn run(
         let mut case = draw_case(seed, index, integrators, &limits);
         if self_collision {
             case = case.with_self_collision();
+        }
+        if let Some(tolerance) = tolerance {
+            case = case.with_tolerance(tolerance);
         }
         let r = trace_case(&case, &limits, |step, sim| {
             if trace {

@@ -33,7 +33,7 @@ use crate::error::ClothError;
 use crate::hash::{GOLDEN_GAMMA, mix64};
 use crate::sim::contact::convex_minimum;
 use crate::sim::{
-    ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
     Integrator, MAX_SUBSTEPS, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
 };
 
@@ -370,6 +370,17 @@ impl StressCase {
         self.settings.self_collision = SelfCollision {
             enabled: true,
             thickness: 0.25 * spacing,
+            ..Default::default()
+        };
+        self
+    }
+
+    /// The same case in tolerance mode ([`Accuracy`]): `tolerance` relative to the cloth's size
+    /// per second, at most the default cap of substeps; the drawn integrator and substeps are
+    /// then only where the controller starts.
+    pub fn with_tolerance(mut self, tolerance: f32) -> Self {
+        self.settings.accuracy = Accuracy {
+            tolerance: Some(tolerance),
             ..Default::default()
         };
         self
