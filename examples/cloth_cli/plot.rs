@@ -1,5 +1,6 @@
-//! The work-precision plot: one log-log panel per scene (error against milliseconds per simulated
-//! frame), one curve per integrator (its Pareto front, with every measured point as a dot), failed
+//! The work-precision plot: one log-log panel per scene (largest particle error against
+//! milliseconds per simulated frame), one curve per integrator (its Pareto front, with every
+//! measured point as a dot), tolerance mode's runs joined in order of their tolerance, failed
 //! (unstable) runs as crosses along the top edge. Drawn with plotters' bitmap backend and encoded
 //! with the `png` crate. Plotters is built without a font engine, so labels use the small built-in
 //! pixel font below.
@@ -23,6 +24,9 @@ pub fn color(integrator: Integrator) -> RGBColor {
         Integrator::Auto => RGBColor(0, 0, 0),
     }
 }
+
+/// The colour of the tolerance-mode curve (orange).
+pub const TOLERANCE_COLOR: RGBColor = RGBColor(255, 127, 14);
 
 /// The curves drawn, in drawing order: the four methods, then the default's choice among them on
 /// top.
@@ -143,6 +147,7 @@ fn decade_label(e: i32) -> String {
 pub fn write_plot(
     path: &Path,
     results: &[(AccuracyScene, Vec<Measurement>)],
+    horizon: f64,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let (panel_w, panel_h, legend_h) = (620u32, 520u32, 56u32);
     let (w, h) = (panel_w * results.len().max(1) as u32, panel_h + legend_h);
@@ -153,7 +158,7 @@ pub fn write_plot(
         let (plots, legend) = root.split_vertically(panel_h);
         let panels = plots.split_evenly((1, results.len().max(1)));
         for ((scene, measurements), panel) in results.iter().zip(&panels) {
-            draw_panel(panel, *scene, measurements)?;
+            draw_panel(panel, (*scene, horizon), measurements)?;
         }
         let mut x = 80;
         for integrator in CURVES {
@@ -167,6 +172,14 @@ pub fn write_plot(
             text(&legend, integrator.name(), (x + 50, 17), 3, &BLACK)?;
             x += 90 + text_width(integrator.name(), 3);
         }
+        legend
+            .draw(&PathElement::new(
+                vec![(x, 24), (x + 40, 24)],
+                TOLERANCE_COLOR.stroke_width(3),
+            ))
+            .map_err(|e| e.to_string())?;
+        text(&legend, "tolerance", (x + 50, 17), 3, &BLACK)?;
+        x += 90 + text_width("tolerance", 3);
         let note = "X: UNSTABLE (NON-FINITE OR ERROR > 1)";
         legend
             .draw(&Cross::new((x + 8, 24), 7, BLACK.stroke_width(2)))
@@ -186,15 +199,18 @@ pub fn write_plot(
 
 fn draw_panel<DB: DrawingBackend>(
     panel: &DrawingArea<DB, Shift>,
-    scene: AccuracyScene,
+    (scene, horizon): (AccuracyScene, f64),
     measurements: &[Measurement],
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let ok: Vec<&Measurement> = measurements.iter().filter(|m| m.error.is_some()).collect();
+    let ok: Vec<&Measurement> = measurements
+        .iter()
+        .filter(|m| m.max_error.is_some())
+        .collect();
     let times = measurements.iter().map(|m| m.ms_per_frame);
     let (tmin, tmax) = times.fold((f64::MAX, f64::MIN), |(a, b), t| (a.min(t), b.max(t)));
     let emin = ok
         .iter()
-        .filter_map(|m| m.error)
+        .filter_map(|m| m.max_error)
         .fold(f64::MAX, f64::min)
         .max(1e-9);
     let (x0, x1) = (
@@ -270,7 +286,7 @@ fn draw_panel<DB: DrawingBackend>(
         let c = color(integrator);
         let mine: Vec<&Measurement> = measurements
             .iter()
-            .filter(|m| m.integrator == integrator)
+            .filter(|m| m.integrator == integrator && m.tolerance.is_none())
             .collect();
         let front = pareto_front(mine.iter().copied());
         // The default's curve is thinner, drawn over the methods it chooses between.
@@ -286,7 +302,7 @@ fn draw_panel<DB: DrawingBackend>(
             ))
             .map_err(|e| e.to_string())?;
         for m in &mine {
-            match m.error {
+            match m.max_error {
                 Some(e) => chart
                     .draw_series(std::iter::once(Circle::new(
                         (m.ms_per_frame, e.max(y0)),
@@ -304,8 +320,37 @@ fn draw_panel<DB: DrawingBackend>(
             };
         }
     }
+    let mut tolerance: Vec<&Measurement> = measurements
+        .iter()
+        .filter(|m| m.tolerance.is_some())
+        .collect();
+    tolerance.sort_by(|a, b| {
+        let t = |m: &Measurement| m.tolerance.unwrap_or(0.0);
+        t(b).total_cmp(&t(a))
+    });
+    chart
+        .draw_series(LineSeries::new(
+            tolerance
+                .iter()
+                .filter_map(|m| m.max_error.map(|e| (m.ms_per_frame, e.max(y0)))),
+            TOLERANCE_COLOR.stroke_width(3),
+        ))
+        .map_err(|e| e.to_string())?;
+    for m in &tolerance {
+        let point = match m.max_error {
+            Some(e) => (m.ms_per_frame, e.max(y0)),
+            None => (m.ms_per_frame, y1 * 0.7),
+        };
+        chart
+            .draw_series(std::iter::once(TriangleMarker::new(
+                point,
+                7,
+                TOLERANCE_COLOR.filled(),
+            )))
+            .map_err(|e| e.to_string())?;
+    }
     let title = format!(
-        "{}: {} PARTICLES",
+        "{}: {} PARTICLES, {horizon} S",
         scene.name(),
         measurements.first().map_or(0, |m| m.particles)
     );
@@ -324,6 +369,6 @@ fn draw_panel<DB: DrawingBackend>(
         2,
         &BLACK,
     )?;
-    text(panel, "ERROR", (6, top - 24), 2, &BLACK)?;
+    text(panel, "LARGEST ERROR", (6, top - 24), 2, &BLACK)?;
     Ok(())
 }

@@ -1,19 +1,22 @@
-//! `cloth_cli work-precision`: run time against error for every integrator on the accuracy scenes.
+//! `cloth_cli work-precision`: run time against error for every integrator, and for tolerance
+//! mode, on the accuracy scenes, at two horizons (0.2 s and 0.5 s).
 //!
-//! For each scene: an f64 reference solution (Dormand–Prince 5(4) at `--tolerance`, checked against
-//! one at a 10× tighter tolerance), then for each integrator a sweep of its cost knob (substeps; and
-//! CG or Gauss-Seidel iterations), each run timed (best of a few repetitions, solver only, one
-//! thread) and compared with the reference: error = RMS particle position difference at the end
-//! divided by the cloth's diagonal. Unstable runs (non-finite, or error > 1) are kept as failures.
-//! Writes a Markdown report, a JSON dump and a log-log PNG plot.
+//! For each scene and horizon: an f64 reference solution (Dormand–Prince 5(4) at `--tolerance`,
+//! checked against one at a 10× tighter tolerance, and against one started from positions moved by
+//! 1e-7 of the spacing: how much the scene itself amplifies a perturbation), then for each
+//! integrator a sweep of its cost knob (substeps; and CG or Gauss-Seidel iterations) and tolerance
+//! mode at tolerances 1e-2 to 1e-5, each run timed (best of a few repetitions, solver only, one
+//! thread) and compared with the reference: the RMS and the largest particle position difference
+//! at the end, divided by the cloth's diagonal. Unstable runs (non-finite, or error > 1) are kept
+//! as failures. Writes a Markdown report, a JSON dump and a log-log PNG plot per horizon.
 
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use bevy_cloth::harness::reference::{ReferenceProblem, ReferenceSolution};
-use bevy_cloth::harness::scenes::{AccuracyScene, relative_rms_error};
-use bevy_cloth::sim::{Integrator, SolverSettings};
+use bevy_cloth::harness::scenes::{AccuracyScene, relative_max_error, relative_rms_error};
+use bevy_cloth::sim::{Accuracy, Integrator, MAX_SUBSTEPS, SolverSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// One timed run of one configuration on one scene.
@@ -23,7 +26,7 @@ pub struct Measurement {
     pub integrator: Integrator,
     /// The method that ran ([`Integrator::Auto`]'s choice, else `integrator`).
     pub method: Integrator,
-    /// Substeps per frame actually taken.
+    /// Substeps per frame actually taken (in tolerance mode, their mean over the run).
     pub substeps: u32,
     /// `SolverSettings::iterations` (XPBD sweeps; implicit Euler CG cap).
     pub iterations: u32,
@@ -37,6 +40,12 @@ pub struct Measurement {
     pub ms_per_frame: f64,
     /// Relative RMS error at the end; `None` when the run failed.
     pub error: Option<f64>,
+    /// Relative largest particle error at the end; `None` when the run failed.
+    pub max_error: Option<f64>,
+    /// The tolerance (relative, per second) of a tolerance-mode run.
+    pub tolerance: Option<f32>,
+    /// Tolerance mode's own estimate of the error at the end (its summed estimates, relative).
+    pub estimated: Option<f64>,
     /// Why the run failed, if it did.
     pub failure: Option<String>,
 }
@@ -110,6 +119,12 @@ fn sweep(quick: bool) -> Vec<SolverSettings> {
             ..base
         });
     }
+    for tolerance in TOLERANCES {
+        out.push(SolverSettings {
+            accuracy: Accuracy::relative(tolerance, MAX_SUBSTEPS),
+            ..base
+        });
+    }
     let (implicit_substeps, cg): (&[u32], &[u32]) = if quick {
         (&[1, 4, 16, 64], &[50])
     } else {
@@ -128,24 +143,36 @@ fn sweep(quick: bool) -> Vec<SolverSettings> {
     out
 }
 
-/// Runs `settings` on `scene` (repeating for timing until `min_time` has passed, at most
-/// [`REPETITIONS`] runs)
-/// and measures its error against `reference`.
+/// The tolerances of the tolerance-mode runs (relative to the cloth's size, per second).
+pub const TOLERANCES: [f32; 4] = [1e-2, 1e-3, 1e-4, 1e-5];
+
+/// The horizons measured, s: the first is the plot and goal check of earlier reports.
+pub const HORIZONS: [f64; 2] = [0.2, 0.5];
+
+/// The largest error a tolerance-mode run at `tolerance` may have: the tolerance itself down to
+/// 1e-3, twice it below.
+fn allowed(tolerance: f32) -> f64 {
+    let t = f64::from(tolerance);
+    if t >= 1e-3 { t } else { 2.0 * t }
+}
+
+/// Runs `settings` on `scene` for `frames` frames (repeating for timing until `min_time` has
+/// passed, at most [`REPETITIONS`] runs) and measures its error against `reference`.
 fn measure(
     scene: AccuracyScene,
     settings: &SolverSettings,
     is_default: bool,
-    reference: &ReferenceSolution,
+    (reference, frames): (&ReferenceSolution, u32),
     min_time: Duration,
 ) -> Result<Measurement, bevy_cloth::ClothError> {
     let dt = AccuracyScene::FRAME_DT;
-    let frames = scene.frames();
     let mut best = f64::INFINITY;
     let mut spent = Duration::ZERO;
     let mut result: Option<Measurement> = None;
     for _ in 0..REPETITIONS {
         let mut sim = scene.build(settings)?;
-        let substeps = sim.substeps_for(dt);
+        let mut substeps = sim.substeps_for(dt);
+        let mut taken = 0u64;
         let start = Instant::now();
         let mut failure = None;
         for _ in 0..frames {
@@ -153,14 +180,23 @@ fn measure(
                 failure = Some(e.to_string());
                 break;
             }
+            if let Some(r) = sim.accuracy_report() {
+                taken += u64::from(r.substeps);
+            }
         }
         let elapsed = start.elapsed();
+        let report = sim.accuracy_report();
+        if report.is_some() {
+            substeps = (taken as f64 / f64::from(frames.max(1))).round() as u32;
+        }
         spent += elapsed;
         best = best.min(elapsed.as_secs_f64() * 1e3 / frames as f64);
         if result.is_none() {
             let error = relative_rms_error(sim.positions(), &reference.positions, scene.diagonal());
-            if failure.is_none() && (error.is_nan() || error > 1.0) {
-                failure = Some(format!("error {error:.3e} > 1"));
+            let max_error =
+                relative_max_error(sim.positions(), &reference.positions, scene.diagonal());
+            if failure.is_none() && (error.is_nan() || max_error > 1.0) {
+                failure = Some(format!("error {max_error:.3e} > 1"));
             }
             result = Some(Measurement {
                 integrator: settings.integrator,
@@ -172,6 +208,9 @@ fn measure(
                 particles: sim.positions().len(),
                 ms_per_frame: 0.0,
                 error: failure.is_none().then_some(error),
+                max_error: failure.is_none().then_some(max_error),
+                tolerance: settings.accuracy.tolerance,
+                estimated: report.map(|r| r.estimated_error / scene.diagonal()),
                 failure,
             });
         }
@@ -194,7 +233,9 @@ const REPETITIONS: usize = 15;
 /// differ by the machine's noise (up to a third here), which would rank one above the other.
 fn pool_identical(runs: &mut [Measurement]) {
     let same = |a: &Measurement, b: &Measurement| {
-        a.method == b.method
+        a.tolerance.is_none()
+            && b.tolerance.is_none()
+            && a.method == b.method
             && a.substeps == b.substeps
             && (a.method.is_explicit() || a.iterations == b.iterations)
             && a.error.is_some()
@@ -210,11 +251,11 @@ fn pool_identical(runs: &mut [Measurement]) {
     }
 }
 
-/// The lower-left envelope of the successful runs: `(ms per frame, error)` sorted by time, each
-/// point more accurate than every cheaper one.
+/// The lower-left envelope of the successful runs: `(ms per frame, largest error)` sorted by
+/// time, each point more accurate than every cheaper one.
 pub fn pareto_front<'a>(runs: impl Iterator<Item = &'a Measurement>) -> Vec<(f64, f64)> {
     let mut points: Vec<(f64, f64)> = runs
-        .filter_map(|m| m.error.map(|e| (m.ms_per_frame, e)))
+        .filter_map(|m| m.max_error.map(|e| (m.ms_per_frame, e)))
         .collect();
     points.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut front: Vec<(f64, f64)> = Vec::new();
@@ -261,8 +302,9 @@ const TIMING_SLACK: f64 = 0.05;
 
 fn goal_check(runs: &[Measurement], default_integrator: Integrator) -> GoalCheck {
     let default = runs.iter().find(|m| m.is_default);
-    let all = pareto_front(runs.iter());
-    let mine = pareto_front(runs.iter().filter(|m| m.integrator == default_integrator));
+    let fixed = || runs.iter().filter(|m| m.tolerance.is_none());
+    let all = pareto_front(fixed());
+    let mine = pareto_front(fixed().filter(|m| m.integrator == default_integrator));
     let (mut worst, mut worst_with_slack) = ((1.0, 0.0), (1.0, 0.0));
     let mut uncovered = 0;
     for (budget, best) in &all {
@@ -281,11 +323,15 @@ fn goal_check(runs: &[Measurement], default_integrator: Integrator) -> GoalCheck
     }
     let cheapest_accurate = runs
         .iter()
-        .filter(|m| m.integrator == default_integrator && m.error.is_some_and(|e| e <= 1e-3))
+        .filter(|m| {
+            m.tolerance.is_none()
+                && m.integrator == default_integrator
+                && m.max_error.is_some_and(|e| e <= 1e-3)
+        })
         .min_by(|a, b| a.ms_per_frame.total_cmp(&b.ms_per_frame))
         .map(|m| (m.ms_per_kparticle(), m.substeps));
     GoalCheck {
-        default_error: default.and_then(|d| d.error),
+        default_error: default.and_then(|d| d.max_error),
         default_ms_per_kparticle: default.map_or(f64::NAN, Measurement::ms_per_kparticle),
         cheapest_accurate,
         worst_ratio: worst,
@@ -295,15 +341,108 @@ fn goal_check(runs: &[Measurement], default_integrator: Integrator) -> GoalCheck
 }
 
 fn fmt_error(m: &Measurement) -> String {
-    match (&m.error, &m.failure) {
-        (Some(e), _) => format!("{e:.2e}"),
-        (None, Some(f)) => format!("**unstable** ({f})"),
-        (None, None) => "?".into(),
+    match (&m.error, &m.max_error, &m.failure) {
+        (Some(e), Some(max), _) => format!("{e:.2e} | {max:.2e}"),
+        (_, _, Some(f)) => format!("**unstable** ({f}) | –"),
+        _ => "? | ?".into(),
     }
 }
 
-/// Runs the benchmark and writes `work-precision.md`, `work-precision.json` and
-/// `work-precision.png` into `out_dir`.
+/// One scene's reference at one horizon: its checks and cost.
+struct ReferenceInfo {
+    scene: AccuracyScene,
+    /// Relative RMS difference to the reference at a tenth of the tolerance.
+    against_tighter: f64,
+    /// Relative largest difference to the reference started 1e-7 of the spacing away.
+    sensitivity: f64,
+    steps: u64,
+    rejected: u64,
+    seconds: f64,
+}
+
+/// The tolerance check of one tolerance-mode run against the fixed runs of the same sweep.
+struct ToleranceCheck<'a> {
+    run: &'a Measurement,
+    /// The cheapest fixed run whose largest error is at most this run's.
+    same_error: Option<&'a Measurement>,
+    /// The cheapest fixed run whose largest error is within what the tolerance allows.
+    within: Option<&'a Measurement>,
+    /// The error no run can be held to: the larger of the scene's sensitivity and the most
+    /// accurate fixed run's largest error (f32 round-off).
+    floor: f64,
+}
+
+impl<'a> ToleranceCheck<'a> {
+    fn new(run: &'a Measurement, runs: &'a [Measurement], sensitivity: f64) -> Self {
+        let fixed = || {
+            runs.iter()
+                .filter(|m| m.tolerance.is_none() && m.max_error.is_some())
+        };
+        let cheapest = |limit: f64| {
+            fixed()
+                .filter(|m| m.max_error.is_some_and(|e| e <= limit))
+                .min_by(|a, b| a.ms_per_frame.total_cmp(&b.ms_per_frame))
+        };
+        let best = fixed()
+            .filter_map(|m| m.max_error)
+            .fold(f64::INFINITY, f64::min);
+        Self {
+            run,
+            same_error: run.max_error.and_then(cheapest),
+            within: run.tolerance.and_then(|t| cheapest(allowed(t))),
+            floor: sensitivity.max(best),
+        }
+    }
+
+    /// Whether the tolerance can be met at all on this scene and horizon.
+    fn reachable(&self) -> bool {
+        self.run.tolerance.is_some_and(|t| allowed(t) >= self.floor)
+    }
+
+    /// Whether the run met what its tolerance allows.
+    fn met(&self) -> bool {
+        match (self.run.tolerance, self.run.max_error) {
+            (Some(t), Some(e)) => e <= allowed(t),
+            _ => false,
+        }
+    }
+
+    /// Time of the run over that of a fixed run.
+    fn ratio(&self, other: Option<&Measurement>) -> Option<f64> {
+        other.map(|o| self.run.ms_per_frame / o.ms_per_frame)
+    }
+}
+
+fn describe(m: &Measurement) -> String {
+    match m.tolerance {
+        Some(t) => format!("tolerance {t:.0e}"),
+        None if m.integrator == Integrator::Auto => format!("auto ({})", m.method.name()),
+        None => m.integrator.name().to_string(),
+    }
+}
+
+fn fmt_run(m: Option<&Measurement>) -> String {
+    m.map_or("none".into(), |m| {
+        format!(
+            "{:.4} ({} × {}{})",
+            m.ms_per_frame,
+            describe(m),
+            m.substeps,
+            if m.method.is_explicit() {
+                String::new()
+            } else {
+                format!(", {} it.", m.iterations)
+            }
+        )
+    })
+}
+
+fn fmt_ratio(r: Option<f64>) -> String {
+    r.map_or("–".into(), |r| format!("{r:.2}"))
+}
+
+/// Runs the benchmark and writes `work-precision.md`, `work-precision.json` and a plot per horizon
+/// (`work-precision.png` for the first, `work-precision-<T>s.png` for the others) into `out_dir`.
 pub fn run(
     quick: bool,
     tolerance: f64,
@@ -313,76 +452,109 @@ pub fn run(
     let configs = sweep(quick);
     let default = SolverSettings::default();
     let min_time = Duration::from_millis(if quick { 60 } else { 300 });
-    let total = scenes.len() as u64 * (configs.len() as u64 + 2 + 2);
+    let total = (HORIZONS.len() * scenes.len()) as u64 * (configs.len() as u64 + 3 + 2);
     let bar = ProgressBar::new(total);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")?
             .progress_chars("=> "),
     );
-    let mut results = Vec::new();
-    let mut references = Vec::new();
-    for &scene in scenes {
-        bar.set_message(format!(
-            "{}: reference at tolerance {tolerance:e}",
-            scene.name()
-        ));
-        let initial = scene.build(&default)?;
-        let problem = ReferenceProblem::from_sim(&initial);
-        let t = Instant::now();
-        let reference = problem.solve(scene.duration(), tolerance)?;
-        let ref_seconds = t.elapsed().as_secs_f64();
-        bar.inc(1);
-        bar.set_message(format!(
-            "{}: reference at tolerance {:e}",
-            scene.name(),
-            tolerance / 10.0
-        ));
-        let tighter = problem.solve(scene.duration(), tolerance / 10.0)?;
-        bar.inc(1);
-        let diff = reference
-            .positions
-            .iter()
-            .zip(&tighter.positions)
-            .map(|(a, b)| a.distance_squared(*b))
-            .sum::<f64>()
-            / reference.positions.len() as f64;
-        let ref_error = diff.sqrt() / scene.diagonal();
-        references.push((
-            scene,
-            ref_error,
-            reference.steps,
-            reference.rejected,
-            ref_seconds,
-        ));
-        let mut runs = Vec::new();
-        let mut all: Vec<(SolverSettings, bool)> = configs.iter().map(|c| (*c, false)).collect();
-        all.push((
-            SolverSettings {
-                integrator: Integrator::Auto,
-                substeps: initial.stable_substeps(AccuracyScene::FRAME_DT),
-                auto_substeps: false,
-                ..default
-            },
-            false,
-        ));
-        all.push((default, true));
-        for (settings, is_default) in all {
-            bar.set_message(format!(
-                "{}: {} × {} substeps",
-                scene.name(),
-                settings.integrator.name(),
-                settings.substeps
-            ));
-            runs.push(measure(scene, &settings, is_default, &reference, min_time)?);
+    let mut horizons = Vec::new();
+    for horizon in HORIZONS {
+        let frames = AccuracyScene::frames_in(horizon);
+        let duration = f64::from(frames) * f64::from(AccuracyScene::FRAME_DT);
+        let mut results = Vec::new();
+        let mut references = Vec::new();
+        for &scene in scenes {
+            bar.set_message(format!("{} to {horizon} s: references", scene.name()));
+            let initial = scene.build(&default)?;
+            let problem = ReferenceProblem::from_sim(&initial);
+            let t = Instant::now();
+            let reference = problem.solve(duration, tolerance)?;
+            let seconds = t.elapsed().as_secs_f64();
             bar.inc(1);
+            let tighter = problem.solve(duration, tolerance / 10.0)?;
+            bar.inc(1);
+            let perturbed = problem
+                .perturbed(1e-7 * scene.spacing())
+                .solve(duration, tolerance)?;
+            bar.inc(1);
+            let rms = |a: &[glam::DVec3], b: &[glam::DVec3]| {
+                (a.iter()
+                    .zip(b)
+                    .map(|(a, b)| a.distance_squared(*b))
+                    .sum::<f64>()
+                    / a.len() as f64)
+                    .sqrt()
+                    / scene.diagonal()
+            };
+            let largest = |a: &[glam::DVec3], b: &[glam::DVec3]| {
+                a.iter()
+                    .zip(b)
+                    .map(|(a, b)| a.distance(*b))
+                    .fold(0.0, f64::max)
+                    / scene.diagonal()
+            };
+            references.push(ReferenceInfo {
+                scene,
+                against_tighter: rms(&reference.positions, &tighter.positions),
+                sensitivity: largest(&reference.positions, &perturbed.positions),
+                steps: reference.steps,
+                rejected: reference.rejected,
+                seconds,
+            });
+            let mut runs = Vec::new();
+            let mut all: Vec<(SolverSettings, bool)> =
+                configs.iter().map(|c| (*c, false)).collect();
+            all.push((
+                SolverSettings {
+                    integrator: Integrator::Auto,
+                    substeps: initial.stable_substeps(AccuracyScene::FRAME_DT),
+                    auto_substeps: false,
+                    ..default
+                },
+                false,
+            ));
+            all.push((default, true));
+            for (settings, is_default) in all {
+                bar.set_message(format!(
+                    "{} to {horizon} s: {}",
+                    scene.name(),
+                    match settings.accuracy.tolerance {
+                        Some(t) => format!("tolerance {t:e}"),
+                        None => format!(
+                            "{} × {} substeps",
+                            settings.integrator.name(),
+                            settings.substeps
+                        ),
+                    }
+                ));
+                runs.push(measure(
+                    scene,
+                    &settings,
+                    is_default,
+                    (&reference, frames),
+                    min_time,
+                )?);
+                bar.inc(1);
+            }
+            pool_identical(&mut runs);
+            results.push((scene, runs));
         }
-        pool_identical(&mut runs);
-        results.push((scene, runs));
+        horizons.push((horizon, references, results));
     }
     bar.finish_with_message("done");
 
     std::fs::create_dir_all(out_dir)?;
-    super::plot::write_plot(&out_dir.join("work-precision.png"), &results)?;
+    let plot_name = |i: usize, horizon: f64| {
+        if i == 0 {
+            "work-precision.png".to_string()
+        } else {
+            format!("work-precision-{horizon}s.png")
+        }
+    };
+    for (i, (horizon, _, results)) in horizons.iter().enumerate() {
+        super::plot::write_plot(&out_dir.join(plot_name(i, *horizon)), results, *horizon)?;
+    }
     let mut md = String::new();
     writeln!(
         md,
@@ -394,122 +566,214 @@ pub fn run(
         "Generated by `cargo run --release --example cloth_cli -- work-precision{}` on {} hardware \
          thread(s); timings are wall time per simulated 1/60 s frame of the solver alone (one \
          thread, best of up to 15 runs; runs that are the same computation, such as the default \
-         running Verlet at the substeps of a Verlet run, share the fastest time). Error = RMS \
-         particle position difference at the end time \
-         divided by the cloth's diagonal, against an f64 Dormand–Prince 5(4) reference at \
-         tolerance {tolerance:e}. Damping is off. Unstable runs are listed, not dropped.\n",
+         running Verlet at the substeps of a Verlet run, share the fastest time). Errors are the \
+         RMS and the largest particle position difference at the horizon, divided by the cloth's \
+         diagonal, against an f64 Dormand–Prince 5(4) reference at tolerance {tolerance:e}; the \
+         plots and fronts use the largest. Damping is off. Unstable runs are listed, not dropped. \
+         Tolerance-mode runs (`SolverSettings::accuracy`, relative tolerance per second, capped \
+         at {MAX_SUBSTEPS} substeps) list their mean substeps per frame and the integrator of \
+         their last step.\n",
         if quick { " --quick" } else { "" },
         std::thread::available_parallelism().map_or(1, |n| n.get()),
     )?;
-    writeln!(md, "![work-precision plot](work-precision.png)\n")?;
     writeln!(
         md,
-        "Curves: {}. Dots are single runs, lines each integrator's Pareto front; the gold lines \
-         mark the goal (error 1e-3 at 1 ms per frame per 1000 particles).\n",
+        "Curves: {}, and orange: tolerance mode at tolerances {} (largest first). Dots are single \
+         runs, lines each integrator's Pareto front; the gold lines mark error 1e-3 at 1 ms per \
+         frame per 1000 particles.\n",
         super::plot::CURVES
             .iter()
             .map(|i| format!("{} {}", super::plot::color_name(*i), i.name()))
             .collect::<Vec<_>>()
+            .join(", "),
+        TOLERANCES
+            .iter()
+            .map(|t| format!("{t:.0e}"))
+            .collect::<Vec<_>>()
             .join(", ")
     )?;
-    writeln!(md, "## Reference solutions\n")?;
-    writeln!(
-        md,
-        "| scene | T (s) | steps | rejected | time (s) | difference to tolerance {:.0e} (relative RMS) |",
-        tolerance / 10.0
-    )?;
-    writeln!(md, "|---|---|---|---|---|---|")?;
-    for (scene, err, steps, rejected, secs) in &references {
+    for (i, (horizon, references, results)) in horizons.iter().enumerate() {
+        writeln!(md, "# Horizon {horizon} s\n")?;
         writeln!(
             md,
-            "| {} | {:.3} | {steps} | {rejected} | {secs:.1} | {err:.1e} |",
-            scene.name(),
-            scene.duration()
+            "![work-precision plot at {horizon} s]({})\n",
+            plot_name(i, *horizon)
         )?;
-    }
-    writeln!(
-        md,
-        "\n## Goal check (default: {} at {} substeps{})\n",
-        default.integrator.name(),
-        default.substeps,
-        if default.auto_substeps && default.integrator.is_explicit() {
-            " or the stability bound, whichever is more".to_string()
-        } else if default.integrator == Integrator::Auto {
-            ": Verlet where they are within its stability bound, else XPBD".to_string()
-        } else {
-            String::new()
-        }
-    )?;
-    writeln!(
-        md,
-        "| scene | default error | default ms/frame per 1k particles | error ≤ 1e-3 within 1 ms at the default? | {0}'s cheapest run with error ≤ 1e-3: ms/frame per 1k particles (substeps) | worst ratio of {0}'s best error to the best of all, at budget (ms/frame) | the same, allowing {0} {1:.0}% more time | budgets where {0} has no stable run |",
-        default.integrator.name(),
-        100.0 * TIMING_SLACK
-    )?;
-    writeln!(md, "|---|---|---|---|---|---|---|---|")?;
-    for (scene, runs) in &results {
-        let g = goal_check(runs, default.integrator);
-        let ok = g.default_error.is_some_and(|e| e <= 1e-3) && g.default_ms_per_kparticle <= 1.0;
+        writeln!(md, "## Reference solutions\n")?;
         writeln!(
             md,
-            "| {} | {} | {:.3} | {} | {} | {:.2} at {:.3} | {:.2} at {:.3} | {} |",
-            scene.name(),
-            g.default_error
-                .map_or("unstable".into(), |e| format!("{e:.2e}")),
-            g.default_ms_per_kparticle,
-            if ok { "yes" } else { "**no**" },
-            g.cheapest_accurate
-                .map_or("none".into(), |(t, n)| format!("{t:.3} ({n})")),
-            g.worst_ratio.0,
-            g.worst_ratio.1,
-            g.worst_ratio_with_slack.0,
-            g.worst_ratio_with_slack.1,
-            g.uncovered_budgets
-        )?;
-    }
-    for (scene, runs) in &results {
-        writeln!(md, "\n## {}: {}\n", scene.name(), scene.description())?;
-        writeln!(
-            md,
-            "| integrator | substeps | iterations | ms/frame | ms/frame per 1k particles | error |"
+            "| scene | steps | rejected | time (s) | RMS difference to tolerance {:.0e} | largest difference after a start moved by 1e-7 of the spacing (sensitivity) |",
+            tolerance / 10.0
         )?;
         writeln!(md, "|---|---|---|---|---|---|")?;
-        for m in runs {
+        for r in references {
             writeln!(
                 md,
-                "| {}{}{} | {} | {} | {:.4} | {:.4} | {} |",
-                if m.integrator == Integrator::Auto {
-                    format!("auto ({})", m.method.name())
-                } else {
-                    m.integrator.name().to_string()
-                },
-                if m.is_default { " (default)" } else { "" },
-                if m.auto { " (auto substeps)" } else { "" },
-                m.substeps,
-                if m.method.is_explicit() {
-                    "–".to_string()
-                } else {
-                    m.iterations.to_string()
-                },
-                m.ms_per_frame,
-                m.ms_per_kparticle(),
-                fmt_error(m)
+                "| {} | {} | {} | {:.1} | {:.1e} | {:.1e} |",
+                r.scene.name(),
+                r.steps,
+                r.rejected,
+                r.seconds,
+                r.against_tighter,
+                r.sensitivity
             )?;
         }
+        writeln!(md, "\n## Tolerance mode\n")?;
+        writeln!(
+            md,
+            "Allowed: the tolerance at 1e-3 and above, twice it below. Floor: the larger of the \
+             scene's sensitivity and the smallest largest-error of any fixed run (f32 round-off); \
+             an allowance below it is unreachable by any setting and is marked so, not counted \
+             as a failure. Cost ratios: the run's time over the cheapest fixed run (any \
+             integrator, same sweep) whose largest error is at most the run's, and at most the \
+             allowance.\n"
+        )?;
+        writeln!(
+            md,
+            "| scene | tolerance | RMS error | largest error | allowed | met? | ms/frame (last integrator × mean substeps) | cheapest fixed run as accurate: ms/frame | ratio | cheapest fixed run within the allowance: ms/frame | ratio | estimated error | estimate / measured |"
+        )?;
+        writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|---|")?;
+        let mut worst_track: (f64, f64) = (f64::INFINITY, 0.0);
+        for ((scene, runs), r) in results.iter().zip(references) {
+            for m in runs.iter().filter(|m| m.tolerance.is_some()) {
+                let c = ToleranceCheck::new(m, runs, r.sensitivity);
+                let t = m.tolerance.unwrap_or(0.0);
+                let track = match (m.estimated, m.max_error) {
+                    (Some(est), Some(e)) if e > 0.0 => Some(est / e),
+                    _ => None,
+                };
+                if let Some(k) = track {
+                    worst_track = (worst_track.0.min(k), worst_track.1.max(k));
+                }
+                writeln!(
+                    md,
+                    "| {} | {t:.0e} | {} | {} | {:.0e} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    scene.name(),
+                    m.error.map_or("–".into(), |e| format!("{e:.2e}")),
+                    m.max_error.map_or(
+                        format!("**unstable** ({})", m.failure.as_deref().unwrap_or("?")),
+                        |e| format!("{e:.2e}")
+                    ),
+                    allowed(t),
+                    if c.met() {
+                        "yes".to_string()
+                    } else if !c.reachable() {
+                        format!("unreachable (floor {:.1e})", c.floor)
+                    } else {
+                        "**no**".to_string()
+                    },
+                    fmt_run(Some(m)),
+                    fmt_run(c.same_error),
+                    fmt_ratio(c.ratio(c.same_error)),
+                    fmt_run(c.within),
+                    fmt_ratio(c.ratio(c.within)),
+                    m.estimated.map_or("–".into(), |e| format!("{e:.2e}")),
+                    track.map_or("–".into(), |k| format!("{k:.2}")),
+                )?;
+            }
+        }
+        if worst_track.1 > 0.0 {
+            writeln!(
+                md,
+                "\nEstimate over measured largest error ranges from {:.2} to {:.2}.",
+                worst_track.0, worst_track.1
+            )?;
+        }
+        writeln!(
+            md,
+            "\n## Goal check (default: {} at {} substeps{})\n",
+            default.integrator.name(),
+            default.substeps,
+            if default.integrator == Integrator::Auto {
+                ": Verlet where they are within its stability bound, else XPBD".to_string()
+            } else {
+                String::new()
+            }
+        )?;
+        writeln!(
+            md,
+            "| scene | default largest error | default ms/frame per 1k particles | largest error ≤ 1e-3 within 1 ms at the default? | {0}'s cheapest run with largest error ≤ 1e-3: ms/frame per 1k particles (substeps) | worst ratio of {0}'s best error to the best of all, at budget (ms/frame) | the same, allowing {0} {1:.0}% more time | budgets where {0} has no stable run |",
+            default.integrator.name(),
+            100.0 * TIMING_SLACK
+        )?;
+        writeln!(md, "|---|---|---|---|---|---|---|---|")?;
+        for (scene, runs) in results {
+            let g = goal_check(runs, default.integrator);
+            let ok =
+                g.default_error.is_some_and(|e| e <= 1e-3) && g.default_ms_per_kparticle <= 1.0;
+            writeln!(
+                md,
+                "| {} | {} | {:.3} | {} | {} | {:.2} at {:.3} | {:.2} at {:.3} | {} |",
+                scene.name(),
+                g.default_error
+                    .map_or("unstable".into(), |e| format!("{e:.2e}")),
+                g.default_ms_per_kparticle,
+                if ok { "yes" } else { "**no**" },
+                g.cheapest_accurate
+                    .map_or("none".into(), |(t, n)| format!("{t:.3} ({n})")),
+                g.worst_ratio.0,
+                g.worst_ratio.1,
+                g.worst_ratio_with_slack.0,
+                g.worst_ratio_with_slack.1,
+                g.uncovered_budgets
+            )?;
+        }
+        for (scene, runs) in results {
+            writeln!(
+                md,
+                "\n## {} to {horizon} s: {}\n",
+                scene.name(),
+                scene.description()
+            )?;
+            writeln!(
+                md,
+                "| run | substeps | iterations | ms/frame | ms/frame per 1k particles | RMS error | largest error |"
+            )?;
+            writeln!(md, "|---|---|---|---|---|---|---|")?;
+            for m in runs {
+                writeln!(
+                    md,
+                    "| {}{}{} | {} | {} | {:.4} | {:.4} | {} |",
+                    match m.tolerance {
+                        Some(_) => format!("{} (last: {})", describe(m), m.method.name()),
+                        None => describe(m),
+                    },
+                    if m.is_default { " (default)" } else { "" },
+                    if m.auto { " (auto substeps)" } else { "" },
+                    m.substeps,
+                    if m.method.is_explicit() {
+                        "–".to_string()
+                    } else {
+                        m.iterations.to_string()
+                    },
+                    m.ms_per_frame,
+                    m.ms_per_kparticle(),
+                    fmt_error(m)
+                )?;
+            }
+        }
+        writeln!(md)?;
     }
     std::fs::write(out_dir.join("work-precision.md"), md)?;
     let json = serde_json::json!({
         "quick": quick,
         "tolerance": tolerance,
-        "references": references.iter().map(|(s, e, steps, rejected, secs)| serde_json::json!({
-            "scene": s.name(), "difference_to_tighter": e, "steps": steps, "rejected": rejected, "seconds": secs,
-        })).collect::<Vec<_>>(),
-        "scenes": results.iter().map(|(s, runs)| serde_json::json!({
-            "scene": s.name(),
-            "runs": runs.iter().map(|m| serde_json::json!({
-                "integrator": m.integrator.name(), "method": m.method.name(), "substeps": m.substeps, "iterations": m.iterations,
-                "default": m.is_default, "auto_substeps": m.auto, "particles": m.particles, "ms_per_frame": m.ms_per_frame,
-                "error": m.error, "failure": m.failure,
+        "horizons": horizons.iter().map(|(horizon, references, results)| serde_json::json!({
+            "seconds": horizon,
+            "references": references.iter().map(|r| serde_json::json!({
+                "scene": r.scene.name(), "difference_to_tighter": r.against_tighter,
+                "sensitivity": r.sensitivity, "steps": r.steps, "rejected": r.rejected,
+                "seconds": r.seconds,
+            })).collect::<Vec<_>>(),
+            "scenes": results.iter().map(|(s, runs)| serde_json::json!({
+                "scene": s.name(),
+                "runs": runs.iter().map(|m| serde_json::json!({
+                    "integrator": m.integrator.name(), "method": m.method.name(),
+                    "tolerance": m.tolerance, "substeps": m.substeps, "iterations": m.iterations,
+                    "default": m.is_default, "auto_substeps": m.auto, "particles": m.particles,
+                    "ms_per_frame": m.ms_per_frame, "error": m.error, "max_error": m.max_error,
+                    "estimated_error": m.estimated, "failure": m.failure,
+                })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
     });
@@ -518,7 +782,7 @@ pub fn run(
         serde_json::to_string_pretty(&json)?,
     )?;
     eprintln!(
-        "wrote {0}/work-precision.md, {0}/work-precision.json and {0}/work-precision.png",
+        "wrote {0}/work-precision.md, {0}/work-precision.json and the plots",
         out_dir.display()
     );
     Ok(())

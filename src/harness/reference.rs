@@ -77,6 +77,24 @@ impl ReferenceProblem {
         }
     }
 
+    /// The same problem with each free particle's start moved by `distance` (m) in a direction
+    /// of its own (a fixed, well-spread sequence of directions): solved to the same time, it
+    /// shows how far the scene itself amplifies a perturbation of that size.
+    pub fn perturbed(&self, distance: f64) -> Self {
+        let mut p = self.clone();
+        let golden = 0.618_033_988_749_895_f64;
+        for (i, (x, w)) in p.x0.iter_mut().zip(&self.inv_mass).enumerate() {
+            if *w > 0.0 {
+                // Points spread evenly over the sphere (a Fibonacci lattice).
+                let z = 1.0 - 2.0 * ((i as f64 + 0.5) * golden).fract();
+                let phi = std::f64::consts::TAU * ((i as f64) * golden * golden).fract();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                *x += DVec3::new(r * phi.cos(), r * phi.sin(), z) * distance;
+            }
+        }
+        p
+    }
+
     /// Number of particles.
     pub fn particle_count(&self) -> usize {
         self.x0.len()

@@ -83,6 +83,16 @@ impl AccuracyScene {
         }
     }
 
+    /// The distance between neighbouring particles at rest, m.
+    pub fn spacing(self) -> f64 {
+        self.grid().spacing as f64
+    }
+
+    /// Number of frames of [`Self::FRAME_DT`] in `seconds` (rounded).
+    pub fn frames_in(seconds: f64) -> u32 {
+        (seconds / Self::FRAME_DT as f64).round() as u32
+    }
+
     /// Length of the cloth's diagonal at rest, m: the scale of the error measure.
     pub fn diagonal(self) -> f64 {
         let g = self.grid();

@@ -33,8 +33,8 @@ use crate::error::ClothError;
 use crate::hash::{GOLDEN_GAMMA, mix64};
 use crate::sim::contact::convex_minimum;
 use crate::sim::{
-    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec, Gusts,
-    Integrator, MAX_SUBSTEPS, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec,
+    Gusts, Integrator, MAX_SUBSTEPS, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
 };
 
 /// How deep (m) a free particle may end a step inside a collider before the case fails.

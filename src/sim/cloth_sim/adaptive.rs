@@ -41,6 +41,8 @@ const LOWER_BELOW: f32 = 0.25;
 const LOWER_STEP: f32 = 0.8;
 /// Another method is taken when it needs fewer substeps than this fraction of the current one's.
 const SWITCH_GAIN: f32 = 0.8;
+/// While Verlet runs, every this many estimates one measures XPBD's error instead.
+const PROBE_EVERY: u32 = 8;
 /// A step whose estimate exceeds the tolerance this many times is taken again at the new plan.
 const REJECT_ABOVE: f32 = 2.0;
 /// After Verlet's copy ran away at `n` substeps, Verlet keeps above `n` times this.
@@ -90,12 +92,18 @@ pub(super) struct Adaptive {
     /// The method and substeps steps run at.
     method: Integrator,
     substeps: u32,
-    /// Substeps XPBD needs by its last estimate (before one: the configured count).
+    /// Substeps XPBD needs by its last estimate (`u32::MAX` while unknown).
     need_xpbd: u32,
+    /// The configured substeps: where XPBD starts, or its first probe.
+    configured: u32,
     /// Substeps Verlet needs by its last estimate (before one: its proven stability bound).
     need_verlet: Option<u32>,
     /// The largest count at which Verlet's copy ran away: Verlet never runs at or below it.
     verlet_unsafe: u32,
+    /// Whether the next estimate while Verlet runs measures XPBD instead (see [`Self::step`]),
+    /// and the estimates since the last such probe.
+    probe_due: bool,
+    since_probe: u32,
     /// Steps between estimates, and steps left until the next.
     interval: u32,
     countdown: u32,
@@ -179,8 +187,11 @@ impl Adaptive {
             method: Integrator::Xpbd,
             substeps,
             need_xpbd: substeps,
+            configured: substeps,
             need_verlet: None,
             verlet_unsafe: 0,
+            probe_due: false,
+            since_probe: 0,
             interval: 1,
             countdown: 0,
             last: [None; 2],
@@ -218,26 +229,40 @@ impl Adaptive {
         env: &Environment,
         spread: Option<&dyn Spread>,
     ) -> Result<(), ClothError> {
-        if self.need_verlet.is_none() {
-            let bound = sim.stable_substeps(dt);
-            self.need_verlet = Some(bound.clamp(2, u32::MAX));
-        }
         // Where `Auto` would leave the step to XPBD, Verlet is out of the choice.
         let verlet_allowed = !sim.needs_xpbd();
+        if self.need_verlet.is_none() {
+            // The first step: Verlet at its proven bound where it can, as the more accurate
+            // method (an XPBD probe follows); XPBD at the configured count otherwise.
+            let bound = sim.stable_substeps(dt).clamp(2, u32::MAX);
+            self.need_verlet = Some(bound);
+            if verlet_allowed && bound <= self.cap {
+                self.method = Integrator::Verlet;
+                self.substeps = bound;
+                self.need_xpbd = u32::MAX;
+            }
+        }
         let (method, n) = if self.method == Integrator::Verlet && !verlet_allowed {
-            (Integrator::Xpbd, self.need_xpbd)
+            (Integrator::Xpbd, self.xpbd_count())
         } else {
             (self.method, self.substeps)
         };
         let n = n.clamp(2, self.cap);
         let estimate = self.countdown == 0 && !sim.sleep.asleep;
-        let coarse = coarse_substeps(n);
+        // A probe: the copy runs XPBD, and the difference to Verlet's far more accurate step is
+        // XPBD's error at that count.
+        let probe = estimate && self.probe_due && method == Integrator::Verlet;
+        let copy_plan = if probe {
+            (Integrator::Xpbd, self.xpbd_count().clamp(2, n))
+        } else {
+            (method, coarse_substeps(n))
+        };
         let copy = if estimate {
             self.start.save(sim);
             self.sync_shadow(sim);
             Some(
                 self.shadow
-                    .step_planned(dt, env, None, Some((method, coarse)), true),
+                    .step_planned(dt, env, None, Some(copy_plan), true),
             )
         } else {
             None
@@ -253,6 +278,35 @@ impl Adaptive {
             self.add_error(self.settled_rate, dt);
             return Ok(());
         };
+        let largest = || {
+            sim.particles
+                .positions
+                .iter()
+                .zip(&self.shadow.particles.positions)
+                .map(|(a, b)| a.distance_squared(*b))
+                .fold(0.0, f32::max)
+                .sqrt()
+        };
+        if probe {
+            let rate = match copy {
+                Ok(()) => largest() / dt,
+                Err(_) => f32::INFINITY,
+            };
+            let (_, n_x) = copy_plan;
+            let need = n_x as f32 * (rate / (AIM * self.tolerance));
+            self.need_xpbd = if need.is_finite() {
+                (need.ceil() as u32).max(2)
+            } else {
+                u32::MAX
+            };
+            self.probe_due = false;
+            self.since_probe = 0;
+            self.report.estimates += 1;
+            self.choose((method, n), verlet_allowed);
+            self.add_error(self.settled_rate, dt);
+            return Ok(());
+        }
+        let coarse = copy_plan.1;
         let ratio = n as f32 / coarse as f32;
         let divisor = if method == Integrator::Verlet {
             ratio * ratio - 1.0
@@ -261,15 +315,7 @@ impl Adaptive {
         };
         let rate = match copy {
             Ok(()) => {
-                let largest = sim
-                    .particles
-                    .positions
-                    .iter()
-                    .zip(&self.shadow.particles.positions)
-                    .map(|(a, b)| a.distance_squared(*b))
-                    .fold(0.0, f32::max)
-                    .sqrt();
-                let rate = largest / divisor / dt;
+                let rate = largest() / divisor / dt;
                 if rate.is_finite() {
                     rate
                 } else {
@@ -292,11 +338,19 @@ impl Adaptive {
         let runaway = self.update((method, n), rate, noise, verlet_allowed);
         if !runaway {
             self.settled_rate = rate;
+            self.since_probe += 1;
+            if method == Integrator::Verlet
+                && (self.report.estimates == 1 || self.since_probe >= PROBE_EVERY)
+            {
+                self.probe_due = true;
+                self.countdown = 0;
+            }
         }
         let redo = (self.method, self.substeps);
-        if rate > REJECT_ABOVE * self.tolerance && redo != (method, n) {
-            // Too far off (or the copy ran away): the step is taken again at the new plan, and
-            // estimated at the next.
+        // A copy that ran away says nothing of the step taken, which ran at a count a copy
+        // (with fewer substeps) had run stably before.
+        if !runaway && rate > REJECT_ABOVE * self.tolerance && redo != (method, n) {
+            // Too far off: the step is taken again at the new plan, and estimated at the next.
             self.start.restore(sim);
             sim.step_planned(dt, env, spread, Some(redo), false)?;
             self.report.rejected += 1;
@@ -304,7 +358,7 @@ impl Adaptive {
             self.report.substeps = redo.1;
             self.countdown = 0;
             let order = if redo.0 == Integrator::Verlet { 2 } else { 1 };
-            let predicted = if redo.0 == method && !runaway {
+            let predicted = if redo.0 == method {
                 rate * (n as f32 / redo.1 as f32).powi(order)
             } else {
                 AIM * self.tolerance
@@ -320,6 +374,15 @@ impl Adaptive {
     fn add_error(&mut self, rate: f32, dt: f32) {
         if rate.is_finite() {
             self.report.estimated_error += f64::from(rate) * f64::from(dt);
+        }
+    }
+
+    /// The substeps XPBD needs, or the configured count while that is unknown.
+    fn xpbd_count(&self) -> u32 {
+        if self.need_xpbd == u32::MAX {
+            self.configured
+        } else {
+            self.need_xpbd
         }
     }
 
@@ -391,6 +454,13 @@ impl Adaptive {
             Integrator::Verlet => self.need_verlet = Some(need.max(self.verlet_unsafe + 1)),
             _ => self.need_xpbd = need,
         }
+        self.choose(before, verlet_allowed);
+        runaway
+    }
+
+    /// Takes the method that needs fewer substeps (switching only for a clear gain) at the count
+    /// it needs, and schedules the next estimate: soon after a change, rarer while none.
+    fn choose(&mut self, before: (Integrator, u32), verlet_allowed: bool) {
         let verlet = self.need_verlet.unwrap_or(u32::MAX);
         let verlet_usable = verlet_allowed && self.verlet_unsafe < self.cap;
         let xpbd = self.need_xpbd;
@@ -405,17 +475,18 @@ impl Adaptive {
             || (other_usable && (other_need as f32) < SWITCH_GAIN * current.min(self.cap) as f32)
         {
             self.method = other;
-            self.substeps = other_need.clamp(2, self.cap);
-        } else {
-            self.substeps = current.clamp(2, self.cap);
         }
+        let need = match self.method {
+            Integrator::Verlet => verlet,
+            _ => self.xpbd_count(),
+        };
+        self.substeps = need.clamp(2, self.cap);
         if (self.method, self.substeps) == before {
             self.interval = (self.interval * 2).min(MAX_INTERVAL);
         } else {
             self.interval = 1;
         }
         self.countdown = self.interval - 1;
-        runaway
     }
 }
 
