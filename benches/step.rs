@@ -7,7 +7,8 @@
 //! whole App frames with one active cloth against 100 sleeping ones. Then self-collision's cost:
 //! a hanging 64×64 cloth and one lying crumpled on a floor, each with it off and on. Last,
 //! character cloth: App frames of a 32×32 cape skinned to a walking, turning torso against the
-//! same cape on static pins, and tethers' cost in a step.
+//! same cape on static pins, and tethers' cost in a step. And tolerance mode on the 64×64 frame
+//! with a sphere and wind against the fixed setting it settles on.
 
 use std::hint::black_box;
 
@@ -18,8 +19,9 @@ use bevy::tasks::TaskPoolBuilder;
 use bevy_cloth::harness::character::{Cape, spawn_cape, torso_pose};
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
-    ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridPlane, GridSpec,
-    Integrator, Pose, ScopedThread, SelfCollision, SolverSettings, Spread, Tethers, WindField,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridPlane,
+    GridSpec, Integrator, Pose, ScopedThread, SelfCollision, SolverSettings, Spread, Tethers,
+    WindField,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -204,6 +206,61 @@ fn environment(c: &mut Criterion) {
             });
         }
     }
+    group.finish();
+}
+
+/// Tolerance mode's cost on the 64×64 cloth over a sphere in wind: the mode itself (its
+/// estimates and controller), against the fixed setting it settles on, measured in one run.
+fn tolerance(c: &mut Criterion) {
+    let n = 64;
+    let mut group = c.benchmark_group("tolerance_64x64_sphere_and_wind");
+    let touching = [sphere_at(Vec3::new(0.0, -0.4, 0.0))];
+    let wind = WindField {
+        velocity: Vec3::new(5.0, 0.0, 2.0),
+        air_density: 1.225,
+        ..Default::default()
+    };
+    let env = Environment {
+        colliders: &touching,
+        wind: Some(&wind),
+        ..Default::default()
+    };
+    let (tolerance, cap) = (0.1, 64);
+    let mut adaptive = hanging(n);
+    let mut settings = *adaptive.settings();
+    settings.accuracy = Accuracy::relative(tolerance, cap);
+    adaptive.set_settings(settings).unwrap();
+    for _ in 0..300 {
+        adaptive.step_in(1.0 / 60.0, &env).unwrap();
+    }
+    let chosen = adaptive.accuracy_report().unwrap();
+    eprintln!("tolerance mode settled on {chosen:?}");
+    let mut fixed = hanging(n);
+    fixed
+        .set_settings(SolverSettings {
+            integrator: chosen.integrator,
+            substeps: chosen.substeps,
+            auto_substeps: false,
+            ..*fixed.settings()
+        })
+        .unwrap();
+    for _ in 0..300 {
+        fixed.step_in(1.0 / 60.0, &env).unwrap();
+    }
+    group.bench_function(format!("tolerance_{tolerance}_cap_{cap}"), |b| {
+        b.iter(|| adaptive.step_in(black_box(1.0 / 60.0), &env).unwrap())
+    });
+    group.bench_function(
+        format!(
+            "fixed_{}_{}_substeps",
+            chosen.integrator.name(),
+            chosen.substeps
+        ),
+        |b| b.iter(|| fixed.step_in(black_box(1.0 / 60.0), &env).unwrap()),
+    );
+    let after = adaptive.accuracy_report().unwrap();
+    eprintln!("after the benchmark: {after:?}");
+    assert!(after.substeps <= cap);
     group.finish();
 }
 
@@ -422,6 +479,7 @@ criterion_group!(
     explicit,
     implicit,
     environment,
+    tolerance,
     sleeping,
     self_collision,
     character

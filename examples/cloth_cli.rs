@@ -421,6 +421,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             line["particles"] = state.positions().len().into();
             line["springs"] = sim.model().springs.len().into();
             line["substeps"] = sim.substeps_for(parsed.dt).into();
+            line["integrator"] = sim.active_integrator().name().into();
+            if let Some(r) = sim.accuracy_report() {
+                line["tolerance_mode"] = serde_json::json!({
+                    "tolerance_m_per_s": r.tolerance, "estimate_m_per_s": r.error_rate,
+                    "estimates": r.estimates, "rejected": r.rejected, "at_cap": r.at_cap,
+                    "at_floor": r.at_floor,
+                });
+            }
             line["constraint_solves_per_s"] = (solves / median_s).round().into();
             line["cloth_frames_asleep"] = slept.into();
             println!("{line}");

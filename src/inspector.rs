@@ -15,7 +15,7 @@ use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
 
 use crate::components::*;
 use crate::plugin::ClothSystems;
-use crate::sim::{Integrator, MAX_ITERATIONS, MAX_SUBSTEPS};
+use crate::sim::{AccuracyReport, ErrorUnit, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS};
 use crate::subdivision::{BoundaryMode, VertexRule};
 
 /// Adds the cloth inspector window (and `EguiPlugin` and `FrameTimeDiagnosticsPlugin` if the app
@@ -140,6 +140,9 @@ fn inspector_window(
                                     ""
                                 }
                             ));
+                            if let Some(r) = state.sim().accuracy_report() {
+                                ui.label(accuracy_line(&r));
+                            }
                         }
                         let mut c = *config;
                         config_ui(ui, &mut c);
@@ -184,8 +187,48 @@ fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f64) {
     });
 }
 
+/// What tolerance mode chose and how its estimate compares with the tolerance.
+fn accuracy_line(r: &AccuracyReport) -> String {
+    format!(
+        "tolerance mode: {} × {} substeps, estimate {:.1e} m/s of {:.1e}{}{}",
+        r.integrator.name(),
+        r.substeps,
+        r.error_rate,
+        r.tolerance,
+        if r.at_cap { ", at the cap" } else { "" },
+        if r.at_floor { ", at round-off" } else { "" }
+    )
+}
+
 fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
     let s = &mut c.solver;
+    let a = &mut s.accuracy;
+    let mut tolerance_mode = a.tolerance.is_some();
+    ui.checkbox(
+        &mut tolerance_mode,
+        "tolerance mode (chooses integrator and substeps)",
+    );
+    match (tolerance_mode, a.tolerance) {
+        (true, None) => a.tolerance = Some(1e-3),
+        (false, Some(_)) => a.tolerance = None,
+        _ => {}
+    }
+    if let Some(t) = &mut a.tolerance {
+        let unit = match a.unit {
+            ErrorUnit::Relative => "of the size",
+            ErrorUnit::Metres => "m",
+        };
+        ui.add(
+            slider(t, 1e-6..=1e-1)
+                .logarithmic(true)
+                .text(format!("tolerance, {unit} per second")),
+        );
+        ui.add(
+            slider(&mut a.max_substeps, 2..=MAX_SUBSTEPS)
+                .logarithmic(true)
+                .text("max substeps"),
+        );
+    }
     egui::ComboBox::from_label("integrator")
         .selected_text(s.integrator.name())
         .show_ui(ui, |ui| {
@@ -320,6 +363,7 @@ mod tests {
         s.targets.backstop_radius = 3.0;
         s.targets.backstop_offset = 0.4;
         s.tethers.slack = 0.8;
+        s.accuracy.tolerance = Some(0.5);
         let mut subdivision = ClothSubdivision::default();
         let mut wind = Wind {
             air_density: 12.0,
