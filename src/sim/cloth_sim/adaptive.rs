@@ -1,22 +1,31 @@
 //! Tolerance mode ([`Accuracy::tolerance`]): an error estimate and a controller that choose the
 //! integrator and the substeps of each step.
 //!
-//! **Estimate.** Now and then a step is also run on a copy of the cloth (the *shadow*, same state,
-//! same surroundings) with `R ≈ 1.25` times fewer substeps. For a method of order `p` the error
-//! of the step taken is then about `|x − x_coarse| / (r^p − 1)` (Richardson), where `r` is the
-//! exact ratio of the substep counts; the largest such distance over the particles, divided by
-//! the step, is the estimated error per second. An explicit integrator past its stability limit
-//! in the copy runs away within the step (or is stopped by the runaway watch): that counts as an
-//! infinite error, and since the copy takes larger substeps than the cloth, the controller leaves
-//! a substep count while the cloth itself is still stable.
+//! **Estimate.** Now and then a step is also run on a copy of the cloth (the *shadow*, put in the
+//! cloth's state, same surroundings) with about [`COARSENING`] times fewer substeps. For a method
+//! of order `p` the error of the step taken is then about `|x − x_coarse| / (r^p − 1)`
+//! (Richardson), where `r` is the exact ratio of the substep counts; the largest such distance
+//! over the particles, divided by the step, is the estimated error per second. Within a few
+//! rounding steps of the positions (`ε |x| √n`, scaled alike) the estimate says nothing about the
+//! substeps: the controller does not raise them for it and reports the round-off floor.
+//!
+//! **Stability by monitoring.** An explicit integrator past its stability limit in the copy runs
+//! away within the step (non-finite, stopped by the runaway watch, or an estimate jumping tenfold
+//! as the count was lowered): that counts as a runaway. Since the copy takes larger substeps than
+//! the cloth, the controller leaves a count while the cloth itself is still stable, and Verlet
+//! never again runs at or below [`UNSAFE_MARGIN`] times it. So Verlet runs below its proven
+//! (Gershgorin) bound wherever the copies show it stable.
 //!
 //! **Controller.** It aims at half the tolerance: a method of order `p` at `n` substeps with
 //! estimate `e` needs about `n (e / (tol/2))^(1/p)`. It raises the count at once when the estimate
-//! passes the tolerance, lowers it by at most a fifth per estimate and only below a quarter of the
-//! tolerance (hysteresis), and never goes at or below a count whose copy ran away. It runs the
+//! passes the tolerance (and takes the step again when it passed it twice over), lowers it by at
+//! most a fifth per estimate and only below a quarter of the tolerance (hysteresis). It runs the
 //! method that needs fewer substeps (XPBD, order 1, or Verlet, order 2), switching only for a
-//! clear gain. While nothing changes, estimates grow rarer (every 1, 2, 4 … up to
-//! [`MAX_INTERVAL`] steps), so a settled cloth pays little for them. Where
+//! clear gain. It starts on Verlet at its proven bound where Verlet may run; XPBD's need is then
+//! measured by *probes*: the copy runs XPBD and the difference to Verlet's far more accurate step
+//! is XPBD's error. After a raise or a switch the next step is estimated; otherwise estimates
+//! grow rarer (every 1, 2, 4 … up to [`MAX_INTERVAL`] steps), so a settled cloth pays little
+//! for them. Where
 //! [`Integrator::Auto`] would leave a step to XPBD (a pin jumping, a spring overstretched), XPBD
 //! runs at the substeps it needs.
 
@@ -459,7 +468,8 @@ impl Adaptive {
     }
 
     /// Takes the method that needs fewer substeps (switching only for a clear gain) at the count
-    /// it needs, and schedules the next estimate: soon after a change, rarer while none.
+    /// it needs, and schedules the next estimate: at the next step after a raise or a switch,
+    /// rarer and rarer otherwise.
     fn choose(&mut self, before: (Integrator, u32), verlet_allowed: bool) {
         let verlet = self.need_verlet.unwrap_or(u32::MAX);
         let verlet_usable = verlet_allowed && self.verlet_unsafe < self.cap;
@@ -481,10 +491,12 @@ impl Adaptive {
             _ => self.xpbd_count(),
         };
         self.substeps = need.clamp(2, self.cap);
-        if (self.method, self.substeps) == before {
-            self.interval = (self.interval * 2).min(MAX_INTERVAL);
-        } else {
+        // A raise or a switch is checked at the next step; lowering is never urgent, so estimates
+        // grow rarer through it as while nothing changes.
+        if self.method != before.0 || self.substeps > before.1 {
             self.interval = 1;
+        } else {
+            self.interval = (self.interval * 2).min(MAX_INTERVAL);
         }
         self.countdown = self.interval - 1;
     }
@@ -549,15 +561,20 @@ mod tests {
         assert_eq!((a.method, a.substeps), (Integrator::Verlet, 200));
         let mut a = controller();
         a.method = Integrator::Xpbd;
+        a.substeps = 20;
         a.need_verlet = Some(1000);
         a.need_xpbd = 20;
         a.update((Integrator::Xpbd, 20), 2.0 * tol, 0.0, true);
         assert_eq!((a.method, a.substeps), (Integrator::Xpbd, 80));
+        assert_eq!(a.interval, 1, "a raise is checked at the next step");
         // Within the band between a quarter of the tolerance and the tolerance: no change, and
         // the next estimate comes later.
         a.update((Integrator::Xpbd, 80), 0.5 * tol, 0.0, true);
         assert_eq!(a.substeps, 80);
         assert_eq!(a.interval, 2);
+        // Lowered: not urgent, later still.
+        a.update((Integrator::Xpbd, 80), 0.1 * tol, 0.0, true);
+        assert_eq!((a.substeps, a.interval), (64, 4));
         // Within round-off: not raised however far above the tolerance.
         a.update((Integrator::Xpbd, 80), 3.0 * tol, 2.0 * tol, true);
         assert_eq!(a.substeps, 80);
