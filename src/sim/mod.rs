@@ -18,7 +18,7 @@
 //! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout; self-contacts; limits (targets with a maximum distance and backstop, tethers) | `soa`, `simd`, `settings` |
 //! | [`aero`], [`wind`] | aerodynamic forces; the wind field (`wind` uses `aero`) | — |
 //! | `integrate` | one stepper per integrator, each owning its scratch: `xpbd/` (layout, kernel, threads, driver), `explicit`, `implicit`; the [`Spread`] of threads | all of the above |
-//! | `cloth_sim` | [`ClothSim`]: chooses the integrator and substeps, runs the broad phase and wind, sleep, the runaway watchdog | all of the above |
+//! | `cloth_sim` | [`ClothSim`]: chooses the integrator and substeps (fixed, or by a tolerance: `cloth_sim/adaptive.rs`), runs the broad phase and wind, sleep, the runaway watchdog | all of the above |
 //!
 //! # Where a new constraint goes
 //! A constraint on particle positions (a tether, a maximum distance from a target, a

@@ -409,8 +409,10 @@ impl Inertia {
 /// away (an explicit integrator past its stability limit) counts as a large error, so the
 /// controller moves away from a substep count before the cloth itself is at risk.
 /// [`ClothSim::accuracy_report`](super::ClothSim::accuracy_report) tells what it chose.
-/// [`SolverSettings::integrator`] and [`SolverSettings::auto_substeps`] are then unused and
-/// [`SolverSettings::substeps`] is the count the controller starts from.
+/// [`SolverSettings::integrator`] and [`SolverSettings::auto_substeps`] are then unused, and
+/// [`SolverSettings::substeps`] is where XPBD starts (the controller starts on Verlet at its
+/// proven stability bound where Verlet may run). Editing the settings or the pins starts the
+/// controller afresh.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
 #[serde(default, deny_unknown_fields)]
 pub struct Accuracy {

@@ -205,7 +205,12 @@ impl Adaptive {
             countdown: 0,
             last: [None; 2],
             settled_rate: 0.0,
-            start: Snapshot::default(),
+            // Sized now, so that no step allocates.
+            start: {
+                let mut start = Snapshot::default();
+                start.save(sim);
+                start
+            },
             report: AccuracyReport {
                 integrator: Integrator::Xpbd,
                 substeps,
@@ -225,7 +230,8 @@ impl Adaptive {
         self.report
     }
 
-    /// The substeps the next step takes (unless it must run XPBD, which takes at least as many).
+    /// The substeps the next step takes (unless Verlet may not run it, when XPBD takes the
+    /// substeps it needs).
     pub fn substeps(&self) -> u32 {
         self.substeps
     }

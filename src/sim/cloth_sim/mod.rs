@@ -1,6 +1,7 @@
 //! [`ClothSim`]: a simulated cloth, its model, settings, particle state, pins and steppers,
 //! stepped among the colliders and air of an [`Environment`]; it chooses the integrator
-//! ([`Integrator::Auto`]) and the substeps, puts a quiet cloth to sleep, and stops a runaway one.
+//! ([`Integrator::Auto`]) and the substeps (or, in tolerance mode, `adaptive` does, from error
+//! estimates on a copy of the cloth), puts a quiet cloth to sleep, and stops a runaway one.
 //!
 //! Plain data in, plain data out: no ECS types, no allocation inside [`ClothSim::step`]. Every
 //! buffer a step touches is sized when the cloth is built (or when pins or settings change).
@@ -307,6 +308,7 @@ impl ClothSim {
             &self.particles.inv_mass,
         );
         self.active = self.choose_integrator(1.0 / 60.0);
+        // The copy tolerance mode estimates on is made of this cloth without its own copy.
         self.adaptive = None;
         self.adaptive = adaptive::Adaptive::new(self).map(Box::new);
         if let Some(a) = &self.adaptive {
@@ -349,6 +351,7 @@ impl ClothSim {
     /// for the explicit integrators when [`SolverSettings::auto_substeps`] is on, and at most
     /// [`MAX_SUBSTEPS`]. While a spring is stretched by more than [`AUTO_MAX_STRETCH`], the bound
     /// is taken at [`NONLINEAR_STABILITY_FRACTION`] instead.
+    ///
     /// In tolerance mode ([`SolverSettings::accuracy`]), the count its controller chose for the
     /// next step.
     pub fn substeps_for(&self, dt: f32) -> u32 {
