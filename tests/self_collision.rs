@@ -218,6 +218,21 @@ fn a_coarse_cloth_four_times_its_thickness_piles_without_crossing() {
     let _ = crosses_only_without(|on| upright_drop(24, 0.04, 0.01, on), 240);
 }
 
+#[test]
+fn a_cloth_in_tolerance_mode_piles_without_crossing_itself() {
+    // The coarse pile again with the integrator and substeps chosen by tolerance mode: the copy
+    // its estimates run on keeps its own self-contacts, and the cloth never crosses itself.
+    let (mut app, cloth) = upright_drop(24, 0.04, 0.01, true);
+    app.world_mut()
+        .get_mut::<ClothConfig>(cloth)
+        .unwrap()
+        .solver
+        .accuracy = bevy_cloth::sim::Accuracy::relative(1e-2, 128);
+    assert_eq!(worst_crossings(&mut app, cloth, 240), 0);
+    let report = sim(&app, cloth).accuracy_report().unwrap();
+    assert!(report.estimates > 0 && report.substeps <= 128, "{report:?}");
+}
+
 /// A 64×64 cloth (2 cm spacing, 5 mm thick) lying on the floor, pushed 0.72 m by a capsule lying
 /// across it.
 fn capsule_sweep(on: bool) -> (App, Entity) {

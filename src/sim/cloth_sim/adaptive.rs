@@ -156,7 +156,7 @@ impl Snapshot {
         sim.particles.velocities.copy_from_slice(&self.velocities);
         sim.pins.clone_from(&self.pins);
         sim.frame = self.frame;
-        sim.contacts.restart_from(&self.targets);
+        sim.contacts.limits_mut().sync_targets(&self.targets);
         sim.sleep = self.sleep;
         sim.steps = self.steps;
         sim.contact_work = self.contact_work;
@@ -401,7 +401,9 @@ impl Adaptive {
         }
     }
 
-    /// Puts the shadow in the cloth's state at the start of its step.
+    /// Puts the shadow in the cloth's state at the start of its step. Its self-contacts keep
+    /// their candidates: whether those still hold is judged from where the particles are against
+    /// where they were found, however they got there.
     fn sync_shadow(&mut self, sim: &ClothSim) {
         let s = &mut *self.shadow;
         s.particles
@@ -415,7 +417,7 @@ impl Adaptive {
         s.steps = sim.steps;
         s.runaway = Runaway::default();
         s.sleep = Sleep::default();
-        s.contacts.restart_from(sim.contacts.limits());
+        s.contacts.limits_mut().sync_targets(sim.contacts.limits());
     }
 
     /// The controller: after an estimate `rate` (m/s) of a step of `method` at `n` substeps,

@@ -194,16 +194,6 @@ impl Contacts {
         }
     }
 
-    /// Takes the targets of `limits` where they are now, and finds the self-contacts' candidates
-    /// again at the next resolution: for a cloth whose particles were put in another state than
-    /// its last step left (the colliders are given to each step anew).
-    pub fn restart_from(&mut self, limits: &Limits) {
-        self.limits.sync_targets(limits);
-        if let Some(s) = &mut self.self_contacts {
-            s.invalidate();
-        }
-    }
-
     /// The targets and tethers.
     pub fn limits(&self) -> &Limits {
         &self.limits

@@ -219,12 +219,6 @@ impl SelfContacts {
         self.searches
     }
 
-    /// Finds the candidates again at the next resolution (the particles were moved by other
-    /// means than the steps this knows of).
-    pub fn invalidate(&mut self) {
-        self.stale = true;
-    }
-
     /// Starts a step in which no particle is expected to move farther than `reach` (m) relative to
     /// the cloth's mean motion: candidates found in this step get that reach, at most
     /// `reach_cap`'s (a fast cloth finds them again within the step rather than gathering every
