@@ -210,3 +210,28 @@ fn wind_and_edits_wake_the_cloth() {
     run(&mut app, 2);
     assert!(!sim(&app, cloth).slept_last_step());
 }
+
+#[test]
+fn a_cloth_in_tolerance_mode_at_rest_sleeps() {
+    // Tolerance mode runs Verlet, which has no numerical damping: the cloth's own damping must
+    // still settle it below the sleep threshold, and asleep it costs no estimates.
+    let mut app = app();
+    let cloth = hanging(
+        &mut app,
+        SolverSettings {
+            accuracy: bevy_cloth::sim::Accuracy::relative(1e-3, 256),
+            ..default()
+        },
+    );
+    let steps = until_asleep(&mut app, cloth, 900);
+    let report = sim(&app, cloth).accuracy_report().unwrap();
+    println!("asleep after {steps} steps; {report:?}");
+    assert_eq!(report.integrator, bevy_cloth::sim::Integrator::Verlet);
+    let estimates = report.estimates;
+    run(&mut app, 120);
+    assert!(sim(&app, cloth).is_sleeping());
+    assert_eq!(
+        sim(&app, cloth).accuracy_report().unwrap().estimates,
+        estimates
+    );
+}
