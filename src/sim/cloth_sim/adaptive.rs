@@ -33,7 +33,7 @@ use glam::Vec3;
 
 use super::{ClothSim, Environment, Runaway, Sleep};
 use crate::error::ClothError;
-use crate::sim::contact::{Limits, Pose};
+use crate::sim::contact::{Limits, Pose, bounds};
 use crate::sim::integrate::Spread;
 use crate::sim::settings::{ErrorUnit, Integrator};
 use crate::sim::state::PinState;
@@ -173,15 +173,11 @@ impl Adaptive {
         shadow.settings.accuracy.tolerance = None;
         shadow.settings.sleep_speed = 0.0;
         shadow.contact_work = None;
-        let size = {
-            let rest = &sim.model.rest_positions;
-            let lo = rest.iter().copied().fold(Vec3::INFINITY, Vec3::min);
-            let hi = rest.iter().copied().fold(Vec3::NEG_INFINITY, Vec3::max);
-            if rest.is_empty() {
-                0.0
-            } else {
-                lo.distance(hi)
-            }
+        let size = if sim.model.rest_positions.is_empty() {
+            0.0
+        } else {
+            let (lo, hi) = bounds(&sim.model.rest_positions);
+            lo.distance(hi)
         };
         let tolerance = match accuracy.unit {
             ErrorUnit::Relative => tolerance * size.max(f32::MIN_POSITIVE),
