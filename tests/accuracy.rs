@@ -688,26 +688,30 @@ fn a_looser_tolerance_costs_fewer_substeps_and_errs_more() {
 }
 
 #[test]
-fn verlet_runs_below_its_proven_bound_where_the_estimates_show_it_stable() {
-    // Stability by monitoring: the Gershgorin bound is safe but pessimistic; the controller finds
-    // how far below it Verlet's copy stays stable and runs there (until the swing, whipping
-    // faster, needs more substeps for accuracy), for 2 s, without a failure.
+fn verlet_never_runs_below_its_proven_bound() {
+    // Below its Gershgorin bound Verlet may hold for a while (the copies show it stable) and
+    // then overflow within a step once a contact excites a mode it could not integrate: tolerance
+    // mode keeps it at or above the bound, for 2 s of the swing, without a failure.
     let scene = AccuracyScene::Swing;
     let mut sim = scene.build(&tolerance_settings(1e-3, 256)).unwrap();
     let bound = sim.stable_substeps(AccuracyScene::FRAME_DT);
-    let mut below = 0;
+    let mut verlet_steps = 0;
     let mut most_kinetic: f64 = 0.0;
-    for step in 0..120 {
+    for _ in 0..120 {
         sim.step(AccuracyScene::FRAME_DT).unwrap();
         let r = sim.accuracy_report().unwrap();
-        if step < 60 && r.integrator == Integrator::Verlet && r.substeps < bound {
-            below += 1;
+        if r.integrator == Integrator::Verlet {
+            verlet_steps += 1;
+            assert!(
+                r.substeps >= bound,
+                "Verlet at {} below {bound}",
+                r.substeps
+            );
         }
         assert!(sim.energy().kinetic.is_finite());
         most_kinetic = most_kinetic.max(sim.energy().kinetic);
     }
-    println!("{below} of the first 60 steps ran Verlet below its bound of {bound} substeps");
-    assert!(below > 25, "{below} steps below the bound");
+    assert!(verlet_steps > 60, "{verlet_steps} steps on Verlet");
     // Undamped, the swing keeps its energy: nothing ran away.
     let total = |e: bevy_cloth::sim::Energy| e.kinetic + e.gravitational + e.elastic;
     let start = total(scene.build(&SolverSettings::default()).unwrap().energy());

@@ -45,7 +45,8 @@ pub const CLEARANCE_TOLERANCE: f32 = 1e-3;
 pub struct StressLimits {
     /// Largest grid side, particles.
     pub max_side: u32,
-    /// Most particle-substeps per case (particles × substeps × steps); larger cases are shrunk.
+    /// Most particle-substeps per case (particles × substeps × steps, the cap's substeps in
+    /// tolerance mode); larger cases are shrunk.
     pub max_work: f64,
     /// Simulated time per case, s.
     pub duration: f32,
@@ -397,9 +398,12 @@ impl StressCase {
         let mut case = self.clone();
         loop {
             let sim = self.build_side(case.side)?;
-            let work = (case.side * case.side) as f64
-                * sim.substeps_for(case.dt) as f64
-                * case.steps as f64;
+            // In tolerance mode the controller may take up to its cap of substeps per step.
+            let substeps = match self.settings.accuracy.tolerance {
+                Some(_) => self.settings.accuracy.max_substeps,
+                None => sim.substeps_for(case.dt),
+            };
+            let work = (case.side * case.side) as f64 * substeps as f64 * case.steps as f64;
             if work <= limits.max_work || case.side <= 2 {
                 return Ok((sim, case));
             }
@@ -544,13 +548,20 @@ fn run_steps(
     // factor 1/(1 - (hω/2)²), so the true energy may exceed its start by up to
     // (hω)²/(4 - (hω)²) times the energy in the oscillation (bounded here by the largest elastic
     // energy seen). `auto_substeps` keeps hω ≤ 1.8 for the Gershgorin bound of ω: a factor ≤ 1.07.
-    // `Auto` may run Verlet.
-    let may_run_explicit = matches!(
-        case.settings.integrator,
-        Integrator::Auto | Integrator::Verlet | Integrator::SymplecticEuler
-    );
+    // `Auto` may run Verlet, and so may tolerance mode, never past its proven bound.
+    let tolerance_mode = case.settings.accuracy.tolerance.is_some();
+    let may_run_explicit = tolerance_mode
+        || matches!(
+            case.settings.integrator,
+            Integrator::Auto | Integrator::Verlet | Integrator::SymplecticEuler
+        );
     let elastic_slack = if may_run_explicit {
-        let x = (result.h_omega as f64).min(1.9).powi(2);
+        let h_omega = if tolerance_mode {
+            case.dt / sim.stable_substeps(case.dt) as f32 * sim.max_frequency()
+        } else {
+            result.h_omega
+        };
+        let x = (h_omega as f64).min(1.9).powi(2);
         x / (4.0 - x)
     } else {
         0.0
@@ -764,7 +775,7 @@ pub fn trace_line(sim: &ClothSim) -> String {
             (lo.min(ratio), hi.max(ratio))
         },
     );
-    format!(
+    let mut line = format!(
         "kinetic {:.4e} J, gravitational {:.4e} J, elastic {:.4e} J, contact work {:.4e} J, \
          fastest particle {fastest} at {speed:.4e} m/s, springs at {shortest:.3}–{longest:.3} \
          of their rest length",
@@ -772,5 +783,12 @@ pub fn trace_line(sim: &ClothSim) -> String {
         e.gravitational,
         e.elastic,
         sim.contact_work().unwrap_or(0.0),
-    )
+    );
+    if let Some(r) = sim.accuracy_report() {
+        line += &format!(
+            ", tolerance mode: {:?} × {}, estimate {:.3e} of {:.3e} m/s",
+            r.integrator, r.substeps, r.error_rate, r.tolerance
+        );
+    }
+    line
 }

@@ -9,12 +9,15 @@
 //! rounding steps of the positions (`ε |x| √n`, scaled alike) the estimate says nothing about the
 //! substeps: the controller does not raise them for it and reports the round-off floor.
 //!
-//! **Stability by monitoring.** An explicit integrator past its stability limit in the copy runs
-//! away within the step (non-finite, stopped by the runaway watch, or an estimate jumping tenfold
-//! as the count was lowered): that counts as a runaway. Since the copy takes larger substeps than
-//! the cloth, the controller leaves a count while the cloth itself is still stable, and Verlet
-//! never again runs at or below [`UNSAFE_MARGIN`] times it. So Verlet runs below its proven
-//! (Gershgorin) bound wherever the copies show it stable.
+//! **Stability by monitoring, above a proven floor.** Verlet never runs below its proven
+//! (Gershgorin) bound: a mode the cloth's motion has not excited (a cloth falling freely, its
+//! springs at rest) can lie past an explicit method's limit unseen by any copy, and then grows
+//! from a contact to overflow within one step. Above the bound, an explicit integrator past its
+//! limit in the copy (contacts and stretch move it) runs away within the step (non-finite,
+//! stopped by the runaway watch, or an estimate jumping tenfold as the count was lowered): that
+//! counts as a runaway. Since the copy takes larger substeps than the cloth, the controller leaves
+//! a count while the cloth itself is still stable, and Verlet never again runs at or below
+//! [`UNSAFE_MARGIN`] times it.
 //!
 //! **Controller.** It aims at half the tolerance: a method of order `p` at `n` substeps with
 //! estimate `e` needs about `n (e / (tol/2))^(1/p)`. It raises the count at once when the estimate
@@ -107,6 +110,8 @@ pub(super) struct Adaptive {
     configured: u32,
     /// Substeps Verlet needs by its last estimate (before one: its proven stability bound).
     need_verlet: Option<u32>,
+    /// Verlet's proven stability bound for the current step: it never runs below.
+    verlet_bound: u32,
     /// The largest count at which Verlet's copy ran away: Verlet never runs at or below it.
     verlet_unsafe: u32,
     /// Whether the next estimate while Verlet runs measures XPBD instead (see [`Self::step`]),
@@ -194,6 +199,7 @@ impl Adaptive {
             need_xpbd: substeps,
             configured: substeps,
             need_verlet: None,
+            verlet_bound: 0,
             verlet_unsafe: 0,
             probe_due: false,
             since_probe: 0,
@@ -242,10 +248,11 @@ impl Adaptive {
     ) -> Result<(), ClothError> {
         // Where `Auto` would leave the step to XPBD, Verlet is out of the choice.
         let verlet_allowed = !sim.needs_xpbd();
+        let bound = sim.stable_substeps(dt).clamp(2, u32::MAX);
+        self.verlet_bound = bound;
         if self.need_verlet.is_none() {
             // The first step: Verlet at its proven bound where it can, as the more accurate
             // method (an XPBD probe follows); XPBD at the configured count otherwise.
-            let bound = sim.stable_substeps(dt).clamp(2, u32::MAX);
             self.need_verlet = Some(bound);
             if verlet_allowed && bound <= self.cap {
                 self.method = Integrator::Verlet;
@@ -253,10 +260,14 @@ impl Adaptive {
                 self.need_xpbd = u32::MAX;
             }
         }
-        let (method, n) = if self.method == Integrator::Verlet && !verlet_allowed {
-            (Integrator::Xpbd, self.xpbd_count())
-        } else {
-            (self.method, self.substeps)
+        // The bound moves with the step's length: Verlet follows it, or leaves to XPBD past the
+        // cap.
+        let (method, n) = match self.method {
+            Integrator::Verlet if !verlet_allowed || bound > self.cap => {
+                (Integrator::Xpbd, self.xpbd_count())
+            }
+            Integrator::Verlet => (Integrator::Verlet, self.substeps.max(bound)),
+            method => (method, self.substeps),
         };
         let n = n.clamp(2, self.cap);
         let estimate = self.countdown == 0 && !sim.sleep.asleep;
@@ -475,8 +486,9 @@ impl Adaptive {
     /// it needs, and schedules the next estimate: at the next step after a raise or a switch,
     /// rarer and rarer otherwise.
     fn choose(&mut self, before: (Integrator, u32), verlet_allowed: bool) {
-        let verlet = self.need_verlet.unwrap_or(u32::MAX);
-        let verlet_usable = verlet_allowed && self.verlet_unsafe < self.cap;
+        let verlet = self.need_verlet.unwrap_or(u32::MAX).max(self.verlet_bound);
+        let verlet_usable =
+            verlet_allowed && self.verlet_unsafe < self.cap && self.verlet_bound <= self.cap;
         let xpbd = self.need_xpbd;
         let (current, other, other_need) = if self.method == Integrator::Verlet {
             (verlet, Integrator::Xpbd, xpbd)
@@ -553,6 +565,22 @@ mod tests {
         a.update((Integrator::Verlet, 100), 0.01 * tol, 0.0, true);
         assert!(a.update((Integrator::Verlet, 80), 2.0 * tol, 0.0, true));
         assert!(a.verlet_unsafe >= 92);
+    }
+
+    #[test]
+    fn verlet_stays_at_or_above_its_proven_bound() {
+        let mut a = controller();
+        a.verlet_bound = 100;
+        let tol = a.tolerance;
+        // However small the estimate, not lowered below the bound.
+        for _ in 0..10 {
+            a.update((Integrator::Verlet, a.substeps), 1e-3 * tol, 0.0, true);
+            assert_eq!((a.method, a.substeps), (Integrator::Verlet, 100));
+        }
+        // A bound past the cap leaves the step to XPBD.
+        a.verlet_bound = 300;
+        a.update((Integrator::Verlet, 100), 1e-3 * tol, 0.0, true);
+        assert_eq!((a.method, a.substeps), (Integrator::Xpbd, 256));
     }
 
     #[test]
