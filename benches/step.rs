@@ -19,9 +19,9 @@ use bevy::tasks::TaskPoolBuilder;
 use bevy_cloth::harness::character::{Cape, spawn_cape, torso_pose};
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
-    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridPlane,
-    GridSpec, Integrator, Pose, ScopedThread, SelfCollision, SolverSettings, Spread, Tethers,
-    WindField,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridNormals,
+    GridPlane, GridSpec, Integrator, Pose, ScopedThread, SelfCollision, SolverSettings, Spread,
+    Tethers, WindField, compute_normals,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -302,6 +302,33 @@ fn app_with(active: u32, sleeping: u32) -> bevy::app::App {
     app
 }
 
+/// The render side's vertex normals of a 64×64 cloth draped over a sphere: by its triangles
+/// (`compute_normals`) and by the grid kernel (`GridNormals`) the plugin uses for grid cloths.
+fn normals(c: &mut Criterion) {
+    let spec = GridSpec::new(64, 64, 1.0 / 63.0);
+    let model = ClothModel::grid(&spec).unwrap();
+    let mut sim = ClothSim::new(model.clone(), SolverSettings::default(), |p| p).unwrap();
+    let sphere = [sphere_at(Vec3::new(0.0, -0.4, 0.0))];
+    let env = Environment {
+        colliders: &sphere,
+        ..Environment::default()
+    };
+    for _ in 0..60 {
+        sim.step_in(1.0 / 60.0, &env).unwrap();
+    }
+    let positions = sim.positions().to_vec();
+    let mut out = vec![Vec3::ZERO; positions.len()];
+    let mut group = c.benchmark_group("normals_64x64");
+    group.bench_function("triangles", |b| {
+        b.iter(|| compute_normals(black_box(&positions), &model.triangles, &mut out))
+    });
+    let mut kernel = GridNormals::new(&model).unwrap();
+    group.bench_function("grid_kernel", |b| {
+        b.iter(|| kernel.compute(black_box(&positions), &mut out))
+    });
+    group.finish();
+}
+
 fn sleeping(c: &mut Criterion) {
     // The solver alone: 100 sleeping 64×64 cloths stepped against one active one.
     let mut group = c.benchmark_group("solver_frame_64x64");
@@ -480,6 +507,7 @@ criterion_group!(
     implicit,
     environment,
     tolerance,
+    normals,
     sleeping,
     self_collision,
     character

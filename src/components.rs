@@ -651,6 +651,8 @@ pub struct ClothState {
     pub(crate) mesh: Handle<Mesh>,
     /// Present when the render mesh is a subdivision surface.
     pub(crate) subdivision: Option<RenderSubdivision>,
+    /// The grid normals kernel, when the unsubdivided render mesh is a canonical grid.
+    pub(crate) grid_normals: Option<crate::sim::GridNormals>,
     /// Present when the simulation runs on a refined model
     /// ([`SubdivisionTarget::Simulation`]): for each particle of the unrefined model, its
     /// particle in the simulation.

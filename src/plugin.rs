@@ -23,8 +23,8 @@ use crate::error::{ClothError, count_in};
 use crate::render;
 use crate::sim::contact::Pose;
 use crate::sim::{
-    ClothModel, ClothSim, Collider, Environment, PlacedWindZone, SolverSettings, Spread, WindField,
-    compute_normals,
+    ClothModel, ClothSim, Collider, Environment, GridNormals, PlacedWindZone, SolverSettings,
+    Spread, WindField, compute_normals,
 };
 use crate::skin::{Attachment, influences_from_mesh, weights_from_mesh};
 use crate::subdivision::Subdivider;
@@ -512,11 +512,17 @@ fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
     match &mut s.subdivision {
         None => {
             s.render_curr.copy_from_slice(positions);
-            compute_normals(
-                &s.render_curr,
-                &s.sim.model().triangles,
-                &mut s.normals_curr,
-            );
+            let by_grid = s
+                .grid_normals
+                .as_mut()
+                .is_some_and(|g| g.compute(&s.render_curr, &mut s.normals_curr));
+            if !by_grid {
+                compute_normals(
+                    &s.render_curr,
+                    &s.sim.model().triangles,
+                    &mut s.normals_curr,
+                );
+            }
         }
         Some(r) => {
             r.subdivider.apply(positions, &mut r.positions)?;
@@ -553,6 +559,10 @@ fn rebuild_render(
                 normals: vec![Vec3::Y; n],
             })
         }
+    };
+    state.grid_normals = match state.subdivision {
+        None => GridNormals::new(model),
+        Some(_) => None,
     };
     let mesh = match (&state.subdivision, user_mesh) {
         (None, Some(user_mesh)) => user_mesh,
@@ -826,6 +836,7 @@ fn build_state(
         sim,
         mesh: Handle::default(),
         subdivision: None,
+        grid_normals: None,
         particle_map,
         mass_scale,
         render_prev: Vec::new(),

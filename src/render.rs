@@ -3,7 +3,7 @@
 //! buffers in place every frame (no new buffers).
 
 use bevy::asset::RenderAssetUsages;
-use bevy::math::{Affine3A, Vec2, Vec3};
+use bevy::math::{Affine3A, Mat3A, Vec2, Vec3, Vec3A};
 use bevy::mesh::{Indices, Mesh, MeshAccessError, PrimitiveTopology, VertexAttributeValues};
 
 use crate::error::ClothError;
@@ -127,12 +127,12 @@ pub(crate) fn write_mesh(
     normals: (&[Vec3], &[Vec3]),
     alpha: f32,
 ) -> Result<(), ClothError> {
-    let normal_matrix = world_to_local.matrix3.inverse().transpose();
+    let normal_matrix: Mat3A = world_to_local.matrix3.inverse().transpose();
     write_attribute(mesh, Mesh::ATTRIBUTE_POSITION, positions, alpha, |p| {
-        world_to_local.transform_point3(p)
+        world_to_local.transform_point3a(p)
     })?;
     write_attribute(mesh, Mesh::ATTRIBUTE_NORMAL, normals, alpha, |n| {
-        (normal_matrix * n).normalize_or(Vec3::Y)
+        (normal_matrix * n).normalize_or(Vec3A::Y)
     })
 }
 
@@ -141,7 +141,7 @@ fn write_attribute(
     attribute: bevy::mesh::MeshVertexAttribute,
     (prev, curr): (&[Vec3], &[Vec3]),
     alpha: f32,
-    map: impl Fn(Vec3) -> Vec3,
+    map: impl Fn(Vec3A) -> Vec3A,
 ) -> Result<(), ClothError> {
     let Some(VertexAttributeValues::Float32x3(out)) =
         mesh.try_attribute_mut_option(attribute).map_err(access)?
@@ -156,13 +156,14 @@ fn write_attribute(
             curr.len()
         )));
     }
+    // In 16-byte vectors: whole SIMD registers for the arithmetic.
     if alpha >= 1.0 {
         for (o, c) in out.iter_mut().zip(curr) {
-            *o = map(*c).to_array();
+            *o = Vec3::from(map(Vec3A::from(*c))).to_array();
         }
     } else {
         for ((o, p), c) in out.iter_mut().zip(prev).zip(curr) {
-            *o = map(p.lerp(*c, alpha)).to_array();
+            *o = Vec3::from(map(Vec3A::from(*p).lerp(Vec3A::from(*c), alpha))).to_array();
         }
     }
     Ok(())

@@ -6,7 +6,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_cloth::ClothStepBudget;
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::SpringKind;
+use bevy_cloth::sim::{SpringKind, compute_normals};
 
 mod common;
 use common::*;
@@ -260,6 +260,16 @@ fn mesh_is_written_in_place_in_local_space() {
         n.iter()
             .all(|n| (Vec3::from_array(*n).length() - 1.0).abs() < 1e-4)
     );
+    // The smooth normals of the cloth's triangles (a translation leaves them as they are).
+    let sim = state(&app, e).sim();
+    let mut expected = vec![Vec3::ZERO; world.len()];
+    compute_normals(sim.positions(), &sim.model().triangles, &mut expected);
+    for (got, want) in n.iter().zip(&expected) {
+        assert!(
+            Vec3::from_array(*got).distance(*want) < 1e-5,
+            "{got:?} vs {want}"
+        );
+    }
 }
 
 #[test]

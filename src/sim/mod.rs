@@ -49,9 +49,9 @@ pub use cloth_sim::{AccuracyReport, ClothSim, Environment, SelfContactStats};
 pub use contact::{Collider, ColliderShape, Friction, Pose, Reaction, Shape, Surface, Target};
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
-    ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridPlane, GridSpec, MAX_DISC_RINGS,
-    MAX_DISC_SECTORS, MAX_PARTICLES, MIN_DISC_SECTORS, SpringKind, Springs, SubdividedModel,
-    compute_normals,
+    ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridNormals, GridPlane, GridSpec,
+    MAX_DISC_RINGS, MAX_DISC_SECTORS, MAX_PARTICLES, MIN_DISC_SECTORS, SpringKind, Springs,
+    SubdividedModel, compute_normals,
 };
 pub use settings::{
     AUTO_MAX_STRETCH, Accuracy, ErrorUnit, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,

@@ -11,6 +11,7 @@ use crate::error::{ClothError, positive};
 
 mod disc;
 mod grid;
+mod normals;
 mod springs;
 mod subdivided;
 #[cfg(test)]
@@ -18,6 +19,7 @@ mod tests;
 
 pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
+pub use normals::GridNormals;
 pub use springs::{SpringKind, Springs};
 pub use subdivided::SubdividedModel;
 
