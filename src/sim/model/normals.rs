@@ -1,8 +1,10 @@
 //! Vertex normals of the canonical grid ([`ClothModel::grid`]) as a vector [`Kernel`]: the same
-//! area-weighted sums of triangle cross products as [`compute_normals`](super::compute_normals), computed row by row over
-//! one array per coordinate instead of triangle by triangle (whose scattered three-float reads and
-//! writes no vector unit helps with). The sums are added in another order, so the two differ by
-//! rounding.
+//! area-weighted sums of triangle cross products as [`compute_normals`], computed row by row over
+//! one array per coordinate instead of triangle by triangle (whose scattered three-float reads
+//! and writes no vector unit helps with). The sums are added in another order, so the two differ
+//! by rounding.
+//!
+//! [`compute_normals`]: super::compute_normals
 
 use glam::Vec3;
 
@@ -10,7 +12,7 @@ use super::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 
-/// Vertex normals of a canonical grid cloth, several times faster than
+/// Vertex normals of a canonical grid cloth, about twice as fast as
 /// [`compute_normals`](super::compute_normals) on its triangles: the plugin uses it for every
 /// unsubdivided grid cloth. Holds its scratch, so a computation allocates nothing.
 ///
@@ -70,8 +72,8 @@ impl GridNormals {
     }
 
     /// Writes the unit vertex normals of the grid at `positions` into `normals` (a vertex with
-    /// no area around it gets +Y, as in [`compute_normals`](super::compute_normals)); returns `false`, writing nothing,
-    /// unless both have one entry per particle of the grid.
+    /// no area around it gets +Y, as in [`compute_normals`](super::compute_normals)); returns
+    /// `false`, writing nothing, unless both have one entry per particle of the grid.
     pub fn compute(&mut self, positions: &[Vec3], normals: &mut [Vec3]) -> bool {
         let n = self.nx * self.ny;
         if positions.len() != n || normals.len() != n {
