@@ -412,19 +412,24 @@ fn two_way_coupling_exchanges_momentum_without_creating_any() {
     }
 }
 
-#[test]
-fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
-    let mut app = avian_app();
-    let n = 32;
+/// An `n`×`n` hammock 1 m up, pinned at its corners, pushing bodies back (4 cm spacing, 5 g
+/// particles damped as a heavy canvas, sleeping below `sleep_speed`), and a dynamic crate above
+/// it: `(side, mass, height)`. Returns the cloth and the crate.
+fn hammock_with_crate(
+    app: &mut App,
+    n: u32,
+    sleep_speed: f32,
+    (side, mass, height): (f32, f32, f32),
+) -> (Entity, Entity) {
     let cloth = spawn_valid(
-        &mut app,
+        app,
         (
             Cloth::grid(GridSpec::new(n, n, 0.04)),
             ClothConfig {
-                // 5 kg of fabric, damped as a heavy canvas.
                 solver: SolverSettings {
                     particle_mass: 0.005,
                     damping: 5.0,
+                    sleep_speed,
                     ..Default::default()
                 },
                 ..Default::default()
@@ -438,11 +443,23 @@ fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
         .world_mut()
         .spawn((
             RigidBody::Dynamic,
-            Collider::cuboid(0.3, 0.3, 0.3),
-            Mass(2.0),
-            Transform::from_xyz(0.0, 1.5, 0.0),
+            Collider::cuboid(side, side, side),
+            Mass(mass),
+            Transform::from_xyz(0.0, height, 0.0),
         ))
         .id();
+    (cloth, crate_)
+}
+
+#[test]
+fn a_box_dropped_on_a_hammock_comes_to_rest_on_it() {
+    let mut app = avian_app();
+    let (cloth, crate_) = hammock_with_crate(
+        &mut app,
+        32,
+        SolverSettings::default().sleep_speed,
+        (0.3, 2.0, 1.5),
+    );
     let mut slow_since = None;
     // What the cloth took from the crate, summed over the steps: the crate must take the opposite.
     let mut taken = Vec3::ZERO;
@@ -504,34 +521,7 @@ fn a_cloth_holding_up_a_body_does_not_fall_asleep_under_it() {
     // A cloth quick to sleep (below 5 cm/s for 30 steps) with a crate resting in it: asleep, it
     // would stop pushing back and the crate would fall through.
     let mut app = avian_app();
-    let n = 24;
-    let cloth = spawn_valid(
-        &mut app,
-        (
-            Cloth::grid(GridSpec::new(n, n, 0.04)),
-            ClothConfig {
-                solver: SolverSettings {
-                    particle_mass: 0.005,
-                    damping: 5.0,
-                    sleep_speed: 0.05,
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-            ClothPins::new([0, n - 1, n * (n - 1), n * n - 1]),
-            ClothPushesBodies,
-            Transform::from_xyz(0.0, 1.0, 0.0),
-        ),
-    );
-    let crate_ = app
-        .world_mut()
-        .spawn((
-            RigidBody::Dynamic,
-            Collider::cuboid(0.2, 0.2, 0.2),
-            Mass(1.0),
-            Transform::from_xyz(0.0, 1.2, 0.0),
-        ))
-        .id();
+    let (cloth, crate_) = hammock_with_crate(&mut app, 24, 0.05, (0.2, 1.0, 1.2));
     for tick in 0..240 {
         app.update();
         let at = app.world().get::<Position>(crate_).unwrap().0;
