@@ -723,6 +723,33 @@ fn verlet_never_runs_below_its_proven_bound() {
 }
 
 #[test]
+fn verlet_follows_its_bound_when_the_step_lengthens() {
+    // The bound is per step length: a longer step asks Verlet for more substeps at once, before
+    // the next estimate.
+    let scene = AccuracyScene::Swing;
+    let mut sim = scene.build(&tolerance_settings(1e-3, 256)).unwrap();
+    for _ in 0..10 {
+        sim.step(AccuracyScene::FRAME_DT).unwrap();
+    }
+    let long = 2.0 * AccuracyScene::FRAME_DT;
+    let bound = sim.stable_substeps(long);
+    let mut verlet_steps = 0;
+    for _ in 0..10 {
+        sim.step(long).unwrap();
+        let r = sim.accuracy_report().unwrap();
+        if r.integrator == Integrator::Verlet {
+            verlet_steps += 1;
+            assert!(
+                r.substeps >= bound,
+                "Verlet at {} below {bound}",
+                r.substeps
+            );
+        }
+    }
+    assert!(verlet_steps > 0, "the long steps ran XPBD only");
+}
+
+#[test]
 fn tolerance_mode_stays_within_its_cap_and_says_when_it_cannot_meet_the_tolerance() {
     let scene = AccuracyScene::Stiff;
     let mut sim = scene.build(&tolerance_settings(1e-3, 40)).unwrap();

@@ -248,7 +248,7 @@ impl Adaptive {
     ) -> Result<(), ClothError> {
         // Where `Auto` would leave the step to XPBD, Verlet is out of the choice.
         let verlet_allowed = !sim.needs_xpbd();
-        let bound = sim.stable_substeps(dt).clamp(2, u32::MAX);
+        let bound = sim.stable_substeps(dt).max(2);
         self.verlet_bound = bound;
         if self.need_verlet.is_none() {
             // The first step: Verlet at its proven bound where it can, as the more accurate

@@ -12,9 +12,9 @@ use super::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 
-/// Vertex normals of a canonical grid cloth, about twice as fast as
-/// [`compute_normals`](super::compute_normals) on its triangles: the plugin uses it for every
-/// unsubdivided grid cloth. Holds its scratch, so a computation allocates nothing.
+/// Vertex normals of a canonical grid cloth, computed as a vector kernel instead of
+/// [`compute_normals`](super::compute_normals)' triangle-by-triangle sums: the plugin uses it for
+/// every unsubdivided grid cloth. Holds its scratch, so a computation allocates nothing.
 ///
 /// ```
 /// # use bevy_cloth::sim::{ClothModel, GridNormals, GridSpec};
