@@ -60,7 +60,7 @@ fn main() {
         spacing,
     );
 
-    // The step alone, from the state the App frames started at: the same calls as bevy_silk's
+    // The step alone, from the state the App frames ended in: the same calls as bevy_silk's
     // update system, with its default config and no wind.
     let config = ClothConfig::default();
     let transform = *app
