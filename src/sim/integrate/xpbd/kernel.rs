@@ -197,7 +197,8 @@ impl Sweep<'_> {
 /// to be 0 and is neither read nor stored.
 ///
 /// A vector [`Kernel`]: on x86-64 CPUs it runs as 8-wide AVX2 vectors, or with AVX-512 as 16-wide
-/// ones where a contiguous run allows; the results are bit-identical either way.
+/// ones where a contiguous run allows, two of them at once where it allows that; the results are
+/// bit-identical either way.
 ///
 /// # Safety
 /// While it runs, no other thread reads or writes the displacements of the particles, or the
@@ -315,16 +316,36 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
     for run in runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
         let mut k = start;
-        // Two batches at once where their 32 particles are distinct.
-        if WIDE && run.layout == Layout::Contiguous && p.b[k] - p.a[k] >= 2 * LANES as u32 {
-            while k + 2 * LANES <= end {
-                let batch = Batch::at(rest, compliance, lambda, k);
-                let (a, b) = (p.a[k] as usize, p.b[k] as usize);
-                // SAFETY: the batch's slots and particles are among those `runs` touch.
-                unsafe {
-                    solve_contiguous::<ACCUMULATE, { 2 * LANES }>(x, inv_mass, a, b, batch, inv_h2)
-                };
-                k += 2 * LANES;
+        if WIDE && run.layout == Layout::Contiguous {
+            // Four batches at once where their 64 particles are distinct: two independent chains
+            // of square root and division in flight, which a batch mostly waits on.
+            let offset = (p.b[k] - p.a[k]) as usize;
+            if offset >= 4 * LANES {
+                while k + 4 * LANES <= end {
+                    let batch = Batch::at(rest, compliance, lambda, k);
+                    let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+                    // SAFETY: the batch's slots and particles are among those `runs` touch.
+                    unsafe {
+                        solve_contiguous::<ACCUMULATE, { 4 * LANES }>(
+                            x, inv_mass, a, b, batch, inv_h2,
+                        )
+                    };
+                    k += 4 * LANES;
+                }
+            }
+            // Two batches at once where their 32 particles are distinct.
+            if offset >= 2 * LANES {
+                while k + 2 * LANES <= end {
+                    let batch = Batch::at(rest, compliance, lambda, k);
+                    let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+                    // SAFETY: the batch's slots and particles are among those `runs` touch.
+                    unsafe {
+                        solve_contiguous::<ACCUMULATE, { 2 * LANES }>(
+                            x, inv_mass, a, b, batch, inv_h2,
+                        )
+                    };
+                    k += 2 * LANES;
+                }
             }
         }
         while k + LANES <= end {
