@@ -615,6 +615,22 @@ fn tolerance_settings(tolerance: f32, cap: u32) -> SolverSettings {
     }
 }
 
+/// Steps `sim` by `dt`; if the step ran Verlet, checks it ran at `bound` substeps or more, and
+/// returns whether it did run Verlet.
+fn step_verlet_within_bound(sim: &mut ClothSim, dt: f32, bound: u32) -> bool {
+    sim.step(dt).unwrap();
+    let r = sim.accuracy_report().unwrap();
+    let verlet = r.integrator == Integrator::Verlet;
+    if verlet {
+        assert!(
+            r.substeps >= bound,
+            "Verlet at {} below {bound}",
+            r.substeps
+        );
+    }
+    verlet
+}
+
 #[test]
 fn tolerance_mode_meets_its_tolerance_on_every_accuracy_scene() {
     // Tolerance 1e-3 per second: at 0.2 s the largest particle error must be within 1e-3 of the
@@ -698,16 +714,11 @@ fn verlet_never_runs_below_its_proven_bound() {
     let mut verlet_steps = 0;
     let mut most_kinetic: f64 = 0.0;
     for _ in 0..120 {
-        sim.step(AccuracyScene::FRAME_DT).unwrap();
-        let r = sim.accuracy_report().unwrap();
-        if r.integrator == Integrator::Verlet {
-            verlet_steps += 1;
-            assert!(
-                r.substeps >= bound,
-                "Verlet at {} below {bound}",
-                r.substeps
-            );
-        }
+        verlet_steps += usize::from(step_verlet_within_bound(
+            &mut sim,
+            AccuracyScene::FRAME_DT,
+            bound,
+        ));
         assert!(sim.energy().kinetic.is_finite());
         most_kinetic = most_kinetic.max(sim.energy().kinetic);
     }
@@ -735,16 +746,7 @@ fn verlet_follows_its_bound_when_the_step_lengthens() {
     let bound = sim.stable_substeps(long);
     let mut verlet_steps = 0;
     for _ in 0..10 {
-        sim.step(long).unwrap();
-        let r = sim.accuracy_report().unwrap();
-        if r.integrator == Integrator::Verlet {
-            verlet_steps += 1;
-            assert!(
-                r.substeps >= bound,
-                "Verlet at {} below {bound}",
-                r.substeps
-            );
-        }
+        verlet_steps += usize::from(step_verlet_within_bound(&mut sim, long, bound));
     }
     assert!(verlet_steps > 0, "the long steps ran XPBD only");
 }

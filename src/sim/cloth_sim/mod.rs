@@ -612,17 +612,21 @@ impl ClothSim {
             .sum()
     }
 
-    /// Largest relative stretch `(|d| - L) / L` over the springs of `kind`.
-    pub fn max_strain(&self, kind: SpringKind) -> f32 {
+    /// Relative stretch `(|d| - L) / L` of each spring of `kind`, in spring order.
+    pub fn strains(&self, kind: SpringKind) -> impl Iterator<Item = f32> + '_ {
         let s = &self.model.springs;
         (0..s.len())
-            .filter(|&k| s.kind[k] == kind)
-            .map(|k| {
+            .filter(move |&k| s.kind[k] == kind)
+            .map(move |k| {
                 let d = self.particles.positions[s.a[k] as usize]
                     .distance(self.particles.positions[s.b[k] as usize]);
                 (d - s.rest[k]) / s.rest[k]
             })
-            .fold(0.0, f32::max)
+    }
+
+    /// Largest relative stretch `(|d| - L) / L` over the springs of `kind`.
+    pub fn max_strain(&self, kind: SpringKind) -> f32 {
+        self.strains(kind).fold(0.0, f32::max)
     }
 
     /// Advances the cloth by `dt` seconds with nothing around it (see [`Self::step_in`]).

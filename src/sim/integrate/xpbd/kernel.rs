@@ -317,35 +317,21 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
         let mut k = start;
         if WIDE && run.layout == Layout::Contiguous {
+            let offset = (p.b[k] - p.a[k]) as usize;
             // Four batches at once where their 64 particles are distinct: two independent chains
             // of square root and division in flight, which a batch mostly waits on.
-            let offset = (p.b[k] - p.a[k]) as usize;
             if offset >= 4 * LANES {
-                while k + 4 * LANES <= end {
-                    let batch = Batch::at(rest, compliance, lambda, k);
-                    let (a, b) = (p.a[k] as usize, p.b[k] as usize);
-                    // SAFETY: the batch's slots and particles are among those `runs` touch.
-                    unsafe {
-                        solve_contiguous::<ACCUMULATE, { 4 * LANES }>(
-                            x, inv_mass, a, b, batch, inv_h2,
-                        )
-                    };
-                    k += 4 * LANES;
-                }
+                // SAFETY: the batches' slots and particles are among those `runs` touch.
+                k = unsafe {
+                    solve_contiguous_run::<ACCUMULATE, { 4 * LANES }>(p, x, lambda, inv_h2, k, end)
+                };
             }
             // Two batches at once where their 32 particles are distinct.
             if offset >= 2 * LANES {
-                while k + 2 * LANES <= end {
-                    let batch = Batch::at(rest, compliance, lambda, k);
-                    let (a, b) = (p.a[k] as usize, p.b[k] as usize);
-                    // SAFETY: the batch's slots and particles are among those `runs` touch.
-                    unsafe {
-                        solve_contiguous::<ACCUMULATE, { 2 * LANES }>(
-                            x, inv_mass, a, b, batch, inv_h2,
-                        )
-                    };
-                    k += 2 * LANES;
-                }
+                // SAFETY: as above.
+                k = unsafe {
+                    solve_contiguous_run::<ACCUMULATE, { 2 * LANES }>(p, x, lambda, inv_h2, k, end)
+                };
             }
         }
         while k + LANES <= end {
@@ -441,6 +427,31 @@ unsafe fn project<const ACCUMULATE: bool, const N: usize>(
 #[inline(always)]
 fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
     *array(&v[i..i + N])
+}
+
+/// The slots of a contiguous run from `k` on, in batches of `N` while a whole batch fits before
+/// `end` (the run's end); returns the first slot left. The run's two ends must be at least `N`
+/// particles apart, so that a batch's particles are distinct.
+///
+/// # Safety
+/// As [`solve_contiguous`], for the slots `k..end`.
+#[inline(always)]
+unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const N: usize>(
+    p: &Projections,
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+    mut k: usize,
+    end: usize,
+) -> usize {
+    while k + N <= end {
+        let batch = Batch::at(&p.rest, &p.compliance, lambda, k);
+        let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+        // SAFETY: the caller's contract.
+        unsafe { solve_contiguous::<ACCUMULATE, N>(x, &p.inv_mass, a, b, batch, inv_h2) };
+        k += N;
+    }
+    k
 }
 
 /// Slots joining particles `ia..ia + N` to `ib..ib + N`.
