@@ -193,6 +193,13 @@ pub struct ClothConfig {
     /// Collision layers this cloth collides with: a [`ClothCollider`] touches the cloth when its
     /// `layers` share a bit with this mask. Every layer by default.
     pub collision_mask: u32,
+    /// Layers this cloth is on for other cloths: two cloths keep apart when their `cloth_layers`
+    /// share a bit, at the mean of their thicknesses and with the mean of their frictions
+    /// ([`SelfCollision`](crate::sim::SelfCollision)'s `thickness` and `friction`, whether or
+    /// not self-collision is on). 0, the default, meets no other cloth. Cloths that meet
+    /// another step one after the other, in the order of their entities, so the result does not
+    /// depend on the thread count.
+    pub cloth_layers: u32,
 }
 
 impl ClothConfig {
@@ -209,6 +216,7 @@ impl Default for ClothConfig {
             solver: SolverSettings::default(),
             interpolate: true,
             collision_mask: u32::MAX,
+            cloth_layers: 0,
         }
     }
 }

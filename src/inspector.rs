@@ -286,6 +286,10 @@ fn config_ui(ui: &mut egui::Ui, c: &mut ClothConfig) {
         ui.label("collision mask");
         ui.add(egui::DragValue::new(&mut c.collision_mask).hexadecimal(8, false, true));
     });
+    ui.horizontal(|ui| {
+        ui.label("cloth layers (other cloths)");
+        ui.add(egui::DragValue::new(&mut c.cloth_layers).hexadecimal(8, false, true));
+    });
 }
 
 fn subdivision_ui(ui: &mut egui::Ui, s: &mut ClothSubdivision) {

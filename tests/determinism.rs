@@ -6,7 +6,7 @@
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPoolBuilder};
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::{ClothModel, ClothSim, Environment};
+use bevy_cloth::sim::{ClothModel, ClothSim, Environment, OtherCloth};
 
 mod common;
 use common::*;
@@ -123,4 +123,79 @@ fn matches_a_plain_loop(copies: usize, n: u32, steps: u32) {
         assert_eq!(state.steps(), steps as u64);
         assert_eq!(bits(state.positions()), expected);
     }
+}
+
+#[test]
+fn cloths_that_meet_match_a_plain_loop_in_entity_order() {
+    // Two cloths on one layer, the second dropped across the first, which hangs from two corners:
+    // the plugin steps them one after the other on the pool's threads...
+    let mut app = app();
+    let spec = GridSpec::new(12, 12, 0.05);
+    let transforms = [
+        Transform::from_xyz(0.0, 1.0, 0.0),
+        Transform::from_xyz(0.1, 1.15, 0.05).with_rotation(Quat::from_rotation_y(0.8)),
+    ];
+    let config = ClothConfig {
+        cloth_layers: 1,
+        ..default()
+    };
+    let cloths = transforms.map(|t| {
+        app.world_mut()
+            .spawn((Cloth::grid(spec), config, ClothPins::new([0, 11]), t))
+            .id()
+    });
+    app.update();
+    let steps = 60;
+    run(&mut app, steps);
+    let dt = app.world().resource::<Time<Fixed>>().delta_secs();
+    // ...and here, in the order of their entities, each among the other: the later one where it
+    // is, the earlier one as it went.
+    let mut sims = transforms.map(|t| {
+        let model = ClothModel::grid(&spec).unwrap();
+        // Placed as the plugin places it, through the global transform.
+        let g = GlobalTransform::from(t);
+        let mut sim =
+            ClothSim::new(model, SolverSettings::default(), |p| g.transform_point(p)).unwrap();
+        let pins = [0u32, 11].map(|i| (i, sim.positions()[i as usize]));
+        sim.set_pins(pins).unwrap();
+        sim
+    });
+    // The plugin steps the lower entity first.
+    let (a, b) = if cloths[0] < cloths[1] {
+        (0, 1)
+    } else {
+        (1, 0)
+    };
+    fn other<'a>(sim: &'a ClothSim, start: &'a [Vec3], end: &'a [Vec3]) -> OtherCloth<'a> {
+        OtherCloth {
+            triangles: &sim.model().triangles,
+            start,
+            end,
+            thickness: SelfCollision::default().thickness,
+            friction: SelfCollision::default().friction,
+        }
+    }
+    for _ in 0..steps {
+        let later = sims[b].clone();
+        let others = [other(&later, later.positions(), later.positions())];
+        let env = Environment {
+            cloths: &others,
+            ..default()
+        };
+        let start = sims[a].positions().to_vec();
+        sims[a].step_in(dt, &env).unwrap();
+        let earlier = sims[a].clone();
+        let others = [other(&earlier, &start, earlier.positions())];
+        let env = Environment {
+            cloths: &others,
+            ..default()
+        };
+        sims[b].step_in(dt, &env).unwrap();
+    }
+    for (e, sim) in cloths.iter().zip(&sims) {
+        let state = app.world().get::<ClothState>(*e).unwrap();
+        assert_eq!(bits(state.positions()), bits(sim.positions()));
+    }
+    // They met: the cloths were pushed apart at some point (the upper one rests on the lower).
+    assert!(sims[b].cloth_contact_searches() > 0);
 }

@@ -46,7 +46,9 @@ pub mod wind;
 
 pub use aero::{AeroParams, Gusts};
 pub use cloth_sim::{AccuracyReport, ClothSim, Environment, SelfContactStats};
-pub use contact::{Collider, ColliderShape, Friction, Pose, Reaction, Shape, Surface, Target};
+pub use contact::{
+    Collider, ColliderShape, Friction, OtherCloth, Pose, Reaction, Shape, Surface, Target,
+};
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
     ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridNormals, GridPlane, GridSpec,

@@ -8,7 +8,9 @@
 
 use glam::Vec3;
 
-use super::contact::{Collider, Contacts, Pose, Reaction, SelfContacts, Target, bounds};
+use super::contact::{
+    Collider, Contacts, OtherCloth, Pose, Reaction, SelfContacts, Target, bounds,
+};
 use super::forces::{SpringSet, max_frequency_bound};
 use super::integrate::{Spread, Step, Steppers, add_contact_work};
 use super::model::{ClothModel, SpringKind};
@@ -137,6 +139,9 @@ pub struct Environment<'a> {
     /// Whether colliders with a body ([`Collider::inv_mass`] above 0) give way to the cloth
     /// within the step (two-way coupling); otherwise every collider moves as given.
     pub two_way: bool,
+    /// Other cloths this cloth keeps its distance from (see [`OtherCloth`]); the broad phase
+    /// drops the ones it cannot reach, and invalid ones are ignored.
+    pub cloths: &'a [OtherCloth<'a>],
 }
 
 impl Default for Environment<'_> {
@@ -147,6 +152,7 @@ impl Default for Environment<'_> {
             collision_mask: u32::MAX,
             wind: None,
             two_way: false,
+            cloths: &[],
         }
     }
 }
@@ -648,6 +654,12 @@ impl ClothSim {
             })
     }
 
+    /// Number of searches for contact candidates with other cloths run so far (see
+    /// [`Environment::cloths`]): none while no other cloth comes within reach.
+    pub fn cloth_contact_searches(&self) -> u64 {
+        self.contacts.cloths().searches()
+    }
+
     /// Number of colliders that passed the broad phase of the last step.
     pub fn active_colliders(&self) -> usize {
         self.contacts.active_count()
@@ -738,35 +750,42 @@ impl ClothSim {
             let speed = v.iter().map(|v| v.distance(mean)).fold(0.0, f32::max);
             self.contacts.begin_self_step(self.reach_bound(dt, speed));
         }
-        if env.colliders.is_empty() {
-            self.contacts
-                .begin_step(&[], (0, false), (Vec3::ONE, Vec3::ZERO), 0.0, dt);
-        } else {
-            // Asleep, the cloth has not moved since it fell asleep: its box is kept, and every
-            // particle is slower than the sleep threshold.
-            let (bounds, reach) = if self.sleep.asleep {
+        // Asleep, the cloth has not moved since it fell asleep: its box is kept, and every
+        // particle is slower than the sleep threshold.
+        let reach_box = |sim: &Self| {
+            if sim.sleep.asleep {
                 (
-                    self.sleep.bounds,
-                    self.reach_bound(dt, self.settings.sleep_speed),
+                    sim.sleep.bounds,
+                    sim.reach_bound(dt, sim.settings.sleep_speed),
                 )
             } else {
-                let speed = max_length(&self.particles.velocities);
+                let speed = max_length(&sim.particles.velocities);
                 // Never below the sleep threshold, so that falling asleep does not change which
                 // colliders are in reach.
-                let speed = speed.max(self.settings.sleep_speed);
-                (
-                    bounds(&self.particles.positions),
-                    self.reach_bound(dt, speed),
-                )
-            };
-            self.contacts.begin_step(
+                let speed = speed.max(sim.settings.sleep_speed);
+                (bounds(&sim.particles.positions), sim.reach_bound(dt, speed))
+            }
+        };
+        let reach = (!env.colliders.is_empty() || !env.cloths.is_empty()).then(|| reach_box(self));
+        match reach {
+            Some((bounds, reach)) if !env.colliders.is_empty() => self.contacts.begin_step(
                 env.colliders,
                 (env.collision_mask, env.two_way),
                 bounds,
                 reach,
                 dt,
-            );
+            ),
+            _ => self
+                .contacts
+                .begin_step(&[], (0, false), (Vec3::ONE, Vec3::ZERO), 0.0, dt),
         }
+        let layers = &self.settings.self_collision;
+        self.contacts.begin_cloth_step(
+            env.cloths,
+            (layers.thickness, layers.friction),
+            reach.unwrap_or(((Vec3::ONE, Vec3::ZERO), 0.0)),
+            dt,
+        );
         if self.sleeps_through(env) {
             self.steps += 1;
             self.sleep.skipped = true;

@@ -60,6 +60,7 @@
 //! becomes Coulomb's law with static and kinetic coefficients, measured relative to the collider's
 //! own velocity.
 
+mod cloths;
 mod limits;
 mod narrow;
 mod self_contact;
@@ -71,6 +72,8 @@ use glam::Vec3;
 
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
+pub(crate) use cloths::ClothContacts;
+pub use cloths::OtherCloth;
 pub(crate) use limits::Limits;
 pub use limits::Target;
 pub use narrow::Reaction;
@@ -158,6 +161,8 @@ pub(crate) struct Contacts {
     dropped: bool,
     /// Colliders [`Self::catch_up`] found (scratch).
     late: Vec<ActiveCollider>,
+    /// The cloth's contacts with the other cloths of the step.
+    cloths: ClothContacts,
 }
 
 impl Contacts {
@@ -173,6 +178,7 @@ impl Contacts {
             reach_box: (Vec3::ZERO, Vec3::ZERO),
             dropped: false,
             late: Vec::new(),
+            cloths: ClothContacts::default(),
         }
     }
 
@@ -194,6 +200,25 @@ impl Contacts {
         }
     }
 
+    /// The broad phase against the other cloths of a step of `dt` seconds, for a cloth whose
+    /// layers are `spacing` (thickness, friction) thick, whose box at the start of the step is
+    /// `bounds` and whose particles move at most `reach` in it (see [`ClothContacts`]).
+    pub fn begin_cloth_step(
+        &mut self,
+        others: &[OtherCloth],
+        spacing: (f32, f32),
+        (bounds, reach): ((Vec3, Vec3), f32),
+        dt: f32,
+    ) {
+        self.cloths
+            .begin_step(others, spacing, (bounds, reach), self.max_edge, dt);
+    }
+
+    /// The contacts with other cloths.
+    pub fn cloths(&self) -> &ClothContacts {
+        &self.cloths
+    }
+
     /// The targets and tethers.
     pub fn limits(&self) -> &Limits {
         &self.limits
@@ -204,10 +229,13 @@ impl Contacts {
         &mut self.limits
     }
 
-    /// Whether anything is resolved this step: a collider survived the broad phase, the cloth
-    /// collides with itself, or it has targets or tethers.
+    /// Whether anything is resolved this step: a collider or another cloth survived the broad
+    /// phase, the cloth collides with itself, or it has targets or tethers.
     pub fn is_active(&self) -> bool {
-        !self.active.is_empty() || self.self_contacts.is_some() || !self.limits.is_empty()
+        !self.active.is_empty()
+            || self.self_contacts.is_some()
+            || !self.limits.is_empty()
+            || self.cloths.is_active()
     }
 
     /// Number of colliders that survived the broad phase of this step.
@@ -332,11 +360,13 @@ impl Contacts {
             .filter(|r| r.impulse != Vec3::ZERO || r.moment != Vec3::ZERO)
     }
 
-    /// Whether any collider that passed this step's broad phase moves during the step.
+    /// Whether any collider or other cloth that passed this step's broad phase moves during the
+    /// step.
     pub fn any_moving(&self) -> bool {
         self.active
             .iter()
             .any(|c| c.collider.start != c.collider.end)
+            || self.cloths.any_moving()
     }
 
     /// Records the particle positions at the start of a substep (only when a collider is active),
@@ -368,6 +398,7 @@ impl Contacts {
             clearance,
             self_contacts,
             limits,
+            cloths,
             ..
         } = self;
         let mut state = Vectors {
@@ -379,6 +410,7 @@ impl Contacts {
         };
         resolve_all(
             (active, clearance, self_contacts.as_mut(), limits),
+            cloths,
             (t0, t1, h),
             triangles,
             &mut state,
@@ -406,6 +438,7 @@ impl Contacts {
                 self.self_contacts.as_mut(),
                 &self.limits,
             ),
+            &mut self.cloths,
             (t0, t1, h),
             triangles,
             state,
@@ -433,9 +466,10 @@ fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
     }
 }
 
-/// The limits (targets and tethers), the colliders' response, then the self-contacts' (if any);
-/// the colliders once more if the self-contacts moved anything, since pushing layers apart may
-/// push one into a collider. Colliders come after the limits so that they have the last word.
+/// The limits (targets and tethers), the colliders' response, then the self-contacts' (if any)
+/// and the contacts with other cloths (if near); the colliders once more if either moved
+/// anything, since pushing layers apart may push one into a collider. Colliders come after the
+/// limits so that they have the last word.
 /// Returns the colliders' work (see [`Contacts::resolve_state`]).
 fn resolve_all<S: ContactState>(
     (active, clearance, self_contacts, limits): (
@@ -444,6 +478,7 @@ fn resolve_all<S: ContactState>(
         Option<&mut SelfContacts>,
         &Limits,
     ),
+    cloths: &mut ClothContacts,
     t: (f32, f32, f32),
     triangles: &[u32],
     state: &mut S,
@@ -452,9 +487,9 @@ fn resolve_all<S: ContactState>(
         limits.resolve(t, state);
     }
     let mut work = resolve(active, clearance, t, triangles, state);
-    if let Some(s) = self_contacts
-        && s.resolve(t.2, state)
-    {
+    let layered = self_contacts.is_some_and(|s| s.resolve(t.2, state));
+    let apart = cloths.resolve(t, triangles, state);
+    if layered || apart {
         work += resolve(active, clearance, t, triangles, state);
     }
     work

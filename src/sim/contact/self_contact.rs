@@ -47,12 +47,12 @@ use patches::Patches;
 mod patches;
 
 /// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
-const PASSES: u32 = 4;
+pub(super) const PASSES: u32 = 4;
 
 /// At most this many candidate pairs per triangle of the cloth (of each kind): a cloth crushed
 /// into a ball smaller than the margin would otherwise have every pair of its elements as a
 /// candidate. A pile of cloth needs far fewer.
-const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
+pub(super) const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
 
 /// A vertex counts as over a triangle's interior when none of its barycentric coordinates is
 /// below this (a vertex just past an edge is caught by the edge–edge pairs of that edge).
@@ -219,6 +219,14 @@ impl SelfContacts {
         self.searches
     }
 
+    /// The layers' spacing and friction.
+    fn spacing(&self) -> Spacing {
+        Spacing {
+            thickness: self.thickness,
+            friction: self.friction,
+        }
+    }
+
     /// Starts a step in which no particle is expected to move farther than `reach` (m) relative to
     /// the cloth's mean motion: candidates found in this step get that reach, at most
     /// `reach_cap`'s (a fast cloth finds them again within the step rather than gathering every
@@ -331,13 +339,15 @@ impl SelfContacts {
         match self.vt.get(k) {
             Some(&(p, t)) => {
                 let [a, b, c] = self.tris[t as usize];
-                self.vertex_triangle(state, [p, a, b, c].map(slot), inv_h, drift)
+                self.spacing()
+                    .vertex_triangle(state, [p, a, b, c].map(slot), inv_h, drift)
             }
             None => {
                 let (e, f) = self.ee[k - self.vt.len()];
                 let [a, b] = self.edges[e as usize];
                 let [c, d] = self.edges[f as usize];
-                self.edge_edge(state, [a, b, c, d].map(slot), inv_h, drift)
+                self.spacing()
+                    .edge_edge(state, [a, b, c, d].map(slot), inv_h, drift)
             }
         }
     }
@@ -499,10 +509,23 @@ impl SelfContacts {
             });
         }
     }
+}
 
+/// How far apart a pair of layers is kept and the friction between them: the response to one
+/// vertex–triangle or edge–edge pair, shared by a cloth's contacts with itself and with other
+/// cloths.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Spacing {
+    /// Distance kept between the layers, m.
+    pub thickness: f32,
+    /// Coulomb friction between them.
+    pub friction: f32,
+}
+
+impl Spacing {
     /// Keeps vertex `s[0]` at least the thickness from triangle `s[1..]` on the side it started
     /// the substep on, when it is over the triangle's interior. Returns whether anything moved.
-    fn vertex_triangle<S: ContactState>(
+    pub(super) fn vertex_triangle<S: ContactState>(
         &self,
         state: &mut S,
         s: [usize; 4],
@@ -541,7 +564,7 @@ impl SelfContacts {
 
     /// Keeps edge `s[0..2]` at least the thickness from edge `s[2..]` on the side it started the
     /// substep on. Returns whether anything moved.
-    fn edge_edge<S: ContactState>(
+    pub(super) fn edge_edge<S: ContactState>(
         &self,
         state: &mut S,
         s: [usize; 4],
@@ -757,7 +780,7 @@ fn reach_cap(edge: f32, thickness: f32) -> f32 {
 
 /// The larger of `a` and `b`, infinite if `b` is NaN (a non-finite displacement must force a new
 /// search, not vanish in a comparison).
-fn max_or_infinite(a: f32, b: f32) -> f32 {
+pub(super) fn max_or_infinite(a: f32, b: f32) -> f32 {
     if b.is_nan() { f32::INFINITY } else { a.max(b) }
 }
 
@@ -791,7 +814,7 @@ fn barycentric(q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<[f32; 3]> {
 }
 
 /// Distance from `p` to triangle `abc` (to its nearest edge or vertex when `p` is not over it).
-fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+pub(super) fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
     if let Some(n) = unit_normal(a, b, c) {
         let dist = (p - a).dot(n);
         if let Some([u, v, w]) = barycentric(p - dist * n, a, b, c)
@@ -818,7 +841,7 @@ fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
 
 /// The parameters `(s, t)` of the closest points `a + s (b − a)` and `c + t (d − c)` of segments
 /// `ab` and `cd`, both in `0..=1`.
-fn closest_on_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32) {
+pub(super) fn closest_on_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32) {
     let (d1, d2, r) = (b - a, d - c, a - c);
     let (aa, ee, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
     const TINY: f32 = 1e-20;
@@ -854,9 +877,9 @@ fn closest_on_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32) {
 /// (at most two per axis), bucketed by a hash of the cell (counting sort, no per-build
 /// allocation once grown).
 #[derive(Debug, Clone, Default)]
-struct Hash {
+pub(super) struct Hash {
     /// The boxes, filled by the caller before [`Self::build`].
-    boxes: Vec<(Vec3, Vec3)>,
+    pub(super) boxes: Vec<(Vec3, Vec3)>,
     /// 1 / cell size.
     inv_cell: f32,
     /// Buckets − 1 (a power of two less one).
@@ -872,7 +895,7 @@ struct Hash {
 impl Hash {
     /// Lists the boxes `i` for which `include(i)` holds in their cells. Returns `false` (and lists
     /// nothing) if a box is not finite.
-    fn build(&mut self, include: impl Fn(u32) -> bool) -> bool {
+    pub(super) fn build(&mut self, include: impl Fn(u32) -> bool) -> bool {
         let mut extent = 0.0f32;
         for (i, (lo, hi)) in self.boxes.iter().enumerate() {
             if !(lo.is_finite() && hi.is_finite()) {
@@ -930,7 +953,7 @@ impl Hash {
 
     /// Calls `f(box)` once for every box that meets box `lo..hi`, which must be no larger
     /// than a cell (in the one cell that holds the low corner of the two boxes' overlap).
-    fn visit(&self, lo: Vec3, hi: Vec3, mut f: impl FnMut(u32)) {
+    pub(super) fn visit(&self, lo: Vec3, hi: Vec3, mut f: impl FnMut(u32)) {
         if self.entries.is_empty() {
             return;
         }

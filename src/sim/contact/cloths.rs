@@ -1,0 +1,641 @@
+//! Contacts between cloths: a cloth keeps its vertices, edges and triangles at least the mean of
+//! two cloths' thicknesses from another cloth's, with the narrow phase and response of its contacts
+//! with itself (`self_contact`), in the same substeps.
+//!
+//! Each cloth steps on its own. The others are handed to its step as their triangles and their
+//! particles' positions at the step's start and end ([`OtherCloth`]), and move in straight lines
+//! between the two during it: surfaces this cloth reads and never writes, so each push moves this
+//! cloth alone. A cloth that has not stepped yet is given where it is (start and end the same):
+//! the earlier of two cloths keeps clear of where the later one is, and the later one, meeting
+//! the earlier one's actual motion, keeps clear of that. Whatever the order, neither ends a step
+//! through the other; a fixed order (the caller's) makes the result deterministic. A prediction
+//! of the later cloth's motion is not used: it ignores the contacts that will stop that cloth, and
+//! a cloth pushed out of a predicted surface ploughing through a pile is pushed through the pile.
+//!
+//! # Pipeline
+//! 1. **Broad phase, per step** ([`ClothContacts::begin_step`]): the other cloths whose boxes,
+//!    swept over the step and grown by the pair's thickness, meet this cloth's box grown by how
+//!    far its particles can move in the step are copied in; the others cost nothing more.
+//! 2. **Candidates, when needed**: the pairs (a vertex of this cloth and a triangle of another, a
+//!    vertex of another and a triangle of this one, an edge of each) closer than the thickness
+//!    plus twice a reach, found with spatial hashes. They hold every pair that can come within
+//!    the thickness while no particle on either side has moved farther than the reach, relative
+//!    to this cloth's mean motion, since they were found; past that they are found again, within
+//!    a step if need be. Cloths falling or swinging together keep their candidates.
+//! 3. **Narrow phase and response, every substep**: as for self-contacts (sides taken from the
+//!    start of the substep, pushes to the thickness, the approaching velocity removed, friction),
+//!    on the candidates whose distance when found, less how far their particles have moved since,
+//!    may have closed to the thickness.
+
+use glam::Vec3;
+
+use super::Near;
+use super::narrow::ContactState;
+use super::self_contact::{
+    Hash, PASSES, Spacing, closest_on_segments, max_or_infinite, point_triangle_distance,
+};
+use crate::error::{ClothError, non_negative, positive};
+
+/// At most this many candidates per vertex or edge of the search, of each kind.
+const MAX_CANDIDATES_PER_ELEMENT: usize = 32;
+
+/// Another cloth as one cloth's step sees it (see
+/// [`Environment::cloths`](crate::sim::Environment::cloths)): its triangles and where its
+/// particles are at the start and the end of the step.
+#[derive(Debug, Clone, Copy)]
+pub struct OtherCloth<'a> {
+    /// Triangles, three particle indices each.
+    pub triangles: &'a [u32],
+    /// Its particles' positions at the start of the step.
+    pub start: &'a [Vec3],
+    /// Their positions at the end of the step: the other cloth's result if it has stepped, else
+    /// the same as `start`.
+    pub end: &'a [Vec3],
+    /// Its thickness, m: two cloths keep the mean of their thicknesses apart.
+    pub thickness: f32,
+    /// Its friction: two cloths' layers slide with the mean of theirs.
+    pub friction: f32,
+}
+
+impl OtherCloth<'_> {
+    /// Checks that `start` and `end` have one entry per particle, every triangle's indices are in
+    /// range, the positions are finite, the thickness finite and positive and the friction finite
+    /// and not negative.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        let count = self.start.len();
+        if self.end.len() != count {
+            return Err(ClothError::InvalidMesh {
+                what: format!(
+                    "another cloth has {count} start positions and {} end positions: they must \
+                     match",
+                    self.end.len()
+                ),
+            });
+        }
+        if !self.triangles.len().is_multiple_of(3) {
+            return Err(ClothError::InvalidMesh {
+                what: format!(
+                    "another cloth's triangle list has {} indices, not a multiple of 3",
+                    self.triangles.len()
+                ),
+            });
+        }
+        if let Some((position, &index)) = self
+            .triangles
+            .iter()
+            .enumerate()
+            .find(|(_, i)| **i as usize >= count)
+        {
+            return Err(ClothError::MeshIndexOutOfRange {
+                index,
+                position,
+                count,
+            });
+        }
+        if !self.start.iter().chain(self.end).all(|p| p.is_finite()) {
+            return Err(ClothError::InvalidMesh {
+                what: "another cloth has a position that is not finite".into(),
+            });
+        }
+        positive("other cloth thickness", self.thickness)?;
+        non_negative("other cloth friction", self.friction)
+    }
+}
+
+/// A cloth's contacts with the other cloths of its step: their copies and this step's candidate
+/// pairs. Nothing allocates once the lists have grown to the largest step's size.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ClothContacts {
+    /// The other cloths of this step, one after another: positions at the step's start and end
+    /// and triangles (indices into these lists).
+    start: Vec<Vec3>,
+    end: Vec<Vec3>,
+    tris: Vec<[u32; 3]>,
+    /// The spacing of each copied cloth with this one, and the copied cloth of each particle.
+    spacing: Vec<Spacing>,
+    owner: Vec<u32>,
+    /// 1 / the step's length.
+    inv_dt: f32,
+    /// This cloth's triangles and unique edges (found once).
+    own_tris: Vec<[u32; 3]>,
+    edges: Vec<[u32; 2]>,
+    /// The most reach a search is given, m.
+    reach_cap: f32,
+    /// The reach the candidates were found with, m.
+    reach: f32,
+    /// The candidates and each one's distance when found, m.
+    pairs: Vec<(Pair, f32)>,
+    /// Where each of this cloth's model particles is stored in the state being resolved.
+    slot: Vec<u32>,
+    /// Positions when the candidates were found: this cloth's (by model particle), the others'.
+    found_own: Vec<Vec3>,
+    found_other: Vec<Vec3>,
+    /// Whether the candidates must be found again before the next resolution.
+    stale: bool,
+    /// Searches run so far.
+    searches: u64,
+    /// Spatial hashes of the others' triangles and of this cloth's.
+    other_hash: Hash,
+    own_hash: Hash,
+    /// Scratch: each stored particle's drift (this cloth's, then the others'), and the candidates
+    /// that acted in a substep's first pass.
+    drift: Vec<f32>,
+    acting: Vec<u32>,
+}
+
+impl ClothContacts {
+    /// The broad phase of a step of `dt` seconds for a cloth `spacing` thick whose box at the
+    /// start is `bounds`, whose particles move at most `reach` in the step, and whose longest
+    /// edge at rest is `max_edge`: copies the valid `others` in reach (see the module docs).
+    pub fn begin_step(
+        &mut self,
+        others: &[OtherCloth],
+        (thickness, friction): (f32, f32),
+        (bounds, reach): ((Vec3, Vec3), f32),
+        max_edge: f32,
+        dt: f32,
+    ) {
+        self.start.clear();
+        self.end.clear();
+        self.tris.clear();
+        self.spacing.clear();
+        self.owner.clear();
+        self.stale = true;
+        self.inv_dt = if dt > 0.0 { 1.0 / dt } else { 0.0 };
+        let reach = if reach.is_finite() { reach } else { f32::MAX };
+        for other in others {
+            if other.validate().is_err() || other.triangles.is_empty() {
+                continue;
+            }
+            let spacing = Spacing {
+                thickness: 0.5 * (thickness + other.thickness),
+                friction: 0.5 * (friction + other.friction),
+            };
+            let (a0, a1) = super::bounds(other.start);
+            let (b0, b1) = super::bounds(other.end);
+            let grow = Vec3::splat(spacing.thickness + reach);
+            let (lo, hi) = (a0.min(b0) - grow, a1.max(b1) + grow);
+            if !(lo.cmple(bounds.1).all() && hi.cmpge(bounds.0).all()) {
+                continue;
+            }
+            let offset = self.start.len() as u32;
+            let index = self.spacing.len() as u32;
+            self.spacing.push(spacing);
+            self.start.extend_from_slice(other.start);
+            self.end.extend_from_slice(other.end);
+            self.owner.extend(other.start.iter().map(|_| index));
+            self.tris.extend(
+                other
+                    .triangles
+                    .chunks_exact(3)
+                    .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
+            );
+        }
+        let thickest = self.spacing.iter().map(|s| s.thickness).fold(0.0, f32::max);
+        self.reach_cap = (0.25 * max_edge).max(thickest);
+    }
+
+    /// Whether another cloth is near this step.
+    pub fn is_active(&self) -> bool {
+        !self.tris.is_empty()
+    }
+
+    /// Whether another cloth near this step moves during it.
+    pub fn any_moving(&self) -> bool {
+        self.start != self.end
+    }
+
+    /// Searches run so far.
+    pub fn searches(&self) -> u64 {
+        self.searches
+    }
+
+    /// The narrow phase and response at the end of the substep `[t0, t1]` (fractions of the
+    /// step) of length `h`, for a cloth of `triangles` whose particles are in `state`. Returns
+    /// whether any particle moved.
+    pub fn resolve<S: ContactState>(
+        &mut self,
+        (t0, t1, h): (f32, f32, f32),
+        triangles: &[u32],
+        state: &mut S,
+    ) -> bool {
+        if self.tris.is_empty() || triangles.is_empty() {
+            return false;
+        }
+        if self.own_tris.len() * 3 != triangles.len() {
+            self.own_tris = triangles
+                .chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]])
+                .collect();
+            self.edges = unique_edges(triangles);
+        }
+        let n = state.len();
+        let mut drift = std::mem::take(&mut self.drift);
+        let mut acting = std::mem::take(&mut self.acting);
+        let within = !self.stale && self.measure_drift(state, (t0, t1), &mut drift) <= self.reach;
+        if !within {
+            self.search(state, (t0, t1));
+            self.measure_drift(state, (t0, t1), &mut drift);
+        }
+        let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
+        let mut joined = Joined {
+            own: state,
+            n,
+            start: &self.start,
+            end: &self.end,
+            t: (t0, t1),
+            inv_dt: self.inv_dt,
+        };
+        acting.clear();
+        for k in 0..self.pairs.len() {
+            if self.may_touch(k, n, &drift) && self.pair(&mut joined, k, inv_h, &mut drift) {
+                acting.push(k as u32);
+            }
+        }
+        for _ in 1..PASSES {
+            let mut moved = false;
+            for &k in &acting {
+                moved |= self.pair(&mut joined, k as usize, inv_h, &mut drift);
+            }
+            if !moved {
+                break;
+            }
+        }
+        let any = !acting.is_empty();
+        self.drift = drift;
+        self.acting = acting;
+        any
+    }
+
+    /// Fills `drift` (by joined slot) with each particle's largest distance, at the start or the
+    /// end of the substep, from where it was at the search, this cloth's mean displacement since
+    /// taken off (as for self-contacts). Returns the largest.
+    fn measure_drift<S: ContactState>(
+        &self,
+        state: &S,
+        (t0, t1): (f32, f32),
+        drift: &mut Vec<f32>,
+    ) -> f32 {
+        let n = state.len();
+        drift.clear();
+        drift.resize(n + self.start.len(), f32::INFINITY);
+        let count = self.slot.len();
+        if count == 0 {
+            return f32::INFINITY;
+        }
+        let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
+        for (&s, x) in self.slot.iter().zip(&self.found_own) {
+            m0 += state.start(s as usize) - *x;
+            m1 += state.position(s as usize) - *x;
+        }
+        let (m0, m1) = (m0 / count as f32, m1 / count as f32);
+        let mut worst = 0.0f32;
+        let mut record = |slot: usize, d0: Vec3, d1: Vec3| {
+            let d = (d0 - m0).length().max((d1 - m1).length());
+            // NaN stays infinite: such a particle is always tested and forces a search.
+            let d = if d.is_nan() { f32::INFINITY } else { d };
+            drift[slot] = d;
+            worst = max_or_infinite(worst, d);
+        };
+        for (&s, x) in self.slot.iter().zip(&self.found_own) {
+            let s = s as usize;
+            record(s, state.start(s) - *x, state.position(s) - *x);
+        }
+        for (i, x) in self.found_other.iter().enumerate() {
+            let (a, b) = (self.start[i], self.end[i]);
+            record(n + i, a.lerp(b, t0) - *x, a.lerp(b, t1) - *x);
+        }
+        worst
+    }
+
+    /// Finds the candidates from where the particles are at the start of the substep `[t0, t1]`,
+    /// with a reach that covers the substep itself.
+    fn search<S: ContactState>(&mut self, state: &S, (t0, t1): (f32, f32)) {
+        self.searches += 1;
+        self.stale = false;
+        let n = state.len();
+        self.slot.clear();
+        self.slot
+            .extend((0..n as u32).map(|p| state.slot(p) as u32));
+        self.found_own.clear();
+        self.found_own
+            .extend(self.slot.iter().map(|&s| state.start(s as usize)));
+        self.found_other.clear();
+        self.found_other.extend(
+            self.start
+                .iter()
+                .zip(&self.end)
+                .map(|(a, b)| a.lerp(*b, t0)),
+        );
+        // The substep's own motion, measured as the drift is.
+        let mut drift = std::mem::take(&mut self.drift);
+        let moved = self.measure_drift(state, (t0, t1), &mut drift);
+        self.drift = drift;
+        self.reach = if moved.is_finite() {
+            self.reach_cap.max(moved)
+        } else {
+            self.reach_cap
+        };
+        self.find_candidates();
+    }
+
+    /// The broad phase proper on `found_own` and `found_other`: every pair closer than its
+    /// spacing's thickness plus twice the reach, up to the cap per triangle of each kind.
+    fn find_candidates(&mut self) {
+        self.pairs.clear();
+        let reach2 = 2.0 * self.reach;
+        let thickest = self.spacing.iter().map(|s| s.thickness).fold(0.0, f32::max);
+        let grow = Vec3::splat(thickest + reach2);
+        let (x, y) = (&self.found_own, &self.found_other);
+        let corners = |t: &[u32; 3], p: &[Vec3]| t.map(|i| p[i as usize]);
+        let limit =
+            |other: u32| self.spacing[self.owner[other as usize] as usize].thickness + reach2;
+        // At most this many candidates per vertex or edge searched from: enough for several
+        // layers within the margin, not for a crushed ball of cloth.
+        let cap = |elements: usize| MAX_CANDIDATES_PER_ELEMENT * elements;
+        let pairs = &mut self.pairs;
+        let mut count = [0usize; 3];
+        self.other_hash.boxes.clear();
+        self.other_hash.boxes.extend(self.tris.iter().map(|t| {
+            let [a, b, c] = corners(t, y);
+            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
+        }));
+        if self.other_hash.build(|_| true) {
+            let hash = &self.other_hash;
+            for (p, &at) in x.iter().enumerate() {
+                if count[0] >= cap(x.len()) {
+                    break;
+                }
+                hash.visit(at, at, |t| {
+                    let tri = self.tris[t as usize];
+                    let [a, b, c] = corners(&tri, y);
+                    let gap = point_triangle_distance(at, a, b, c);
+                    if gap < limit(tri[0]) {
+                        pairs.push((Pair::OwnVertex(p as u32, t), gap));
+                        count[0] += 1;
+                    }
+                });
+            }
+            let first_ee = pairs.len();
+            for (e, &[a, b]) in self.edges.iter().enumerate() {
+                if count[1] >= cap(self.edges.len()) {
+                    break;
+                }
+                let (pa, pb) = (x[a as usize], x[b as usize]);
+                hash.visit(pa.min(pb), pa.max(pb), |t| {
+                    let tri = self.tris[t as usize];
+                    for k in 0..3 {
+                        let (c, d) = (tri[k], tri[(k + 1) % 3]);
+                        let (pc, pd) = (y[c as usize], y[d as usize]);
+                        let (s, u) = closest_on_segments(pa, pb, pc, pd);
+                        let gap = pa.lerp(pb, s).distance(pc.lerp(pd, u));
+                        if gap < limit(c) {
+                            pairs.push((Pair::Edges(e as u32, [c.min(d), c.max(d)]), gap));
+                            count[1] += 1;
+                        }
+                    }
+                });
+            }
+            // An edge of the other cloth shared by two triangles is met through both.
+            pairs[first_ee..].sort_unstable_by_key(|(pair, _)| match pair {
+                Pair::Edges(e, f) => (*e, *f),
+                _ => (u32::MAX, [0; 2]),
+            });
+            let mut kept = first_ee;
+            for k in first_ee..pairs.len() {
+                if k == first_ee || pairs[k].0 != pairs[kept - 1].0 {
+                    pairs[kept] = pairs[k];
+                    kept += 1;
+                }
+            }
+            pairs.truncate(kept);
+        }
+        self.own_hash.boxes.clear();
+        self.own_hash.boxes.extend(self.own_tris.iter().map(|t| {
+            let [a, b, c] = corners(t, x);
+            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
+        }));
+        if self.own_hash.build(|_| true) {
+            let hash = &self.own_hash;
+            for (p, &at) in y.iter().enumerate() {
+                if count[2] >= cap(y.len()) {
+                    break;
+                }
+                hash.visit(at, at, |t| {
+                    let [a, b, c] = corners(&self.own_tris[t as usize], x);
+                    let gap = point_triangle_distance(at, a, b, c);
+                    if gap < limit(p as u32) {
+                        pairs.push((Pair::OtherVertex(p as u32, t), gap));
+                        count[2] += 1;
+                    }
+                });
+            }
+        }
+    }
+
+    /// The joined slots of candidate `pair`'s four particles (this cloth's stored where `slot`
+    /// says, the others' after this cloth's `n`), the weight of the first in the pair's
+    /// combination being 1, and the other cloth it meets.
+    fn slots(&self, pair: Pair, n: usize) -> ([usize; 4], u32) {
+        let own = |p: u32| self.slot[p as usize] as usize;
+        let other = |p: u32| n + p as usize;
+        match pair {
+            Pair::OwnVertex(p, t) => {
+                let [a, b, c] = self.tris[t as usize];
+                ([own(p), other(a), other(b), other(c)], a)
+            }
+            Pair::OtherVertex(p, t) => {
+                let [a, b, c] = self.own_tris[t as usize];
+                ([other(p), own(a), own(b), own(c)], p)
+            }
+            Pair::Edges(e, [c, d]) => {
+                let [a, b] = self.edges[e as usize];
+                ([own(a), own(b), other(c), other(d)], c)
+            }
+        }
+    }
+
+    /// Whether candidate `k` may have come within its thickness since it was found: its gap then
+    /// less the most its two elements' particles have drifted.
+    fn may_touch(&self, k: usize, n: usize, drift: &[f32]) -> bool {
+        let (pair, gap) = self.pairs[k];
+        let (s, other) = self.slots(pair, n);
+        let d = s.map(|i| drift[i]);
+        let closing = match pair {
+            Pair::OwnVertex(..) | Pair::OtherVertex(..) => d[0] + d[1].max(d[2]).max(d[3]),
+            Pair::Edges(..) => d[0].max(d[1]) + d[2].max(d[3]),
+        };
+        gap - closing <= self.spacing_of(other).thickness
+    }
+
+    /// The spacing of this cloth with the other cloth of particle `other`.
+    fn spacing_of(&self, other: u32) -> Spacing {
+        self.spacing[self.owner[other as usize] as usize]
+    }
+
+    /// Resolves candidate `k` on the joined state (see [`Spacing`]). Returns whether anything
+    /// moved; adds what it moved each particle to `drift`.
+    fn pair<S: ContactState>(
+        &self,
+        state: &mut Joined<S>,
+        k: usize,
+        inv_h: f32,
+        drift: &mut [f32],
+    ) -> bool {
+        let (pair, _) = self.pairs[k];
+        let (s, other) = self.slots(pair, state.n);
+        let spacing = self.spacing_of(other);
+        match pair {
+            Pair::OwnVertex(..) | Pair::OtherVertex(..) => {
+                spacing.vertex_triangle(state, s, inv_h, drift)
+            }
+            Pair::Edges(..) => spacing.edge_edge(state, s, inv_h, drift),
+        }
+    }
+}
+
+/// A candidate pair between this cloth and another.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pair {
+    /// This cloth's vertex and another's triangle (an index into the copied triangles).
+    OwnVertex(u32, u32),
+    /// Another cloth's vertex (an index into the copied particles) and this cloth's triangle.
+    OtherVertex(u32, u32),
+    /// This cloth's edge and another's, as its two copied particles (lower first).
+    Edges(u32, [u32; 2]),
+}
+
+/// This cloth's state joined with the other cloths' particles, stored after this cloth's: they
+/// move in straight lines over the step, are read at the substep's ends and never written.
+struct Joined<'a, S> {
+    own: &'a mut S,
+    /// Where the others' particles begin (this cloth's stored length).
+    n: usize,
+    start: &'a [Vec3],
+    end: &'a [Vec3],
+    /// The substep, as fractions of the step.
+    t: (f32, f32),
+    inv_dt: f32,
+}
+
+impl<S: ContactState> ContactState for Joined<'_, S> {
+    fn len(&self) -> usize {
+        self.n + self.start.len()
+    }
+    fn inv_mass(&self, i: usize) -> f32 {
+        match i.checked_sub(self.n) {
+            None => self.own.inv_mass(i),
+            // Never moved by this cloth's pushes.
+            Some(_) => 0.0,
+        }
+    }
+    fn slot(&self, p: u32) -> usize {
+        self.own.slot(p)
+    }
+    fn start(&self, i: usize) -> Vec3 {
+        match i.checked_sub(self.n) {
+            None => self.own.start(i),
+            Some(j) => self.start[j].lerp(self.end[j], self.t.0),
+        }
+    }
+    fn position(&self, i: usize) -> Vec3 {
+        match i.checked_sub(self.n) {
+            None => self.own.position(i),
+            Some(j) => self.start[j].lerp(self.end[j], self.t.1),
+        }
+    }
+    fn velocity(&self, i: usize) -> Vec3 {
+        match i.checked_sub(self.n) {
+            None => self.own.velocity(i),
+            Some(j) => (self.end[j] - self.start[j]) * self.inv_dt,
+        }
+    }
+    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
+        if i < self.n {
+            self.own.set(i, x, v);
+        }
+    }
+    fn clearances(&self, near: Near, out: &mut [f32]) {
+        // Not used by the pair responses; the others' particles are always near.
+        let n = self.n.min(out.len());
+        self.own.clearances(near, &mut out[..n]);
+        out[n..].fill(f32::NEG_INFINITY);
+    }
+}
+
+/// The unique edges of `triangles` (three indices each), lower index first, sorted.
+fn unique_edges(triangles: &[u32]) -> Vec<[u32; 2]> {
+    let mut edges: Vec<[u32; 2]> = triangles
+        .chunks_exact(3)
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| [a.min(b), a.max(b)])
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    edges
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bad_other_cloth_is_a_typed_error() {
+        let x = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let good = OtherCloth {
+            triangles: &[0, 1, 2],
+            start: &x,
+            end: &x,
+            thickness: 0.005,
+            friction: 0.3,
+        };
+        assert!(good.validate().is_ok());
+        let out_of_range = OtherCloth {
+            triangles: &[0, 1, 3],
+            ..good
+        };
+        assert!(matches!(
+            out_of_range.validate(),
+            Err(ClothError::MeshIndexOutOfRange { index: 3, .. })
+        ));
+        let short = OtherCloth {
+            end: &x[..2],
+            ..good
+        };
+        assert!(matches!(
+            short.validate(),
+            Err(ClothError::InvalidMesh { .. })
+        ));
+        let nan = [Vec3::ZERO, Vec3::NAN, Vec3::Y];
+        let not_finite = OtherCloth { end: &nan, ..good };
+        assert!(matches!(
+            not_finite.validate(),
+            Err(ClothError::InvalidMesh { .. })
+        ));
+        for thickness in [-0.01, f32::NAN] {
+            let bad = OtherCloth { thickness, ..good };
+            assert!(matches!(
+                bad.validate(),
+                Err(ClothError::InvalidValue { .. })
+            ));
+        }
+        // The step leaves it out: nothing is copied, nothing is searched.
+        let mut contacts = ClothContacts::default();
+        contacts.begin_step(
+            &[out_of_range, short, not_finite],
+            (0.005, 0.3),
+            ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
+            0.1,
+            1.0 / 60.0,
+        );
+        assert!(!contacts.is_active());
+        contacts.begin_step(
+            &[good],
+            (0.005, 0.3),
+            ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
+            0.1,
+            1.0 / 60.0,
+        );
+        assert!(contacts.is_active());
+    }
+}
