@@ -144,9 +144,10 @@ pub(crate) struct ClothContacts {
 }
 
 impl ClothContacts {
-    /// The broad phase of a step of `dt` seconds for a cloth `spacing` thick whose box at the
-    /// start is `bounds`, whose particles move at most `reach` in the step, and whose longest
-    /// edge at rest is `max_edge`: copies the valid `others` in reach (see the module docs).
+    /// The broad phase of a step of `dt` seconds for a cloth of `thickness` and `friction` whose
+    /// box at the start is `bounds`, whose particles move at most `reach` in the step, and whose
+    /// longest edge at rest is `max_edge`: copies the valid `others` in reach (see the module
+    /// docs).
     pub fn begin_step(
         &mut self,
         others: &[OtherCloth],
@@ -234,8 +235,7 @@ impl ClothContacts {
         let mut acting = std::mem::take(&mut self.acting);
         let within = !self.stale && self.measure_drift(state, (t0, t1), &mut drift) <= self.reach;
         if !within {
-            self.search(state, (t0, t1));
-            self.measure_drift(state, (t0, t1), &mut drift);
+            self.search(state, (t0, t1), &mut drift);
         }
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
         let mut joined = Joined {
@@ -309,8 +309,8 @@ impl ClothContacts {
     }
 
     /// Finds the candidates from where the particles are at the start of the substep `[t0, t1]`,
-    /// with a reach that covers the substep itself.
-    fn search<S: ContactState>(&mut self, state: &S, (t0, t1): (f32, f32)) {
+    /// with a reach that covers the substep itself; leaves the substep's drift in `drift`.
+    fn search<S: ContactState>(&mut self, state: &S, (t0, t1): (f32, f32), drift: &mut Vec<f32>) {
         self.searches += 1;
         self.stale = false;
         let n = state.len();
@@ -328,9 +328,7 @@ impl ClothContacts {
                 .map(|(a, b)| a.lerp(*b, t0)),
         );
         // The substep's own motion, measured as the drift is.
-        let mut drift = std::mem::take(&mut self.drift);
-        let moved = self.measure_drift(state, (t0, t1), &mut drift);
-        self.drift = drift;
+        let moved = self.measure_drift(state, (t0, t1), drift);
         self.reach = if moved.is_finite() {
             self.reach_cap.max(moved)
         } else {
