@@ -111,6 +111,11 @@ pub(crate) struct ClothContacts {
     start: Vec<Vec3>,
     end: Vec<Vec3>,
     tris: Vec<[u32; 3]>,
+    /// Which of each copied triangle's edges (`k`: from corner `k` to the next) it owns: an edge
+    /// shared by two triangles is owned by one, so a search meets it once.
+    owns: Vec<[bool; 3]>,
+    /// Scratch of `owns`: each edge's key and place.
+    keyed: Vec<(u64, u32)>,
     /// The spacing of each copied cloth with this one, and the copied cloth of each particle.
     spacing: Vec<Spacing>,
     owner: Vec<u32>,
@@ -191,6 +196,22 @@ impl ClothContacts {
                     .chunks_exact(3)
                     .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
             );
+        }
+        self.keyed.clear();
+        for (t, tri) in self.tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                self.keyed.push((key, (3 * t + k) as u32));
+            }
+        }
+        self.keyed.sort_unstable();
+        self.owns.clear();
+        self.owns.resize(self.tris.len(), [false; 3]);
+        for (i, &(key, at)) in self.keyed.iter().enumerate() {
+            if i == 0 || self.keyed[i - 1].0 != key {
+                self.owns[at as usize / 3][at as usize % 3] = true;
+            }
         }
         let thickest = self.spacing.iter().map(|s| s.thickness).fold(0.0, f32::max);
         self.reach_cap = (0.25 * max_edge).max(thickest);
@@ -374,7 +395,6 @@ impl ClothContacts {
                     }
                 });
             }
-            let first_ee = pairs.len();
             for (e, &[a, b]) in self.edges.iter().enumerate() {
                 if count[1] >= cap(self.edges.len()) {
                     break;
@@ -382,7 +402,7 @@ impl ClothContacts {
                 let (pa, pb) = (x[a as usize], x[b as usize]);
                 hash.visit(pa.min(pb), pa.max(pb), |t| {
                     let tri = self.tris[t as usize];
-                    for k in 0..3 {
+                    for k in (0..3).filter(|&k| self.owns[t as usize][k]) {
                         let (c, d) = (tri[k], tri[(k + 1) % 3]);
                         let (pc, pd) = (y[c as usize], y[d as usize]);
                         let (s, u) = closest_on_segments(pa, pb, pc, pd);
@@ -394,19 +414,6 @@ impl ClothContacts {
                     }
                 });
             }
-            // An edge of the other cloth shared by two triangles is met through both.
-            pairs[first_ee..].sort_unstable_by_key(|(pair, _)| match pair {
-                Pair::Edges(e, f) => (*e, *f),
-                _ => (u32::MAX, [0; 2]),
-            });
-            let mut kept = first_ee;
-            for k in first_ee..pairs.len() {
-                if k == first_ee || pairs[k].0 != pairs[kept - 1].0 {
-                    pairs[kept] = pairs[k];
-                    kept += 1;
-                }
-            }
-            pairs.truncate(kept);
         }
         self.own_hash.boxes.clear();
         self.own_hash.boxes.extend(self.own_tris.iter().map(|t| {
@@ -576,6 +583,79 @@ fn unique_edges(triangles: &[u32]) -> Vec<[u32; 2]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::contact::{Vectors, bounds};
+    use crate::sim::{ClothModel, GridSpec};
+
+    #[test]
+    fn a_search_finds_every_pair_within_the_margin_once() {
+        // Two 8×8 grids 4 mm apart, the upper one shifted across the lower one's cells: every
+        // edge of one is near several of the other's.
+        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let tris = &model.triangles;
+        let lower = model.rest_positions.clone();
+        let shift = Vec3::new(0.011, 0.004, 0.017);
+        let upper: Vec<Vec3> = lower.iter().map(|p| *p + shift).collect();
+        let mut contacts = ClothContacts::default();
+        let other = OtherCloth {
+            triangles: tris,
+            start: &upper,
+            end: &upper,
+            thickness: 0.005,
+            friction: 0.3,
+        };
+        let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
+        let inv_mass = vec![1.0; lower.len()];
+        contacts.begin_step(
+            &[other],
+            (0.005, 0.3),
+            (bounds(&lower), 0.0),
+            0.03,
+            1.0 / 60.0,
+        );
+        let mut state = Vectors {
+            x: &mut x,
+            v: &mut v,
+            start: &lower,
+            inv_mass: &inv_mass,
+            touches: None,
+        };
+        contacts.resolve((0.0, 1.0, 1.0 / 60.0), tris, &mut state);
+        assert_eq!(contacts.searches(), 1);
+        let margin = 0.005 + 2.0 * contacts.reach;
+        let edges = unique_edges(tris);
+        let mut expected: Vec<(u32, [u32; 2])> = Vec::new();
+        for (e, &[a, b]) in edges.iter().enumerate() {
+            for &[c, d] in &edges {
+                let (s, t) = closest_on_segments(
+                    lower[a as usize],
+                    lower[b as usize],
+                    upper[c as usize],
+                    upper[d as usize],
+                );
+                let gap = lower[a as usize]
+                    .lerp(lower[b as usize], s)
+                    .distance(upper[c as usize].lerp(upper[d as usize], t));
+                if gap < margin {
+                    expected.push((e as u32, [c, d]));
+                }
+            }
+        }
+        let mut found: Vec<(u32, [u32; 2])> = contacts
+            .pairs
+            .iter()
+            .filter_map(|(pair, _)| match pair {
+                Pair::Edges(e, f) => Some((*e, *f)),
+                _ => None,
+            })
+            .collect();
+        let count = found.len();
+        found.sort_unstable();
+        found.dedup();
+        assert_eq!(found.len(), count, "an edge pair found twice");
+        expected.sort_unstable();
+        assert!(expected.len() > 4 * edges.len(), "{} pairs", expected.len());
+        assert_eq!(found, expected);
+    }
 
     #[test]
     fn a_bad_other_cloth_is_a_typed_error() {
