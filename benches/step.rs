@@ -8,7 +8,8 @@
 //! a hanging 64×64 cloth and one lying crumpled on a floor, each with it off and on. Last,
 //! character cloth: App frames of a 32×32 cape skinned to a walking, turning torso against the
 //! same cape on static pins, and tethers' cost in a step. And tolerance mode on the 64×64 frame
-//! with a sphere and wind against the fixed setting it settles on.
+//! with a sphere and wind against the fixed setting it settles on. Last, cloth–cloth contacts:
+//! a 32×32 cloth's step lying on another, alone, and with the other out of reach.
 
 use std::hint::black_box;
 
@@ -20,8 +21,8 @@ use bevy_cloth::harness::character::{Cape, spawn_cape, torso_pose};
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
     Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridNormals,
-    GridPlane, GridSpec, Integrator, Pose, ScopedThread, SelfCollision, SolverSettings, Spread,
-    Tethers, WindField, compute_normals,
+    GridPlane, GridSpec, Integrator, OtherCloth, Pose, ScopedThread, SelfCollision, SolverSettings,
+    Spread, Tethers, WindField, compute_normals,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -510,6 +511,85 @@ fn character(c: &mut Criterion) {
     group.finish();
 }
 
+/// Cloth–cloth contacts' cost in one step of a 32×32 cloth (3 cm spacing, self-collision off):
+/// lying crumpled on another 32×32 cloth that lies on a floor (both dropped and settled for
+/// 1.5 s, stepping one after the other as the plugin steps them), against the same step alone
+/// and with the other cloth moved 10 m away (out of reach: only the box test).
+fn cloth_contacts(c: &mut Criterion) {
+    let mut group = c.benchmark_group("cloth_contacts_32x32");
+    let floor = [Collider::fixed(
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Vec3::Y)),
+        Pose::from_translation(Vec3::ZERO),
+        Friction::default(),
+        0.005,
+    )];
+    let settings = SolverSettings {
+        sleep_speed: 0.0,
+        ..Default::default()
+    };
+    let cloth = |at: Transform| {
+        let model = ClothModel::grid(&GridSpec::new(32, 32, 0.03)).unwrap();
+        ClothSim::new(model, settings, |p| at.transform_point(p)).unwrap()
+    };
+    let mut below = cloth(Transform::from_xyz(0.0, 0.05, 0.0));
+    let mut above = cloth(
+        Transform::from_xyz(0.1, 0.3, 0.05)
+            .with_rotation(Quat::from_rotation_y(0.7) * Quat::from_rotation_x(0.4)),
+    );
+    let triangles = below.model().triangles.clone();
+    let with = |x0: &[Vec3], x1: &[Vec3], step: &mut dyn FnMut(&Environment)| {
+        let others = [OtherCloth {
+            triangles: &triangles,
+            start: x0,
+            end: x1,
+            thickness: 0.005,
+            friction: 0.3,
+        }];
+        step(&Environment {
+            colliders: &floor,
+            cloths: &others,
+            ..Default::default()
+        });
+    };
+    for _ in 0..90 {
+        let still = above.positions().to_vec();
+        with(&still, &still, &mut |env| {
+            below.step_in(1.0 / 60.0, env).unwrap()
+        });
+        let start = below.positions().to_vec();
+        with(&start, below.positions(), &mut |env| {
+            above.step_in(1.0 / 60.0, env).unwrap()
+        });
+    }
+    let lying = below.positions().to_vec();
+    let away: Vec<Vec3> = lying
+        .iter()
+        .map(|p| *p + Vec3::new(10.0, 0.0, 0.0))
+        .collect();
+    let alone = Environment {
+        colliders: &floor,
+        ..Default::default()
+    };
+    let mut sim = above.clone();
+    group.bench_function("alone", |b| {
+        b.iter(|| sim.step_in(black_box(1.0 / 60.0), &alone).unwrap())
+    });
+    for (name, other) in [
+        ("lying_on_another", &lying),
+        ("another_out_of_reach", &away),
+    ] {
+        let mut sim = above.clone();
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                with(other, other, &mut |env| {
+                    sim.step_in(black_box(1.0 / 60.0), env).unwrap()
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     step,
@@ -520,6 +600,7 @@ criterion_group!(
     normals,
     sleeping,
     self_collision,
-    character
+    character,
+    cloth_contacts
 );
 criterion_main!(benches);

@@ -257,6 +257,26 @@ fn changed_fraction(a: &Picture, b: &Picture, rect: (f32, f32, f32, f32)) -> f32
 /// what rasterising the same scene twice gives.
 const MOVED: u32 = 48;
 
+#[test]
+#[ignore = "needs target/screenshots from scripts/screenshots.sh (run by scripts/test-all.sh)"]
+fn laundry_piles_the_cloths_on_the_ball() {
+    let p = load("laundry");
+    assert_not_blank(&p);
+    // The cloths cover the top of the ball in the middle of the picture...
+    let pile = cloth_fraction(&p, (0.44, 0.4, 0.6, 0.52));
+    assert!(
+        pile > 0.6,
+        "only {:.0}% cloth pixels on the ball",
+        pile * 100.0
+    );
+    // ...and its lower half shows: they rest on it rather than falling past it.
+    let below = cloth_fraction(&p, (0.45, 0.6, 0.55, 0.66));
+    assert!(
+        below < 0.05,
+        "cloth colour on the ball's lower half: {below}"
+    );
+}
+
 /// The middle of the picture, between the examples' panels (the inspector on the left, the
 /// drape's scene panel on the right), whose numbers change from frame to frame.
 const SCENE: (f32, f32, f32, f32) = (0.31, 0.0, 0.73, 1.0);
@@ -276,6 +296,7 @@ fn every_simulated_example_moves_its_cloth() {
         "tablecloth",
         "character",
         "avian_playground",
+        "laundry",
     ] {
         let changed = changed_fraction(&load(&format!("{name}_start")), &load(name), SCENE);
         assert!(
@@ -347,6 +368,7 @@ fn every_example_matches_its_reference_picture() {
         "tablecloth",
         "character",
         "avian_playground",
+        "laundry",
     ] {
         let now = block_means(&load(name));
         if update {

@@ -128,8 +128,10 @@ pub(crate) struct ClothContacts {
     reach_cap: f32,
     /// The reach the candidates were found with, m.
     reach: f32,
-    /// The candidates and each one's distance when found, m.
+    /// The candidates and each one's distance when found, m; and the same ready for the
+    /// substeps.
     pairs: Vec<(Pair, f32)>,
+    prepared: Vec<Prepared>,
     /// Where each of this cloth's model particles is stored in the state being resolved.
     slot: Vec<u32>,
     /// Positions when the candidates were found: this cloth's (by model particle), the others'.
@@ -214,7 +216,7 @@ impl ClothContacts {
             }
         }
         let thickest = self.spacing.iter().map(|s| s.thickness).fold(0.0, f32::max);
-        self.reach_cap = (0.25 * max_edge).max(thickest);
+        self.reach_cap = (0.1 * max_edge).max(thickest);
     }
 
     /// Whether another cloth is near this step.
@@ -268,8 +270,8 @@ impl ClothContacts {
             inv_dt: self.inv_dt,
         };
         acting.clear();
-        for k in 0..self.pairs.len() {
-            if self.may_touch(k, n, &drift) && self.pair(&mut joined, k, inv_h, &mut drift) {
+        for k in 0..self.prepared.len() {
+            if self.may_touch(k, &drift) && self.pair(&mut joined, k, inv_h, &mut drift) {
                 acting.push(k as u32);
             }
         }
@@ -356,6 +358,7 @@ impl ClothContacts {
             self.reach_cap
         };
         self.find_candidates();
+        self.prepare(n);
     }
 
     /// The broad phase proper on `found_own` and `found_other`: every pair closer than its
@@ -460,22 +463,34 @@ impl ClothContacts {
         }
     }
 
-    /// Whether candidate `k` may have come within its thickness since it was found: its gap then
-    /// less the most its two elements' particles have drifted.
-    fn may_touch(&self, k: usize, n: usize, drift: &[f32]) -> bool {
-        let (pair, gap) = self.pairs[k];
-        let (s, other) = self.slots(pair, n);
-        let d = s.map(|i| drift[i]);
-        let closing = match pair {
-            Pair::OwnVertex(..) | Pair::OtherVertex(..) => d[0] + d[1].max(d[2]).max(d[3]),
-            Pair::Edges(..) => d[0].max(d[1]) + d[2].max(d[3]),
-        };
-        gap - closing <= self.spacing_of(other).thickness
+    /// Each candidate's slots, kind and spacing, for the substeps (after a search, for a state of
+    /// `n` stored particles).
+    fn prepare(&mut self, n: usize) {
+        let mut prepared = std::mem::take(&mut self.prepared);
+        prepared.clear();
+        prepared.extend(self.pairs.iter().map(|&(pair, gap)| {
+            let (slots, other) = self.slots(pair, n);
+            Prepared {
+                slots: slots.map(|s| s as u32),
+                vertex: !matches!(pair, Pair::Edges(..)),
+                spacing: self.owner[other as usize],
+                gap,
+            }
+        }));
+        self.prepared = prepared;
     }
 
-    /// The spacing of this cloth with the other cloth of particle `other`.
-    fn spacing_of(&self, other: u32) -> Spacing {
-        self.spacing[self.owner[other as usize] as usize]
+    /// Whether candidate `k` may have come within its thickness since it was found: its gap then
+    /// less the most its two elements' particles have drifted.
+    fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
+        let c = &self.prepared[k];
+        let d = c.slots.map(|i| drift[i as usize]);
+        let closing = if c.vertex {
+            d[0] + d[1].max(d[2]).max(d[3])
+        } else {
+            d[0].max(d[1]) + d[2].max(d[3])
+        };
+        c.gap - closing <= self.spacing[c.spacing as usize].thickness
     }
 
     /// Resolves candidate `k` on the joined state (see [`Spacing`]). Returns whether anything
@@ -487,16 +502,25 @@ impl ClothContacts {
         inv_h: f32,
         drift: &mut [f32],
     ) -> bool {
-        let (pair, _) = self.pairs[k];
-        let (s, other) = self.slots(pair, state.n);
-        let spacing = self.spacing_of(other);
-        match pair {
-            Pair::OwnVertex(..) | Pair::OtherVertex(..) => {
-                spacing.vertex_triangle(state, s, inv_h, drift)
-            }
-            Pair::Edges(..) => spacing.edge_edge(state, s, inv_h, drift),
+        let c = &self.prepared[k];
+        let spacing = self.spacing[c.spacing as usize];
+        let s = c.slots.map(|i| i as usize);
+        if c.vertex {
+            spacing.vertex_triangle(state, s, inv_h, drift)
+        } else {
+            spacing.edge_edge(state, s, inv_h, drift)
         }
     }
+}
+
+/// A candidate as the substeps use it: its four particles' joined slots (the vertex first in a
+/// vertex–triangle pair), its kind, the copied cloth it meets and its distance when found.
+#[derive(Debug, Clone, Copy)]
+struct Prepared {
+    slots: [u32; 4],
+    vertex: bool,
+    spacing: u32,
+    gap: f32,
 }
 
 /// A candidate pair between this cloth and another.
