@@ -240,6 +240,23 @@ pub(crate) fn non_negative(field: &'static str, value: f32) -> Result<(), ClothE
     }
 }
 
+/// Checks that every index in `indices` is below `count`; the error names the first that is not
+/// and where it is.
+pub(crate) fn indices_in_range(indices: &[u32], count: usize) -> Result<(), ClothError> {
+    match indices
+        .iter()
+        .enumerate()
+        .find(|(_, i)| **i as usize >= count)
+    {
+        Some((position, &index)) => Err(ClothError::MeshIndexOutOfRange {
+            index,
+            position,
+            count,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Checks that `value` is finite.
 pub(crate) fn finite(field: &'static str, value: f32) -> Result<(), ClothError> {
     if value.is_finite() {

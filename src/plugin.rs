@@ -536,8 +536,8 @@ fn step_one(state: &mut ClothState, dt: f32, env: &Environment, spread: Option<&
 }
 
 /// The cloths that meet another cloth this step ([`ClothConfig::cloth_layers`]), in the order of
-/// their entities, with what each one's step needs of the others (kept between steps so that
-/// nothing allocates once grown).
+/// their entities, with what each one's step needs of the others (their buffers kept between
+/// steps).
 #[derive(Default)]
 pub(crate) struct LayeredCloths {
     cloths: Vec<LayeredCloth>,

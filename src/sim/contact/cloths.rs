@@ -32,9 +32,9 @@ use glam::Vec3;
 use super::Near;
 use super::narrow::ContactState;
 use super::self_contact::{
-    Hash, PASSES, Spacing, closest_on_segments, max_or_infinite, point_triangle_distance,
+    Hash, Spacing, closest_on_segments, later_passes, max_or_infinite, point_triangle_distance,
 };
-use crate::error::{ClothError, non_negative, positive};
+use crate::error::{ClothError, indices_in_range, non_negative, positive};
 
 /// At most this many candidates per vertex or edge of the search, of each kind.
 const MAX_CANDIDATES_PER_ELEMENT: usize = 32;
@@ -80,18 +80,7 @@ impl OtherCloth<'_> {
                 ),
             });
         }
-        if let Some((position, &index)) = self
-            .triangles
-            .iter()
-            .enumerate()
-            .find(|(_, i)| **i as usize >= count)
-        {
-            return Err(ClothError::MeshIndexOutOfRange {
-                index,
-                position,
-                count,
-            });
-        }
+        indices_in_range(self.triangles, count)?;
         if !self.start.iter().chain(self.end).all(|p| p.is_finite()) {
             return Err(ClothError::InvalidMesh {
                 what: "another cloth has a position that is not finite".into(),
@@ -275,15 +264,7 @@ impl ClothContacts {
                 acting.push(k as u32);
             }
         }
-        for _ in 1..PASSES {
-            let mut moved = false;
-            for &k in &acting {
-                moved |= self.pair(&mut joined, k as usize, inv_h, &mut drift);
-            }
-            if !moved {
-                break;
-            }
-        }
+        later_passes(&acting, |k| self.pair(&mut joined, k, inv_h, &mut drift));
         let any = !acting.is_empty();
         self.drift = drift;
         self.acting = acting;

@@ -49,6 +49,21 @@ mod patches;
 /// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
 pub(super) const PASSES: u32 = 4;
 
+/// The passes after a substep's first, over the candidates `acting` that acted in it, until
+/// `pair(k)` (resolving candidate `k`, whether it moved anything) moves nothing, at most
+/// [`PASSES`] in all.
+pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> bool) {
+    for _ in 1..PASSES {
+        let mut moved = false;
+        for &k in acting {
+            moved |= pair(k as usize);
+        }
+        if !moved {
+            break;
+        }
+    }
+}
+
 /// At most this many candidate pairs per triangle of the cloth (of each kind): a cloth crushed
 /// into a ball smaller than the margin would otherwise have every pair of its elements as a
 /// candidate. A pile of cloth needs far fewer.
@@ -261,15 +276,7 @@ impl SelfContacts {
                 acting.push(k as u32);
             }
         }
-        for _ in 1..PASSES {
-            let mut moved = false;
-            for &k in &acting {
-                moved |= self.pair(state, k as usize, inv_h, &mut drift);
-            }
-            if !moved {
-                break;
-            }
-        }
+        later_passes(&acting, |k| self.pair(state, k, inv_h, &mut drift));
         let any = !acting.is_empty();
         self.acting = acting;
         self.drift = drift;

@@ -7,7 +7,7 @@
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 
-use crate::error::{ClothError, positive};
+use crate::error::{ClothError, indices_in_range, positive};
 
 mod disc;
 mod grid;
@@ -511,17 +511,7 @@ fn check_mesh(
         ));
     }
     let count = positions.len();
-    if let Some((position, &index)) = indices
-        .iter()
-        .enumerate()
-        .find(|(_, i)| **i as usize >= count)
-    {
-        return Err(ClothError::MeshIndexOutOfRange {
-            index,
-            position,
-            count,
-        });
-    }
+    indices_in_range(indices, count)?;
     for (f, face) in indices.chunks_exact(face_size).enumerate() {
         check_face(positions, f, face)?;
     }
