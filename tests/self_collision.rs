@@ -429,3 +429,32 @@ fn three_cloths_dropped_on_a_sphere_never_cross_each_other() {
     let tops: Vec<f32> = cloths.iter().map(|&e| top(e)).collect();
     assert!(tops[2] > tops[0] + 0.004, "stacked: {tops:?}");
 }
+
+#[test]
+fn cloths_out_of_each_others_reach_never_search() {
+    // Two cloths on one layer, 3 m apart, falling side by side onto the floor: each step's broad
+    // phase drops the other, so neither ever looks for contact candidates.
+    let mut app = app_with_floor();
+    let cloths: Vec<Entity> = [-1.5, 1.5]
+        .into_iter()
+        .map(|x| {
+            spawn_valid(
+                &mut app,
+                (
+                    Cloth::grid(GridSpec::new(16, 16, 0.03)),
+                    ClothConfig {
+                        cloth_layers: 1,
+                        ..default()
+                    },
+                    Transform::from_xyz(x, 0.5, 0.0),
+                ),
+            )
+        })
+        .collect();
+    let start = centre_of_mass(&app, cloths[0]);
+    run(&mut app, 60);
+    assert!(centre_of_mass(&app, cloths[0]).y < start.y - 0.3, "it fell");
+    for e in cloths {
+        assert_eq!(sim(&app, e).cloth_contact_searches(), 0);
+    }
+}
