@@ -1,7 +1,8 @@
 //! Collisions between a cloth and colliders (spheres, capsules, cuboids and half-spaces, and any
 //! other shape through the `Surface` queries; moving as given, or giving way as a body does),
 //! and of a cloth with itself (`self_contact`, resolved right after the colliders in the same
-//! substeps and on the same `ContactState`s; its pipeline is in that module's docs).
+//! substeps and on the same `ContactState`s; its pipeline is in that module's docs) and with
+//! other cloths (`cloths`, right after the self-contacts, with the same pair response).
 //! The limits on where a particle may go (`limits`: a maximum distance from an animated target,
 //! a backstop behind it, tethers to the pins) are resolved in the same pass, just before the
 //! colliders.
