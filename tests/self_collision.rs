@@ -1,6 +1,7 @@
-//! Self-collision, judged by a crossing counter of this file's own (not the solver's): the edges of
-//! a cloth that pass through one of its triangles they share no vertex with. Piles, folds and
-//! coarse cloths must show none at any frame; without self-collision the same scenes show many.
+//! Self-collision and cloth–cloth collision, judged by a crossing counter of this file's own (not
+//! the solver's): the edges of a cloth that pass through one of its triangles they share no vertex
+//! with, or through another cloth's. Piles, folds and coarse cloths must show none at any frame;
+//! without the collision the same scenes show many.
 
 use std::collections::HashMap;
 
