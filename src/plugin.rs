@@ -612,8 +612,11 @@ impl LayeredCloths {
             let sim = &state.sim;
             c.entity = entity;
             c.layers = layers;
-            c.triangles.clear();
-            c.triangles.extend_from_slice(&sim.model().triangles);
+            // The same cloth's triangles do not change from step to step.
+            if c.triangles != sim.model().triangles {
+                c.triangles.clear();
+                c.triangles.extend_from_slice(&sim.model().triangles);
+            }
             c.start.clear();
             c.start.extend_from_slice(sim.positions());
             c.end.clear();

@@ -32,11 +32,13 @@ use glam::Vec3;
 use super::Near;
 use super::narrow::ContactState;
 use super::self_contact::{
-    Hash, Spacing, closest_on_segments, later_passes, max_or_infinite, point_triangle_distance,
+    Hash, Spacing, closest_on_segments, edge_table, later_passes, max_or_infinite,
+    point_triangle_distance,
 };
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
 
-/// At most this many candidates per vertex or edge of the search, of each kind.
+/// At most this many candidates per vertex or edge of the search, of each kind: enough for
+/// several layers within the margin, not for a crushed ball of cloth.
 const MAX_CANDIDATES_PER_ELEMENT: usize = 32;
 
 /// Another cloth as one cloth's step sees it (see
@@ -100,11 +102,13 @@ pub(crate) struct ClothContacts {
     start: Vec<Vec3>,
     end: Vec<Vec3>,
     tris: Vec<[u32; 3]>,
-    /// Which of each copied triangle's edges (`k`: from corner `k` to the next) it owns: an edge
-    /// shared by two triangles is owned by one, so a search meets it once.
-    owns: Vec<[bool; 3]>,
-    /// Scratch of `owns`: each edge's key and place.
-    keyed: Vec<(u64, u32)>,
+    /// The copied triangles' edge table (see `edge_table`; found again only when the copied
+    /// triangles change): an edge shared by two triangles is owned by one, so a search meets
+    /// it once. The last step's triangles, to tell, and the table's scratch.
+    tri_edges: Vec<[u32; 3]>,
+    other_edges: Vec<[u32; 2]>,
+    last_tris: Vec<[u32; 3]>,
+    keyed: Vec<(u64, usize)>,
     /// The spacing of each copied cloth with this one, and the copied cloth of each particle.
     spacing: Vec<Spacing>,
     owner: Vec<u32>,
@@ -154,6 +158,7 @@ impl ClothContacts {
     ) {
         self.start.clear();
         self.end.clear();
+        std::mem::swap(&mut self.tris, &mut self.last_tris);
         self.tris.clear();
         self.spacing.clear();
         self.owner.clear();
@@ -188,21 +193,13 @@ impl ClothContacts {
                     .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
             );
         }
-        self.keyed.clear();
-        for (t, tri) in self.tris.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
-                self.keyed.push((key, (3 * t + k) as u32));
-            }
-        }
-        self.keyed.sort_unstable();
-        self.owns.clear();
-        self.owns.resize(self.tris.len(), [false; 3]);
-        for (i, &(key, at)) in self.keyed.iter().enumerate() {
-            if i == 0 || self.keyed[i - 1].0 != key {
-                self.owns[at as usize / 3][at as usize % 3] = true;
-            }
+        if self.tris != self.last_tris {
+            edge_table(
+                &self.tris,
+                &mut self.keyed,
+                &mut self.other_edges,
+                &mut self.tri_edges,
+            );
         }
         let thickest = self.spacing.iter().map(|s| s.thickness).fold(0.0, f32::max);
         self.reach_cap = (0.1 * max_edge).max(thickest);
@@ -240,7 +237,12 @@ impl ClothContacts {
                 .chunks_exact(3)
                 .map(|t| [t[0], t[1], t[2]])
                 .collect();
-            self.edges = unique_edges(triangles);
+            edge_table(
+                &self.own_tris,
+                &mut self.keyed,
+                &mut self.edges,
+                &mut Vec::new(),
+            );
         }
         let n = state.len();
         let mut drift = std::mem::take(&mut self.drift);
@@ -343,7 +345,7 @@ impl ClothContacts {
     }
 
     /// The broad phase proper on `found_own` and `found_other`: every pair closer than its
-    /// spacing's thickness plus twice the reach, up to the cap per triangle of each kind.
+    /// spacing's thickness plus twice the reach, up to the cap per element of each kind.
     fn find_candidates(&mut self) {
         self.pairs.clear();
         let reach2 = 2.0 * self.reach;
@@ -353,16 +355,10 @@ impl ClothContacts {
         let corners = |t: &[u32; 3], p: &[Vec3]| t.map(|i| p[i as usize]);
         let limit =
             |other: u32| self.spacing[self.owner[other as usize] as usize].thickness + reach2;
-        // At most this many candidates per vertex or edge searched from: enough for several
-        // layers within the margin, not for a crushed ball of cloth.
         let cap = |elements: usize| MAX_CANDIDATES_PER_ELEMENT * elements;
         let pairs = &mut self.pairs;
         let mut count = [0usize; 3];
-        self.other_hash.boxes.clear();
-        self.other_hash.boxes.extend(self.tris.iter().map(|t| {
-            let [a, b, c] = corners(t, y);
-            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
-        }));
+        self.other_hash.triangle_boxes(&self.tris, y, grow);
         if self.other_hash.build(|_| true) {
             let hash = &self.other_hash;
             for (p, &at) in x.iter().enumerate() {
@@ -386,7 +382,7 @@ impl ClothContacts {
                 let (pa, pb) = (x[a as usize], x[b as usize]);
                 hash.visit(pa.min(pb), pa.max(pb), |t| {
                     let tri = self.tris[t as usize];
-                    for k in (0..3).filter(|&k| self.owns[t as usize][k]) {
+                    for k in (0..3).filter(|&k| self.tri_edges[t as usize][k] != u32::MAX) {
                         let (c, d) = (tri[k], tri[(k + 1) % 3]);
                         let (pc, pd) = (y[c as usize], y[d as usize]);
                         let (s, u) = closest_on_segments(pa, pb, pc, pd);
@@ -399,11 +395,7 @@ impl ClothContacts {
                 });
             }
         }
-        self.own_hash.boxes.clear();
-        self.own_hash.boxes.extend(self.own_tris.iter().map(|t| {
-            let [a, b, c] = corners(t, x);
-            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
-        }));
+        self.own_hash.triangle_boxes(&self.own_tris, x, grow);
         if self.own_hash.build(|_| true) {
             let hash = &self.own_hash;
             for (p, &at) in y.iter().enumerate() {
@@ -573,18 +565,6 @@ impl<S: ContactState> ContactState for Joined<'_, S> {
     }
 }
 
-/// The unique edges of `triangles` (three indices each), lower index first, sorted.
-fn unique_edges(triangles: &[u32]) -> Vec<[u32; 2]> {
-    let mut edges: Vec<[u32; 2]> = triangles
-        .chunks_exact(3)
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .map(|(a, b)| [a.min(b), a.max(b)])
-        .collect();
-    edges.sort_unstable();
-    edges.dedup();
-    edges
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -627,7 +607,15 @@ mod tests {
         contacts.resolve((0.0, 1.0, 1.0 / 60.0), tris, &mut state);
         assert_eq!(contacts.searches(), 1);
         let margin = 0.005 + 2.0 * contacts.reach;
-        let edges = unique_edges(tris);
+        // The grid's edges, found here independently of the contacts.
+        let mut edges: Vec<[u32; 2]> = tris
+            .chunks_exact(3)
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        assert_eq!(edges, contacts.edges);
         let mut expected: Vec<(u32, [u32; 2])> = Vec::new();
         for (e, &[a, b]) in edges.iter().enumerate() {
             for &[c, d] in &edges {

@@ -146,22 +146,8 @@ impl SelfContacts {
             .chunks_exact(3)
             .map(|t| [t[0], t[1], t[2]])
             .collect();
-        let mut keyed: Vec<(u64, usize)> = Vec::with_capacity(tris.len() * 3);
-        for (t, tri) in tris.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                keyed.push((pair_key(a.min(b), a.max(b)), 3 * t + k));
-            }
-        }
-        keyed.sort_unstable();
-        let mut edges: Vec<[u32; 2]> = Vec::new();
-        let mut tri_edges = vec![[u32::MAX; 3]; tris.len()];
-        for (i, &(key, at)) in keyed.iter().enumerate() {
-            if i == 0 || keyed[i - 1].0 != key {
-                edges.push([(key >> 32) as u32, key as u32]);
-                tri_edges[at / 3][at % 3] = (edges.len() - 1) as u32;
-            }
-        }
+        let (mut keyed, mut edges, mut tri_edges) = (Vec::new(), Vec::new(), Vec::new());
+        edge_table(&tris, &mut keyed, &mut edges, &mut tri_edges);
         let shortest = edges
             .iter()
             .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
@@ -434,11 +420,7 @@ impl SelfContacts {
         self.ee.clear();
         self.gap.clear();
         let grow = Vec3::splat(margin);
-        self.hash.boxes.clear();
-        self.hash.boxes.extend(self.tris.iter().map(|t| {
-            let [a, b, c] = t.map(|i| x[i as usize]);
-            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
-        }));
+        self.hash.triangle_boxes(&self.tris, x, grow);
         if let Some(flat) = cull {
             self.patches.update(x, &self.tris, &self.hash.boxes, flat);
         }
@@ -791,6 +773,35 @@ pub(super) fn max_or_infinite(a: f32, b: f32) -> f32 {
     if b.is_nan() { f32::INFINITY } else { a.max(b) }
 }
 
+/// The unique edges of triangles `tris` (lower particle first, sorted) into `edges`, and for each
+/// triangle the edge from each of its corners to the next (an index into `edges`; `u32::MAX` where
+/// an earlier triangle that shares it owns it) into `tri_edges`; `keyed` is left holding each
+/// triangle side's edge key and place (`3 × triangle + corner`), sorted by key.
+pub(super) fn edge_table(
+    tris: &[[u32; 3]],
+    keyed: &mut Vec<(u64, usize)>,
+    edges: &mut Vec<[u32; 2]>,
+    tri_edges: &mut Vec<[u32; 3]>,
+) {
+    keyed.clear();
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            keyed.push((pair_key(a.min(b), a.max(b)), 3 * t + k));
+        }
+    }
+    keyed.sort_unstable();
+    edges.clear();
+    tri_edges.clear();
+    tri_edges.resize(tris.len(), [u32::MAX; 3]);
+    for (i, &(key, at)) in keyed.iter().enumerate() {
+        if i == 0 || keyed[i - 1].0 != key {
+            edges.push([(key >> 32) as u32, key as u32]);
+            tri_edges[at / 3][at % 3] = (edges.len() - 1) as u32;
+        }
+    }
+}
+
 /// The key of pair `(a, b)` in the exemption lists.
 fn pair_key(a: u32, b: u32) -> u64 {
     (a as u64) << 32 | b as u64
@@ -951,6 +962,15 @@ impl Hash {
         }
         self.start[0] = 0;
         true
+    }
+
+    /// Sets the boxes to those of triangles `tris` over positions `x`, grown by `grow`.
+    pub(super) fn triangle_boxes(&mut self, tris: &[[u32; 3]], x: &[Vec3], grow: Vec3) {
+        self.boxes.clear();
+        self.boxes.extend(tris.iter().map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            (a.min(b).min(c) - grow, a.max(b).max(c) + grow)
+        }));
     }
 
     /// The cell of point `p`.
