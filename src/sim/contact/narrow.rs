@@ -154,6 +154,16 @@ pub(crate) trait ContactState {
     /// For every particle, `near.distance(x) − |x − start|` into `out`: a lower bound on its
     /// distance from `near`'s point or plane all along its path over the substep.
     fn clearances(&self, near: Near, out: &mut [f32]);
+    /// Calls `f(i, start, position)` for every stored particle `i`, in storage order: one pass
+    /// over the whole state (a stepper overrides it with a loop over its own arrays).
+    fn paths(&self, mut f: impl FnMut(usize, Vec3, Vec3))
+    where
+        Self: Sized,
+    {
+        for i in 0..self.len() {
+            f(i, self.start(i), self.position(i));
+        }
+    }
 }
 
 /// See [`Contacts::resolve_state`]. Before the exact test, a particle whose clearance (see

@@ -109,15 +109,20 @@ pub(crate) struct SelfContacts {
     ee: Vec<(u32, u32)>,
     /// Each candidate's distance when found (vertex–triangle ones, then edge–edge ones), m.
     gap: Vec<f32>,
-    /// Per stored particle: how far it may have moved, relative to the cloth's mean motion,
-    /// since the candidates were found (an upper bound; scratch of each resolution).
+    /// Per stored particle in a candidate pair: how far it may have moved, relative to the
+    /// cloth's mean motion, since the candidates were found (an upper bound; scratch of each
+    /// resolution, not kept for the other particles).
     drift: Vec<f32>,
+    /// The stored particles that are in a candidate pair, each once.
+    involved: Vec<u32>,
     /// Where each model particle is stored in the state being resolved.
     slot: Vec<u32>,
-    /// Positions (by model particle) when the candidates were found.
+    /// Positions (by model particle) when the candidates were found; scratch of the search.
     found_at: Vec<Vec3>,
+    /// Positions (by stored particle) when the candidates were found.
+    found: Vec<Vec3>,
     /// The reach the candidates were found with, m: they hold every pair that can come within the
-    /// thickness while any two particles' displacements since `found_at` differ by at most twice
+    /// thickness while any two particles' displacements since `found` differ by at most twice
     /// this.
     reach: f32,
     /// The reach the step was begun with.
@@ -128,6 +133,10 @@ pub(crate) struct SelfContacts {
     stale: bool,
     /// Broad phases run so far.
     searches: u64,
+    /// How much closer particles in cubes of `regions` that are not neighbours may come before a
+    /// search is due: they were at least the cubes' size apart, so the elements they belong to
+    /// were at least that less the longest edge apart.
+    far_limit: f32,
     /// The particles' patches at the last broad phase, whose motion since tells when to search
     /// again.
     regions: Regions,
@@ -248,10 +257,13 @@ impl SelfContacts {
         if self.tris.is_empty() {
             return false;
         }
-        self.refresh_candidates(state);
+        let mean = self.refresh_candidates(state);
+        if self.vt.is_empty() && self.ee.is_empty() {
+            return false;
+        }
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
         let mut drift = std::mem::take(&mut self.drift);
-        self.measure_drift(state, &mut drift);
+        self.measure_drift(state, mean, &mut drift);
         // The first pass tests the candidates that may have come within the thickness since they
         // were found; the later ones only those that acted in it (in a pile most candidates are
         // near but never act).
@@ -269,28 +281,24 @@ impl SelfContacts {
         any
     }
 
-    /// Fills `drift` (by stored particle) with each particle's largest distance, at the start or
-    /// the end of the substep, from where it was when the candidates were found, the cloth's mean
-    /// displacement taken off. Along the substep's straight paths no particle is farther than
-    /// that, so two elements have come closer than at the broad phase by at most the sum of their
+    /// Fills `drift` (by stored particle, for the particles in a candidate pair) with each
+    /// particle's largest distance, at the start or the end of the substep, from where it was
+    /// when the candidates were found, the cloth's mean displacement `(start, end)` of the
+    /// substep taken off. Along the substep's straight paths no particle is farther than that,
+    /// so two elements have come closer than at the broad phase by at most the sum of their
     /// particles' largest drifts.
-    fn measure_drift<S: ContactState>(&self, state: &S, drift: &mut Vec<f32>) {
-        let n = self.slot.len();
-        drift.clear();
+    fn measure_drift<S: ContactState>(
+        &self,
+        state: &S,
+        (m0, m1): (Vec3, Vec3),
+        drift: &mut Vec<f32>,
+    ) {
         drift.resize(state.len(), f32::INFINITY);
-        if n == 0 {
-            return;
-        }
-        let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
-        for (&s, x) in self.slot.iter().zip(&self.found_at) {
-            m0 += state.start(s as usize) - *x;
-            m1 += state.position(s as usize) - *x;
-        }
-        let (m0, m1) = (m0 / n as f32, m1 / n as f32);
-        for (&s, x) in self.slot.iter().zip(&self.found_at) {
+        for &s in &self.involved {
             let s = s as usize;
-            let d0 = (state.start(s) - *x - m0).length();
-            let d1 = (state.position(s) - *x - m1).length();
+            let x = self.found[s];
+            let d0 = (state.start(s) - x - m0).length();
+            let d1 = (state.position(s) - x - m1).length();
             // NaN stays infinite: such a particle is always tested.
             drift[s] = if d0.is_nan() || d1.is_nan() {
                 f32::INFINITY
@@ -346,8 +354,9 @@ impl SelfContacts {
     }
 
     /// Finds the candidates at the step's first resolution, or again when a particle has moved
-    /// farther than the reach since they were found.
-    fn refresh_candidates<S: ContactState>(&mut self, state: &S) {
+    /// farther than the reach since they were found. Returns the particles' mean displacement
+    /// since then, at the start and at the end of the substep.
+    fn refresh_candidates<S: ContactState>(&mut self, state: &S) -> (Vec3, Vec3) {
         let n = state.len();
         if std::mem::take(&mut self.new_step)
             && (self.slot.len() != n
@@ -356,12 +365,9 @@ impl SelfContacts {
             self.stale = true;
         }
         if !self.stale {
-            let (slot, found_at) = (&self.slot, &self.found_at);
-            let (near, far) = self
-                .regions
-                .closing(|p| state.position(slot[p] as usize) - found_at[p]);
-            if near <= 2.0 * self.reach && far <= self.regions.size - self.thickness {
-                return;
+            let closing = self.regions.closing(state, &self.found);
+            if closing.near <= 2.0 * self.reach && closing.far <= self.far_limit {
+                return closing.mean;
             }
         }
         self.slot.clear();
@@ -396,9 +402,44 @@ impl SelfContacts {
             cap,
             Some(cull),
         );
-        self.regions.assign(&positions);
+        self.regions.assign(&positions, &self.slot);
+        let longest = self
+            .edges
+            .iter()
+            .map(|&[a, b]| positions[a as usize].distance(positions[b as usize]))
+            .fold(0.0, max_or_infinite);
+        self.far_limit = self.regions.size - longest - self.thickness;
+        self.found.clear();
+        self.found.resize(n, Vec3::ZERO);
+        for (&s, x) in self.slot.iter().zip(&positions) {
+            self.found[s as usize] = *x;
+        }
         self.found_at = positions;
         self.stale = false;
+        self.list_involved();
+        let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
+        let found = &self.found;
+        state.paths(|i, start, end| {
+            m0 += start - found[i];
+            m1 += end - found[i];
+        });
+        (m0 / n as f32, m1 / n as f32)
+    }
+
+    /// Lists the stored particles that are in a candidate pair.
+    fn list_involved(&mut self) {
+        let slot = |p: u32| self.slot[p as usize];
+        self.involved.clear();
+        for &(p, t) in &self.vt {
+            let [a, b, c] = self.tris[t as usize];
+            self.involved.extend([p, a, b, c].map(slot));
+        }
+        for &(e, f) in &self.ee {
+            let ([a, b], [c, d]) = (self.edges[e as usize], self.edges[f as usize]);
+            self.involved.extend([a, b, c, d].map(slot));
+        }
+        self.involved.sort_unstable();
+        self.involved.dedup();
     }
 
     /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
@@ -422,7 +463,8 @@ impl SelfContacts {
         let grow = Vec3::splat(margin);
         self.hash.triangle_boxes(&self.tris, x, grow);
         if let Some(flat) = cull {
-            self.patches.update(x, &self.tris, &self.hash.boxes, flat);
+            self.patches
+                .update(x, &self.tris, &self.hash.boxes, (flat, margin));
         }
         let patches = &self.patches;
         let cull = cull.is_some();
@@ -641,7 +683,7 @@ impl Spacing {
 }
 
 /// The particles grouped into cubes of side `size` by where they were at the last broad phase.
-/// Two elements that were closer than `size` then lie in the same or neighbouring cubes, and the
+/// Two particles that were closer than `size` then lie in the same or neighbouring cubes, and the
 /// displacements since then, compared cube by cube, bound how much closer any two elements can
 /// have come: a cloth that swings or falls as a whole, however fast, moves little within and
 /// between neighbouring cubes and need not search again.
@@ -649,7 +691,7 @@ impl Spacing {
 struct Regions {
     /// Side of the cubes, m (at least the broad phase's margin).
     size: f32,
-    /// Each model particle's cube.
+    /// Each stored particle's cube.
     of: Vec<u32>,
     /// Particles per cube.
     count: Vec<u32>,
@@ -657,20 +699,39 @@ struct Regions {
     pairs: Vec<(u32, u32)>,
     /// Cube index of each occupied cell.
     index: HashMap<[i32; 3], u32>,
-    /// Per cube: mean displacement (scratch).
-    mean: Vec<Vec3>,
-    /// Per cube: largest distance of a displacement from the cube's mean (scratch).
+    /// Per cube: the displacement its particles' displacements are measured from (any point
+    /// would do; the cube's mean displacement extrapolated from the last two
+    /// [`Self::closing`]s keeps the deviations small).
+    reference: Vec<Vec3>,
+    /// Per cube: its mean displacement at the last [`Self::closing`].
+    last_mean: Vec<Vec3>,
+    /// Whether no [`Self::closing`] has run since [`Self::assign`] (the references are unknown).
+    fresh: bool,
+    /// Per cube: sum of displacements (scratch).
+    sum: Vec<Vec3>,
+    /// Per cube: largest distance of a displacement from the cube's reference (scratch).
     deviation: Vec<f32>,
 }
 
+/// What [`Regions::closing`] found.
+struct Closing {
+    /// How much closer two particles that were within the cubes' size can have come.
+    near: f32,
+    /// How much closer any two particles can have come.
+    far: f32,
+    /// The particles' mean displacement at the start and at the end of the substep.
+    mean: (Vec3, Vec3),
+}
+
 impl Regions {
-    /// Groups the particles at `x` (by model particle) into cubes.
-    fn assign(&mut self, x: &[Vec3]) {
+    /// Groups the particles at `x` (by model particle, stored at `slot`) into cubes.
+    fn assign(&mut self, x: &[Vec3], slot: &[u32]) {
         let inv = 1.0 / self.size;
         self.index.clear();
         self.of.clear();
+        self.of.resize(x.len(), 0);
         self.count.clear();
-        for p in x {
+        for (p, &s) in x.iter().zip(slot) {
             let cell = (*p * inv).floor().as_ivec3().to_array();
             let next = self.index.len() as u32;
             let r = *self.index.entry(cell).or_insert(next);
@@ -678,7 +739,7 @@ impl Regions {
                 self.count.push(0);
             }
             self.count[r as usize] += 1;
-            self.of.push(r);
+            self.of[s as usize] = r;
         }
         self.pairs.clear();
         for (cell, &a) in &self.index {
@@ -695,48 +756,84 @@ impl Regions {
             });
         }
         let cubes = self.count.len();
-        self.mean.resize(cubes, Vec3::ZERO);
+        self.reference.resize(cubes, Vec3::ZERO);
+        self.last_mean.resize(cubes, Vec3::ZERO);
+        self.fresh = true;
+        self.sum.resize(cubes, Vec3::ZERO);
         self.deviation.resize(cubes, 0.0);
     }
 
-    /// For displacements `d(p)` since [`Self::assign`]: how much closer two particles that were
-    /// within `size` of each other can have come, and how much closer any two can have come
-    /// (both infinite if a displacement is not finite).
-    fn closing(&mut self, d: impl Fn(usize) -> Vec3) -> (f32, f32) {
+    /// How much closer particles of `state` can have come since [`Self::assign`], when they were
+    /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
+    /// over the particles. Infinite if a displacement is not finite.
+    fn closing<S: ContactState>(&mut self, state: &S, found: &[Vec3]) -> Closing {
         let n = self.of.len();
         if n == 0 {
-            return (0.0, 0.0);
+            return Closing {
+                near: 0.0,
+                far: 0.0,
+                mean: (Vec3::ZERO, Vec3::ZERO),
+            };
         }
-        self.mean.fill(Vec3::ZERO);
-        for p in 0..n {
-            self.mean[self.of[p] as usize] += d(p);
+        if std::mem::take(&mut self.fresh) {
+            // The first time, an extra pass for the cubes' mean displacements.
+            self.sum.fill(Vec3::ZERO);
+            let (of, sum) = (&self.of, &mut self.sum);
+            state.paths(|i, _, end| sum[of[i] as usize] += end - found[i]);
+            for ((r, s), &c) in self.reference.iter_mut().zip(&self.sum).zip(&self.count) {
+                *r = *s / c as f32;
+            }
+            self.last_mean.copy_from_slice(&self.reference);
         }
-        let total = self.mean.iter().sum::<Vec3>() / n as f32;
-        for (m, &c) in self.mean.iter_mut().zip(&self.count) {
-            *m /= c as f32;
-        }
+        self.sum.fill(Vec3::ZERO);
         self.deviation.fill(0.0);
-        for p in 0..n {
-            let r = self.of[p] as usize;
-            let e = d(p).distance(self.mean[r]);
-            self.deviation[r] = max_or_infinite(self.deviation[r], e);
-        }
+        let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
+        let (of, reference, sum, deviation) = (
+            &self.of,
+            &self.reference,
+            &mut self.sum,
+            &mut self.deviation,
+        );
+        state.paths(|i, start, end| {
+            let d = end - found[i];
+            m0 += start - found[i];
+            m1 += d;
+            let r = of[i] as usize;
+            sum[r] += d;
+            deviation[r] = max_or_infinite(deviation[r], d.distance(reference[r]));
+        });
+        let (m0, m1) = (m0 / n as f32, m1 / n as f32);
+        // Two particles of cubes a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| + dev_b.
         let near = self
             .pairs
             .iter()
             .map(|&(a, b)| {
                 let (a, b) = (a as usize, b as usize);
-                self.deviation[a] + self.deviation[b] + self.mean[a].distance(self.mean[b])
+                self.deviation[a]
+                    + self.deviation[b]
+                    + self.reference[a].distance(self.reference[b])
             })
             .fold(0.0, max_or_infinite);
         let far = 2.0
             * self
-                .mean
+                .reference
                 .iter()
                 .zip(&self.deviation)
-                .map(|(m, dev)| m.distance(total) + dev)
+                .map(|(r, dev)| r.distance(m1) + dev)
                 .fold(0.0, max_or_infinite);
-        (near, far)
+        for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
+            .zip(&self.sum)
+            .zip(&self.count)
+        {
+            let mean = *s / c as f32;
+            *r = 2.0 * mean - *last;
+            *last = mean;
+        }
+        Closing {
+            near,
+            far,
+            mean: (m0, m1),
+        }
     }
 }
 

@@ -54,6 +54,8 @@ pub(super) struct Patches {
     axis: Vec<Vec3>,
     /// Per patch: the half-angle of its normal cone (π if it has no axis).
     angle: Vec<f32>,
+    /// Per patch: the lowest and highest of its vertices along its axis.
+    extent: Vec<(f32, f32)>,
     /// Per patch: whether its elements take part in the search.
     live: Vec<bool>,
     /// The widest normal cone (half-angle, radians) of patches not searched this time.
@@ -173,6 +175,7 @@ impl Patches {
             bounds: vec![(Vec3::ZERO, Vec3::ZERO); patches],
             axis: vec![Vec3::ZERO; patches],
             angle: vec![0.0; patches],
+            extent: vec![(0.0, 0.0); patches],
             live: vec![false; patches],
             flat: -1.0,
             order: (0..patches as u32).collect(),
@@ -213,8 +216,16 @@ impl Patches {
 
     /// Takes the patches' boxes (the union of their triangles' `boxes`) and normal cones from the
     /// triangles `tris` at positions `x`, and decides which patches take part in the search and
-    /// which nearby pairs are culled: those within `flat` (radians) of one direction.
-    pub fn update(&mut self, x: &[Vec3], tris: &[[u32; 3]], boxes: &[(Vec3, Vec3)], flat: f32) {
+    /// which nearby pairs are culled: those within `flat` (radians) of one direction. Two patches
+    /// whose boxes meet but which lie farther than `margin` apart along one of their axes (the
+    /// two sides of a curve, seen across it) need not be searched for each other's sake.
+    pub fn update(
+        &mut self,
+        x: &[Vec3],
+        tris: &[[u32; 3]],
+        boxes: &[(Vec3, Vec3)],
+        (flat, margin): (f32, f32),
+    ) {
         self.flat = flat;
         self.normal.clear();
         self.normal.extend(tris.iter().map(|t| {
@@ -251,6 +262,7 @@ impl Patches {
                     cos.clamp(-1.0, 1.0).acos()
                 }
             };
+            self.extent[p] = along(axis, members, tris, x);
             self.live[p] = self.angle[p] > flat;
         }
         self.culled_with.fill(false);
@@ -274,6 +286,7 @@ impl Patches {
                         self.culled_with[ab] = true;
                         self.culled_with[ba] = true;
                     }
+                    _ if self.apart(a, b, (tris, x), margin) => {}
                     _ => {
                         self.live[a] = true;
                         self.live[b] = true;
@@ -281,6 +294,23 @@ impl Patches {
                 }
             }
         }
+    }
+
+    /// Whether patches `a` and `b` (of triangles `tris` at `x`) lie farther than `margin` apart
+    /// along the axis of either.
+    fn apart(&self, a: usize, b: usize, mesh: (&[[u32; 3]], &[Vec3]), margin: f32) -> bool {
+        let beyond = |p: usize, q: usize| {
+            let (lo, hi) = self.extent[p];
+            let (qlo, qhi) = along(self.axis[p], self.members(q), mesh.0, mesh.1);
+            // NaN compares false: not apart.
+            qlo > hi + margin || qhi < lo - margin
+        };
+        beyond(a, b) || beyond(b, a)
+    }
+
+    /// The triangles of patch `p`.
+    fn members(&self, p: usize) -> &[u32] {
+        &self.members[self.start[p] as usize..self.start[p + 1] as usize]
     }
 
     /// Where patch `b` is in patch `a`'s list of nearby patches, if it is there.
@@ -302,26 +332,122 @@ impl Patches {
     /// direction: the two, if adjacent, or with a patch adjacent to both.
     fn flat_together(&self, a: usize, b: usize) -> bool {
         if self.adjacent(a).binary_search(&(b as u32)).is_ok() {
-            return self.cone_about(a, &[b]) <= self.flat;
+            return self.cone_of(&[a, b]) <= self.flat;
         }
         self.adjacent(a).iter().any(|&c| {
             self.adjacent(c as usize).binary_search(&(b as u32)).is_ok()
-                && self.cone_about(c as usize, &[a, b]) <= self.flat
+                && self.cone_of(&[c as usize, a, b]) <= self.flat
         })
     }
 
-    /// Half-angle of a cone about patch `a`'s axis holding its normals and those of `others`
-    /// (NaN if a patch has no axis, which compares as not flat).
-    fn cone_about(&self, a: usize, others: &[usize]) -> f32 {
-        others
+    /// Half-angle of a cone holding the normals of `patches` (their cones merged one by one; NaN
+    /// if a patch has no axis, which compares as not flat).
+    fn cone_of(&self, patches: &[usize]) -> f32 {
+        let cone = |p: usize| (self.axis[p], self.angle[p]);
+        patches[1..]
             .iter()
-            .map(|&b| self.axis[a].angle_between(self.axis[b]) + self.angle[b])
-            .fold(self.angle[a], |m, x| {
-                if x.is_nan() || m.is_nan() {
-                    f32::NAN
-                } else {
-                    m.max(x)
-                }
-            })
+            .fold(cone(patches[0]), |m, &p| merge(m, cone(p)))
+            .1
+    }
+}
+
+/// The narrowest cone (axis, half-angle) holding cones `(u, a)` and `(v, b)` (unit axes): the
+/// wider one if it holds the other, else the one whose sides touch both, about an axis between
+/// theirs. Half-angle π when no axis is found, NaN for a zero axis.
+fn merge((u, a): (Vec3, f32), (v, b): (Vec3, f32)) -> (Vec3, f32) {
+    if u == Vec3::ZERO || v == Vec3::ZERO {
+        return (u, f32::NAN);
+    }
+    let theta = u.angle_between(v);
+    if theta + b <= a {
+        return (u, a);
+    }
+    if theta + a <= b {
+        return (v, b);
+    }
+    let half = 0.5 * (theta + a + b);
+    let sin = theta.sin();
+    if half >= std::f32::consts::PI || !(sin > 1e-6) {
+        return (u, std::f32::consts::PI);
+    }
+    // Turned from u toward v by half − a, within the plane of the two.
+    let t = half - a;
+    let axis = (u * (theta - t).sin() + v * t.sin()) / sin;
+    (axis.normalize_or_zero(), half)
+}
+
+/// The lowest and highest of the vertices of triangles `members` (of `tris`, at `x`) along `axis`
+/// (NaN for a zero axis: apart from nothing).
+fn along(axis: Vec3, members: &[u32], tris: &[[u32; 3]], x: &[Vec3]) -> (f32, f32) {
+    if axis == Vec3::ZERO {
+        return (f32::NAN, f32::NAN);
+    }
+    members
+        .iter()
+        .flat_map(|&t| tris[t as usize])
+        .map(|i| x[i as usize].dot(axis))
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), h| {
+            (lo.min(h), hi.max(h))
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Quat;
+    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+
+    /// Whether cone `(axis, angle)` holds every direction of cone `(u, a)`, sampled on its rim.
+    fn holds((axis, angle): (Vec3, f32), (u, a): (Vec3, f32)) -> bool {
+        let side = u.any_orthonormal_vector();
+        (0..64).all(|k| {
+            let turn = Quat::from_axis_angle(u, k as f32 / 64.0 * std::f32::consts::TAU);
+            let rim = Quat::from_axis_angle(turn * side, a) * u;
+            axis.angle_between(rim) <= angle + 1e-4
+        })
+    }
+
+    #[test]
+    fn a_merged_cone_holds_both_and_is_no_wider_than_needed() {
+        let cases = [
+            ((Vec3::Y, 0.1), (Vec3::X, 0.2)),
+            ((Vec3::Y, 0.5), (Vec3::new(0.1, 1.0, 0.0).normalize(), 0.05)),
+            ((Vec3::Z, 0.3), (Vec3::new(1.0, 0.0, 1.0).normalize(), 0.3)),
+            ((Vec3::X, 0.0), (Vec3::new(0.0, 1.0, 1.0).normalize(), 0.0)),
+        ];
+        for (c1, c2) in cases {
+            let merged = merge(c1, c2);
+            assert!(
+                holds(merged, c1) && holds(merged, c2),
+                "{merged:?} misses one of {c1:?} {c2:?}"
+            );
+            // The narrowest cone holding both is half their angle apart plus their own angles (or
+            // the wider one, where it holds the other).
+            let theta = c1.0.angle_between(c2.0);
+            let narrowest = (0.5 * (theta + c1.1 + c2.1)).max(c1.1).max(c2.1);
+            assert!(
+                (merged.1 - narrowest).abs() < 1e-4,
+                "{merged:?} vs {narrowest}"
+            );
+        }
+        // Opposite axes need the whole sphere; a zero axis is no cone.
+        assert_eq!(merge((Vec3::Y, 0.1), (Vec3::NEG_Y, 0.1)).1, PI);
+        assert!(merge((Vec3::ZERO, 0.1), (Vec3::Y, 0.1)).1.is_nan());
+        // A right angle between two flat patches is a quarter turn's cone.
+        let (_, half) = merge((Vec3::X, 0.0), (Vec3::Y, 0.0));
+        assert!((half - FRAC_PI_4).abs() < 1e-5 && half < FRAC_PI_2);
+    }
+
+    #[test]
+    fn extents_along_an_axis_bound_the_patch() {
+        let x = [
+            Vec3::new(0.0, 0.1, 0.0),
+            Vec3::new(1.0, 0.3, 0.0),
+            Vec3::new(0.0, -0.2, 1.0),
+        ];
+        let tris = [[0, 1, 2]];
+        assert_eq!(along(Vec3::Y, &[0], &tris, &x), (-0.2, 0.3));
+        let (lo, hi) = along(Vec3::ZERO, &[0], &tris, &x);
+        assert!(lo.is_nan() && hi.is_nan());
     }
 }
