@@ -38,6 +38,7 @@
 //! test), and more candidate pairs than the cap (a cloth crushed into a ball).
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::Vec3;
 
@@ -698,7 +699,7 @@ struct Regions {
     /// Pairs of neighbouring cubes (a cube with itself too), `a <= b`.
     pairs: Vec<(u32, u32)>,
     /// Cube index of each occupied cell.
-    index: HashMap<[i32; 3], u32>,
+    index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
     /// Per cube: the displacement its particles' displacements are measured from (any point
     /// would do; the cube's mean displacement extrapolated from the last two
     /// [`Self::closing`]s keeps the deviations small).
@@ -1022,20 +1023,29 @@ impl Hash {
             }
         }
         self.inv_cell = 1.0 / extent.max(1e-6);
-        let buckets = (2 * self.boxes.len()).next_power_of_two().max(16);
-        self.mask = (buckets - 1) as u32;
-        self.start.clear();
-        self.start.resize(buckets + 1, 0);
-        self.low.clear();
         let inv = self.inv_cell;
-        self.low
-            .extend(self.boxes.iter().map(|(lo, _)| cell_of(*lo, inv)));
+        // Low corners' cells (only those of listed boxes are read), then twice as many buckets
+        // as entries, so that few cells share a bucket.
+        self.low.clear();
+        self.low.resize(self.boxes.len(), [0; 3]);
         let mut count = 0usize;
         for (i, (lo, hi)) in self.boxes.iter().enumerate() {
             if include(i as u32) {
-                for_cells(self.cell(*lo), self.cell(*hi), |c| {
+                let (a, b) = (cell_of(*lo, inv), cell_of(*hi, inv));
+                self.low[i] = a;
+                count += (0..3)
+                    .map(|k| (b[k] - a[k] + 1) as usize)
+                    .product::<usize>();
+            }
+        }
+        let buckets = (2 * count).next_power_of_two().max(16);
+        self.mask = (buckets - 1) as u32;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        for (i, (_, hi)) in self.boxes.iter().enumerate() {
+            if include(i as u32) {
+                for_cells(self.low[i], self.cell(*hi), |c| {
                     self.start[bucket(c, self.mask) + 1] += 1;
-                    count += 1;
                 });
             }
         }
@@ -1045,9 +1055,9 @@ impl Hash {
         self.entries.clear();
         self.entries.resize(count, (0, [0; 3]));
         // `start[b]` serves as bucket b's cursor while filling, then is restored.
-        for (i, (lo, hi)) in self.boxes.iter().enumerate() {
+        for (i, (_, hi)) in self.boxes.iter().enumerate() {
             if include(i as u32) {
-                for_cells(self.cell(*lo), self.cell(*hi), |c| {
+                for_cells(self.low[i], self.cell(*hi), |c| {
                     let b = bucket(c, self.mask);
                     self.entries[self.start[b] as usize] = (i as u32, c);
                     self.start[b] += 1;
@@ -1098,6 +1108,31 @@ impl Hash {
                 }
             }
         });
+    }
+}
+
+/// A hasher for integer cell coordinates: far cheaper than the standard library's keyed one, and
+/// the same in every process (the cubes' pairs come out in one order).
+#[derive(Debug, Clone, Copy, Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        crate::hash::mix64(self.0)
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        // A slice of integers arrives as its bytes: four at a time.
+        for chunk in bytes.chunks(4) {
+            let mut word = [0; 4];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u32(u32::from_le_bytes(word));
+        }
+    }
+    fn write_u32(&mut self, i: u32) {
+        self.0 = (self.0 ^ u64::from(i)).wrapping_mul(crate::hash::GOLDEN_GAMMA);
+    }
+    fn write_i32(&mut self, i: i32) {
+        self.write_u32(i as u32);
     }
 }
 
