@@ -367,7 +367,7 @@ fn merge((u, a): (Vec3, f32), (v, b): (Vec3, f32)) -> (Vec3, f32) {
     }
     let half = 0.5 * (theta + a + b);
     let sin = theta.sin();
-    if half >= std::f32::consts::PI || !(sin > 1e-6) {
+    if half >= std::f32::consts::PI || sin.is_nan() || sin <= 1e-6 {
         return (u, std::f32::consts::PI);
     }
     // Turned from u toward v by half − a, within the plane of the two.
