@@ -366,7 +366,7 @@ impl SelfContacts {
             self.stale = true;
         }
         if !self.stale {
-            let closing = self.regions.closing(state, &self.found);
+            let closing = self.regions.closing(state, &self.found, 2.0 * self.reach);
             if closing.near <= 2.0 * self.reach && closing.far <= self.far_limit {
                 return closing.mean;
             }
@@ -766,8 +766,9 @@ impl Regions {
 
     /// How much closer particles of `state` can have come since [`Self::assign`], when they were
     /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
-    /// over the particles. Infinite if a displacement is not finite.
-    fn closing<S: ContactState>(&mut self, state: &S, found: &[Vec3]) -> Closing {
+    /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring cubes
+    /// are looked at only if the far bound exceeds `near_limit`.
+    fn closing<S: ContactState>(&mut self, state: &S, found: &[Vec3], near_limit: f32) -> Closing {
         let n = self.of.len();
         if n == 0 {
             return Closing {
@@ -795,26 +796,21 @@ impl Regions {
             &mut self.sum,
             &mut self.deviation,
         );
+        // Squared deviations, rooted per cube below. A NaN displacement is lost to `max` but
+        // not to the mean `m1`, which makes the far bound infinite.
         state.paths(|i, start, end| {
             let d = end - found[i];
             m0 += start - found[i];
             m1 += d;
             let r = of[i] as usize;
             sum[r] += d;
-            deviation[r] = max_or_infinite(deviation[r], d.distance(reference[r]));
+            deviation[r] = deviation[r].max(d.distance_squared(reference[r]));
         });
+        for dev in &mut self.deviation {
+            *dev = dev.sqrt();
+        }
         let (m0, m1) = (m0 / n as f32, m1 / n as f32);
-        // Two particles of cubes a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| + dev_b.
-        let near = self
-            .pairs
-            .iter()
-            .map(|&(a, b)| {
-                let (a, b) = (a as usize, b as usize);
-                self.deviation[a]
-                    + self.deviation[b]
-                    + self.reference[a].distance(self.reference[b])
-            })
-            .fold(0.0, max_or_infinite);
+        // Any two particles: |d_p − d_q| ≤ |d_p − m1| + |d_q − m1|.
         let far = 2.0
             * self
                 .reference
@@ -822,6 +818,22 @@ impl Regions {
                 .zip(&self.deviation)
                 .map(|(r, dev)| r.distance(m1) + dev)
                 .fold(0.0, max_or_infinite);
+        // Two particles of cubes a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| + dev_b, which is
+        // at most `far`: the pairs need looking at only where the cloth's parts moved apart more
+        // than the reach allows.
+        let near = if far <= near_limit {
+            far
+        } else {
+            self.pairs
+                .iter()
+                .map(|&(a, b)| {
+                    let (a, b) = (a as usize, b as usize);
+                    self.deviation[a]
+                        + self.deviation[b]
+                        + self.reference[a].distance(self.reference[b])
+                })
+                .fold(0.0, max_or_infinite)
+        };
         for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
             .zip(&self.sum)
             .zip(&self.count)
@@ -1195,6 +1207,59 @@ mod tests {
             touches: None,
         };
         contacts.resolve(1.0 / 1200.0, &mut state);
+    }
+
+    /// `Regions::closing` for particles found at `found` and now at `x` (started at `found`).
+    fn closing_of(regions: &mut Regions, found: &[Vec3], x: &mut [Vec3], limit: f32) -> Closing {
+        let (mut v, w) = (vec![Vec3::ZERO; x.len()], vec![1.0; x.len()]);
+        let state = Vectors {
+            x,
+            v: &mut v,
+            start: found,
+            inv_mass: &w,
+            touches: None,
+        };
+        regions.closing(&state, found, limit)
+    }
+
+    #[test]
+    fn the_cubes_bound_how_much_closer_particles_came() {
+        // Two rows of particles 0.1 m apart along x, in cubes of 0.25 m.
+        let found: Vec<Vec3> = (0..20)
+            .map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0))
+            .collect();
+        let slot: Vec<u32> = (0..20).collect();
+        let fresh = || {
+            let mut r = Regions {
+                size: 0.25,
+                ..Regions::default()
+            };
+            r.assign(&found, &slot);
+            r
+        };
+        // A rigid translation, however large, brings nothing closer.
+        let mut x: Vec<Vec3> = found.iter().map(|p| *p + Vec3::splat(3.0)).collect();
+        let c = closing_of(&mut fresh(), &found, &mut x, 0.01);
+        assert!(c.near < 1e-5 && c.far < 1e-5, "{} {}", c.near, c.far);
+        assert!((c.mean.1 - Vec3::splat(3.0)).length() < 1e-5);
+        // One particle moved 5 cm toward its neighbour: neighbouring cubes see it, whether or not
+        // the pairs are looked at.
+        for limit in [0.0, 1.0] {
+            let mut x = found.clone();
+            x[7].x -= 0.05;
+            let c = closing_of(&mut fresh(), &found, &mut x, limit);
+            assert!(
+                c.near >= 0.05 - 1e-6 && c.far >= c.near,
+                "{} {}",
+                c.near,
+                c.far
+            );
+        }
+        // A position that is not a number makes both bounds infinite.
+        let mut x = found.clone();
+        x[3] = Vec3::NAN;
+        let c = closing_of(&mut fresh(), &found, &mut x, 0.01);
+        assert!(c.near == f32::INFINITY && c.far == f32::INFINITY);
     }
 
     #[test]
