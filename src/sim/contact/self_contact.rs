@@ -1224,7 +1224,7 @@ mod tests {
 
     #[test]
     fn the_cubes_bound_how_much_closer_particles_came() {
-        // Two rows of particles 0.1 m apart along x, in cubes of 0.25 m.
+        // A row of particles 0.1 m apart along x, in cubes of 0.25 m.
         let found: Vec<Vec3> = (0..20)
             .map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0))
             .collect();
@@ -1312,6 +1312,38 @@ mod tests {
                 v[3]
             );
         }
+    }
+
+    #[test]
+    fn a_part_that_comes_from_far_away_is_found_and_kept_apart() {
+        // A fixed triangle, and another 2.8 m away that slides over it as a whole, 7 mm at a
+        // time, then dips through it: no two neighbouring cubes move relative to each other,
+        // so only the far bound sees them come together.
+        let mut x = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.1),
+            Vec3::new(2.02, 0.02, 2.02),
+            Vec3::new(2.3, 0.02, 2.0),
+            Vec3::new(2.0, 0.02, 2.3),
+        ];
+        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, 0.005, 0.0);
+        let w = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+        let mut v = vec![Vec3::ZERO; 6];
+        let mut slide = |c: &mut SelfContacts, x: &mut Vec<Vec3>, by: Vec3| {
+            let start = x.clone();
+            for p in &mut x[3..] {
+                *p += by;
+            }
+            resolve_within(c, 0.01, &start, x, &mut v, &w);
+        };
+        for _ in 0..400 {
+            slide(&mut c, &mut x, Vec3::new(-0.005, 0.0, -0.005));
+        }
+        assert!(c.searches() > 1, "{} searches", c.searches());
+        // Put back on its side, at least the thickness away.
+        slide(&mut c, &mut x, Vec3::new(0.0, -0.03, 0.0));
+        assert!(x[3].y > 0.005 - 1e-5, "{}", x[3]);
     }
 
     /// [`Vectors`] stored in another order: model particle `p` at `slot[p]`.
