@@ -778,14 +778,22 @@ impl Regions {
             };
         }
         if std::mem::take(&mut self.fresh) {
-            // The first time, an extra pass for the cubes' mean displacements.
+            // The first time, an extra pass for the cubes' mean displacements and their mean
+            // motion over this substep, so that the next reference is extrapolated too.
             self.sum.fill(Vec3::ZERO);
-            let (of, sum) = (&self.of, &mut self.sum);
-            state.paths(|i, _, end| sum[of[i] as usize] += end - found[i]);
-            for ((r, s), &c) in self.reference.iter_mut().zip(&self.sum).zip(&self.count) {
+            self.last_mean.fill(Vec3::ZERO);
+            let (of, sum, step) = (&self.of, &mut self.sum, &mut self.last_mean);
+            state.paths(|i, start, end| {
+                sum[of[i] as usize] += end - found[i];
+                step[of[i] as usize] += end - start;
+            });
+            for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
+                .zip(&self.sum)
+                .zip(&self.count)
+            {
                 *r = *s / c as f32;
+                *last = *r - *last / c as f32;
             }
-            self.last_mean.copy_from_slice(&self.reference);
         }
         self.sum.fill(Vec3::ZERO);
         self.deviation.fill(0.0);
@@ -1211,11 +1219,22 @@ mod tests {
 
     /// `Regions::closing` for particles found at `found` and now at `x` (started at `found`).
     fn closing_of(regions: &mut Regions, found: &[Vec3], x: &mut [Vec3], limit: f32) -> Closing {
+        closing_from(regions, found, found, x, limit)
+    }
+
+    /// `Regions::closing` for particles found at `found` that moved from `start` to `x`.
+    fn closing_from(
+        regions: &mut Regions,
+        found: &[Vec3],
+        start: &[Vec3],
+        x: &mut [Vec3],
+        limit: f32,
+    ) -> Closing {
         let (mut v, w) = (vec![Vec3::ZERO; x.len()], vec![1.0; x.len()]);
         let state = Vectors {
             x,
             v: &mut v,
-            start: found,
+            start,
             inv_mass: &w,
             touches: None,
         };
@@ -1255,6 +1274,16 @@ mod tests {
                 c.far
             );
         }
+        // Particles moving on as they moved over the first substep checked: every cube's
+        // reference follows them, so the next check sees nothing come closer.
+        let mut regions = fresh();
+        let step = Vec3::new(0.03, -0.01, 0.02);
+        let start: Vec<Vec3> = found.iter().map(|p| *p + step).collect();
+        let mut x = start.clone();
+        closing_of(&mut regions, &found, &mut x, 0.01);
+        let mut x: Vec<Vec3> = start.iter().map(|p| *p + step).collect();
+        let c = closing_from(&mut regions, &found, &start, &mut x, 1.0);
+        assert!(c.near < 1e-5, "{}", c.near);
         // A position that is not a number makes both bounds infinite.
         let mut x = found.clone();
         x[3] = Vec3::NAN;
