@@ -3,7 +3,9 @@
 
 use glam::{Quat, Vec3};
 
+use super::Since;
 use super::shapes::{Collider, ColliderShape, Friction, Near, Pose, Shape};
+use crate::sim::soa::Soa;
 
 /// Sphere tracing stops after this many steps along one path (a miss).
 const MAX_SWEEP_STEPS: u32 = 64;
@@ -163,6 +165,31 @@ pub(crate) trait ContactState {
         for i in 0..self.len() {
             f(i, self.start(i), self.position(i));
         }
+    }
+    /// The particles' displacements since they were at `at` (by stored particle, as many as the
+    /// state holds) and over the substep, and the largest distance of the former from `guess`:
+    /// one pass over the whole state (a stepper overrides it with a vector pass over its arrays).
+    fn since(&self, at: &Soa, guess: Vec3) -> Since
+    where
+        Self: Sized,
+    {
+        let mut out = Since::default();
+        self.paths(|i, start, end| {
+            let moved = end - at.get(i);
+            out.moved += moved;
+            out.step += end - start;
+            out.worst = out.worst.max(moved.distance_squared(guess));
+        });
+        out.checked()
+    }
+    /// Every particle's position now into `out` (by stored particle; resized to the state's
+    /// length).
+    fn ends(&self, out: &mut Soa)
+    where
+        Self: Sized,
+    {
+        *out = Soa::new(self.len());
+        self.paths(|i, _, end| out.set(i, end));
     }
 }
 

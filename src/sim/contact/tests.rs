@@ -551,6 +551,71 @@ fn every_build_of_the_clearance_kernel_gives_the_same_bits() {
     }
 }
 
+/// [`soa_since`] by the kernel's `build` (`AHEAD` as the kernel's), if the CPU has it.
+fn since_in<const AHEAD: bool>(
+    build: Build,
+    x: &Soa,
+    d: &Soa,
+    at: &Soa,
+    guess: Vec3,
+) -> Option<Since> {
+    let mut out = Since::default();
+    let kernel = SinceKernel::<AHEAD> {
+        x,
+        d,
+        at,
+        guess,
+        out: &mut out,
+    };
+    simd::run_as(build, kernel).then(|| out.checked())
+}
+
+#[test]
+fn the_since_kernel_sees_every_particle_in_every_build() {
+    // 37 particles (two whole blocks and a partial one), each in turn the one that moved far.
+    let n = 37;
+    let (mut x, mut d, mut at) = (Soa::new(n), Soa::new(n), Soa::new(n));
+    for i in 0..n {
+        let t = i as f32;
+        at.set(i, Vec3::new(t.sin(), 0.1 * t, (0.3 * t).cos()));
+        d.set(i, 1e-3 * Vec3::new((1.3 * t).cos(), -0.5, (2.1 * t).sin()));
+    }
+    let guess = Vec3::new(0.01, -0.02, 0.005);
+    for far in 0..n {
+        for i in 0..n {
+            let jump = if i == far {
+                Vec3::new(0.3, 0.4, 0.0)
+            } else {
+                Vec3::ZERO
+            };
+            x.set(i, at.get(i) + guess + jump);
+        }
+        for build in [Build::Plain, Build::Avx2, Build::Avx512] {
+            let Some(s) = since_in::<false>(build, &x, &d, &at, guess) else {
+                continue;
+            };
+            // Every particle but `far` sits at the guess; `far` 0.5 m from it.
+            assert!(
+                (s.worst - 0.25).abs() < 1e-5,
+                "{build:?}, {far}: {}",
+                s.worst
+            );
+            let moved = guess * n as f32 + Vec3::new(0.3, 0.4, 0.0);
+            assert!(s.moved.distance(moved) < 1e-5, "{build:?}: {}", s.moved);
+            let step: Vec3 = d.iter().sum();
+            assert!(s.step.distance(step) < 1e-6, "{build:?}: {}", s.step);
+            // Ahead of the end by `d` (the end is `x + d`), the same moves shifted by `d`.
+            let ahead = since_in::<true>(build, &x, &d, &at, guess).unwrap();
+            assert!(ahead.moved.distance(moved + step) < 1e-5, "{}", ahead.moved);
+            let plain = since_in::<false>(Build::Plain, &x, &d, &at, guess);
+            assert_eq!(Some(s), plain, "{build:?} against the plain build");
+        }
+    }
+    // A position that is not a number is seen even where a maximum would drop it.
+    x.set(20, Vec3::NAN);
+    assert_eq!(soa_since::<false>(&x, &d, &at, guess).worst, f32::INFINITY);
+}
+
 /// A 2 m square sheet in the plane y = 0 (|x|, |z| ≤ 1) as a [`Surface`]: an open shell.
 #[derive(Debug)]
 struct Sheet;

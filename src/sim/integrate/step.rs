@@ -4,7 +4,9 @@
 
 use glam::{Quat, Vec3};
 
-use crate::sim::contact::{ContactState, Contacts, Near, Pose, soa_clearances};
+use crate::sim::contact::{
+    ContactState, Contacts, Near, Pose, Since, soa_clearances, soa_ends, soa_since,
+};
 use crate::sim::forces::SpringSet;
 use crate::sim::model::ClothModel;
 use crate::sim::settings::{Inertia, SolverSettings};
@@ -310,6 +312,12 @@ impl ContactState for SoaContacts<'_> {
         for (i, (x, d)) in self.state.x.iter().zip(self.state.d.iter()).enumerate() {
             f(i, x - d, x);
         }
+    }
+    fn since(&self, at: &Soa, guess: Vec3) -> Since {
+        soa_since::<false>(&self.state.x, &self.state.d, at, guess)
+    }
+    fn ends(&self, out: &mut Soa) {
+        soa_ends::<false>(&self.state.x, &self.state.d, out);
     }
 }
 

@@ -18,7 +18,7 @@ mod tests;
 use glam::Vec3;
 
 use super::step::{SoaState, Step, frame_shift};
-use crate::sim::contact::{ContactState, Near, soa_clearances};
+use crate::sim::contact::{ContactState, Near, Since, soa_clearances, soa_ends, soa_since};
 use crate::sim::model::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
@@ -375,6 +375,12 @@ impl ContactState for AheadOfEnd<'_> {
             // The end pass's `x += d`, coordinate by coordinate.
             f(i, x, x + d);
         }
+    }
+    fn since(&self, at: &Soa, guess: Vec3) -> Since {
+        soa_since::<true>(self.x, self.d, at, guess)
+    }
+    fn ends(&self, out: &mut Soa) {
+        soa_ends::<true>(self.x, self.d, out);
     }
 }
 
