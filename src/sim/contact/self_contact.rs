@@ -13,7 +13,9 @@
 //!    until their displacements since differ by twice the reach. Each substep bounds that from
 //!    the particles' displacements, patch by patch (`Regions`): a cloth moving as a whole keeps
 //!    its candidates; one whose parts move relative to each other searches again, within a step
-//!    if need be. A cloth at rest searches once. Parts of the cloth too flat to fold onto
+//!    if need be. A cloth at rest searches once, and while its particles stay within the slack
+//!    the last check left, it is not checked either: one vector pass over the particles
+//!    (`Watch`) shows they did. Parts of the cloth too flat to fold onto
 //!    themselves are not searched (normal cones of patches, see [`patches`]), so a hanging or
 //!    gently curved cloth's search is one pass over its triangles.
 //! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
