@@ -44,6 +44,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::Vec3;
 
+use super::Vectors;
 use super::narrow::ContactState;
 use crate::sim::soa::Soa;
 use patches::Patches;
@@ -113,12 +114,17 @@ pub(crate) struct SelfContacts {
     ee: Vec<(u32, u32)>,
     /// Each candidate's distance when found (vertex–triangle ones, then edge–edge ones), m.
     gap: Vec<f32>,
-    /// Per stored particle in a candidate pair: how far it may have moved, relative to the
-    /// cloth's mean motion, since the candidates were found (an upper bound; scratch of each
-    /// resolution, not kept for the other particles).
+    /// Per particle in a candidate pair (in `involved`'s order): how far it may have moved,
+    /// relative to the cloth's mean motion, since the candidates were found (an upper bound;
+    /// scratch of each resolution).
     drift: Vec<f32>,
-    /// The stored particles that are in a candidate pair, each once.
+    /// The stored particles that are in a candidate pair, each once, in storage order.
     involved: Vec<u32>,
+    /// Per model particle: its place in `involved` (`u32::MAX` if it is in no candidate pair).
+    local: Vec<u32>,
+    /// The particles of `involved`, copied out of the state for the narrow phase and written
+    /// back after it (scratch).
+    gathered: Gathered,
     /// Where each model particle is stored in the state being resolved.
     slot: Vec<u32>,
     /// Positions (by model particle) when the candidates were found; scratch of the search.
@@ -269,55 +275,59 @@ impl SelfContacts {
         }
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
         let mut drift = std::mem::take(&mut self.drift);
-        self.measure_drift(state, mean, &mut drift);
+        let mut gathered = std::mem::take(&mut self.gathered);
+        gathered.read(state, &self.involved);
+        self.measure_drift(&gathered, mean, &mut drift);
+        // The narrow phase reads and writes the pairs' particles in one place (they are few and
+        // each is in many pairs), then the ones it moved go back.
+        let mut local = gathered.state();
         // The first pass tests the candidates that may have come within the thickness since they
         // were found; the later ones only those that acted in it (in a pile most candidates are
         // near but never act).
         let mut acting = std::mem::take(&mut self.acting);
         acting.clear();
         for k in 0..self.vt.len() + self.ee.len() {
-            if self.may_touch(k, &drift) && self.pair(state, k, inv_h, &mut drift) {
+            if self.may_touch(k, &drift) && self.pair(&mut local, k, inv_h, &mut drift) {
                 acting.push(k as u32);
             }
         }
-        later_passes(&acting, |k| self.pair(state, k, inv_h, &mut drift));
+        later_passes(&acting, |k| self.pair(&mut local, k, inv_h, &mut drift));
         let any = !acting.is_empty();
+        if any {
+            gathered.write(state, &self.involved);
+        }
+        self.gathered = gathered;
         self.acting = acting;
         self.drift = drift;
         any
     }
 
-    /// Fills `drift` (by stored particle, for the particles in a candidate pair) with each
-    /// particle's largest distance, at the start or the end of the substep, from where it was
-    /// when the candidates were found, the cloth's mean displacement `(start, end)` of the
-    /// substep taken off. Along the substep's straight paths no particle is farther than that,
-    /// so two elements have come closer than at the broad phase by at most the sum of their
-    /// particles' largest drifts.
-    fn measure_drift<S: ContactState>(
-        &self,
-        state: &S,
-        (m0, m1): (Vec3, Vec3),
-        drift: &mut Vec<f32>,
-    ) {
-        drift.resize(state.len(), f32::INFINITY);
-        for &s in &self.involved {
-            let s = s as usize;
-            let x = self.found[s];
-            let d0 = (state.start(s) - x - m0).length();
-            let d1 = (state.position(s) - x - m1).length();
-            // NaN stays infinite: such a particle is always tested.
-            drift[s] = if d0.is_nan() || d1.is_nan() {
-                f32::INFINITY
-            } else {
-                d0.max(d1)
-            };
-        }
+    /// Fills `drift` (in `involved`'s order) with each particle's largest distance, at the start
+    /// or the end of the substep, from where it was when the candidates were found, the cloth's
+    /// mean displacement `(start, end)` of the substep taken off. Along the substep's straight
+    /// paths no particle is farther than that, so two elements have come closer than at the
+    /// broad phase by at most the sum of their particles' largest drifts.
+    fn measure_drift(&self, gathered: &Gathered, (m0, m1): (Vec3, Vec3), drift: &mut Vec<f32>) {
+        drift.clear();
+        drift.extend(
+            (self.involved.iter().zip(&gathered.start).zip(&gathered.x)).map(|((&s, x0), x1)| {
+                let found = self.found[s as usize];
+                let d0 = (*x0 - found - m0).length();
+                let d1 = (*x1 - found - m1).length();
+                // NaN stays infinite: such a particle is always tested.
+                if d0.is_nan() || d1.is_nan() {
+                    f32::INFINITY
+                } else {
+                    d0.max(d1)
+                }
+            }),
+        );
     }
 
     /// Whether candidate `k`'s elements may have come within the thickness since they were found:
     /// its distance then less the most its two elements' particles have drifted.
     fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
-        let slot = |i: u32| drift[self.slot[i as usize] as usize];
+        let slot = |i: u32| drift[self.local[i as usize] as usize];
         let closing = match self.vt.get(k) {
             Some(&(p, t)) => {
                 let [a, b, c] = self.tris[t as usize];
@@ -333,16 +343,11 @@ impl SelfContacts {
         self.gap[k] - closing <= self.thickness
     }
 
-    /// Resolves candidate `k`: vertex–triangle pairs first, then edge–edge pairs. Returns whether
-    /// anything moved; adds what it moved each particle to `drift`.
-    fn pair<S: ContactState>(
-        &self,
-        state: &mut S,
-        k: usize,
-        inv_h: f32,
-        drift: &mut [f32],
-    ) -> bool {
-        let slot = |i: u32| self.slot[i as usize] as usize;
+    /// Resolves candidate `k` on the gathered particles `state`: vertex–triangle pairs first, then
+    /// edge–edge pairs. Returns whether anything moved; adds what it moved each particle to
+    /// `drift`.
+    fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> bool {
+        let slot = |i: u32| self.local[i as usize] as usize;
         match self.vt.get(k) {
             Some(&(p, t)) => {
                 let [a, b, c] = self.tris[t as usize];
@@ -454,6 +459,16 @@ impl SelfContacts {
         }
         self.involved.sort_unstable();
         self.involved.dedup();
+        // Stored particle → place in `involved`, then model particle → that place.
+        let mut place = std::mem::take(&mut self.local);
+        place.clear();
+        place.resize(self.slot.len(), u32::MAX);
+        for (k, &s) in self.involved.iter().enumerate() {
+            place[s as usize] = k as u32;
+        }
+        self.local.clear();
+        self.local
+            .extend(self.slot.iter().map(|&s| place[s as usize]));
     }
 
     /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
@@ -693,6 +708,55 @@ impl Spacing {
             drift[s[k]] += (push * g).abs();
         }
         true
+    }
+}
+
+/// Copies of some particles of a [`ContactState`] (each one's start, position, velocity and
+/// inverse mass), for a narrow phase that visits each many times.
+#[derive(Debug, Clone, Default)]
+struct Gathered {
+    start: Vec<Vec3>,
+    x: Vec<Vec3>,
+    v: Vec<Vec3>,
+    inv_mass: Vec<f32>,
+}
+
+impl Gathered {
+    /// Copies the stored particles `which` out of `state`.
+    fn read<S: ContactState>(&mut self, state: &S, which: &[u32]) {
+        let at = which.iter().map(|&s| s as usize);
+        self.start.clear();
+        self.start.extend(at.clone().map(|s| state.start(s)));
+        self.x.clear();
+        self.x.extend(at.clone().map(|s| state.position(s)));
+        self.v.clear();
+        self.v.extend(at.clone().map(|s| state.velocity(s)));
+        self.inv_mass.clear();
+        self.inv_mass.extend(at.map(|s| state.inv_mass(s)));
+    }
+
+    /// The copies as a state of their own (particle `k` is `which[k]` of [`Self::read`]).
+    fn state(&mut self) -> Vectors<'_> {
+        Vectors {
+            x: &mut self.x,
+            v: &mut self.v,
+            start: &self.start,
+            inv_mass: &self.inv_mass,
+            touches: None,
+        }
+    }
+
+    /// Writes back into `state` the particles of `which` (as read) whose copies changed.
+    fn write<S: ContactState>(&self, state: &mut S, which: &[u32]) {
+        for ((&s, x), v) in which.iter().zip(&self.x).zip(&self.v) {
+            let s = s as usize;
+            // Bit for bit, so that a particle that is not a number is not written back.
+            let same =
+                |a: Vec3, b: Vec3| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits);
+            if !same(*x, state.position(s)) || !same(*v, state.velocity(s)) {
+                state.set(s, *x, *v);
+            }
+        }
     }
 }
 
