@@ -78,7 +78,7 @@ pub use cloths::OtherCloth;
 pub(crate) use limits::Limits;
 pub use limits::Target;
 pub use narrow::Reaction;
-use narrow::{ActiveCollider, resolve};
+use narrow::{ActiveCollider, resolve, resolve_among};
 pub(crate) use narrow::{ContactState, convex_minimum};
 pub(crate) use self_contact::SelfContacts;
 pub(crate) use shapes::Near;
@@ -469,8 +469,9 @@ fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
 
 /// The limits (targets and tethers), the colliders' response, then the self-contacts' (if any)
 /// and the contacts with other cloths (if near); the colliders once more if either moved
-/// anything, since pushing layers apart may push one into a collider. Colliders come after the
-/// limits so that they have the last word.
+/// anything, since pushing layers apart may push one into a collider: for the particles the
+/// self-contacts moved, or every particle if the cloth contacts moved any. Colliders come after
+/// the limits so that they have the last word.
 /// Returns the colliders' work (see [`Contacts::resolve_state`]).
 fn resolve_all<S: ContactState>(
     (active, clearance, self_contacts, limits): (
@@ -488,10 +489,16 @@ fn resolve_all<S: ContactState>(
         limits.resolve(t, state);
     }
     let mut work = resolve(active, clearance, t, triangles, state);
-    let layered = self_contacts.is_some_and(|s| s.resolve(t.2, state));
+    let (layered, moved) = match self_contacts {
+        Some(s) => (s.resolve(t.2, state), s.moved()),
+        None => (false, &[][..]),
+    };
     let apart = cloths.resolve(t, triangles, state);
-    if layered || apart {
+    if apart {
         work += resolve(active, clearance, t, triangles, state);
+    } else if layered {
+        // Only the particles the layers moved can have been pushed into a collider.
+        work += resolve_among(active, clearance, t, triangles, state, Some(moved));
     }
     work
 }

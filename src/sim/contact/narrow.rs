@@ -203,9 +203,23 @@ pub(crate) trait ContactState {
 pub(super) fn resolve<S: ContactState>(
     active: &mut [ActiveCollider],
     clearance: &mut Vec<f32>,
+    t: (f32, f32, f32),
+    triangles: &[u32],
+    state: &mut S,
+) -> f64 {
+    resolve_among(active, clearance, t, triangles, state, None)
+}
+
+/// [`resolve`] for the stored particles `only` (where given; the triangles, for the colliders
+/// that test them, all the same): after a pass over every particle, those that something else
+/// moved since.
+pub(super) fn resolve_among<S: ContactState>(
+    active: &mut [ActiveCollider],
+    clearance: &mut Vec<f32>,
     (t0, t1, h): (f32, f32, f32),
     triangles: &[u32],
     state: &mut S,
+    only: Option<&[u32]>,
 ) -> f64 {
     let mut work = 0.0;
     // Sized with the cloth (`Contacts::new`), so this allocates only for a state of another size.
@@ -216,7 +230,13 @@ pub(super) fn resolve<S: ContactState>(
         let pose1 = c.collider.start.lerp(&c.collider.end, t1);
         let still = pose0 == pose1;
         let bound = (pose0.rotation == pose1.rotation).then(|| c.collider.shape.near(&pose1));
-        if let Some((near, radius)) = bound {
+        if let Some(only) = only {
+            for &i in only {
+                if state.inv_mass(i as usize) > 0.0 {
+                    work += collide_particle(c, (&pose0, &pose1, still), h, state, i as usize);
+                }
+            }
+        } else if let Some((near, radius)) = bound {
             let travel = pose0.translation.distance(pose1.translation);
             // Rounding in the exact test is far below this slack (relative to the coordinates).
             let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);

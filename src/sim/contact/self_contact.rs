@@ -125,6 +125,8 @@ pub(crate) struct SelfContacts {
     /// The particles of `involved`, copied out of the state for the narrow phase and written
     /// back after it (scratch).
     gathered: Gathered,
+    /// The stored particles the last resolution moved.
+    moved: Vec<u32>,
     /// Where each model particle is stored in the state being resolved.
     slot: Vec<u32>,
     /// Positions (by model particle) when the candidates were found; scratch of the search.
@@ -236,6 +238,11 @@ impl SelfContacts {
         (self.vt.len(), self.ee.len())
     }
 
+    /// The stored particles the last [`Self::resolve`] moved.
+    pub fn moved(&self) -> &[u32] {
+        &self.moved
+    }
+
     /// Number of broad phases run so far.
     pub fn searches(&self) -> u64 {
         self.searches
@@ -266,6 +273,7 @@ impl SelfContacts {
     /// The narrow phase and response at the end of a substep of length `h` (see the module docs).
     /// Returns whether any particle moved.
     pub fn resolve<S: ContactState>(&mut self, h: f32, state: &mut S) -> bool {
+        self.moved.clear();
         if self.tris.is_empty() {
             return false;
         }
@@ -294,7 +302,7 @@ impl SelfContacts {
         later_passes(&acting, |k| self.pair(&mut local, k, inv_h, &mut drift));
         let any = !acting.is_empty();
         if any {
-            gathered.write(state, &self.involved);
+            gathered.write(state, &self.involved, &mut self.moved);
         }
         self.gathered = gathered;
         self.acting = acting;
@@ -746,8 +754,10 @@ impl Gathered {
         }
     }
 
-    /// Writes back into `state` the particles of `which` (as read) whose copies changed.
-    fn write<S: ContactState>(&self, state: &mut S, which: &[u32]) {
+    /// Writes back into `state` the particles of `which` (as read) whose copies changed, and lists
+    /// them in `moved`.
+    fn write<S: ContactState>(&self, state: &mut S, which: &[u32], moved: &mut Vec<u32>) {
+        moved.clear();
         for ((&s, x), v) in which.iter().zip(&self.x).zip(&self.v) {
             let s = s as usize;
             // Bit for bit, so that a particle that is not a number is not written back.
@@ -755,6 +765,7 @@ impl Gathered {
                 |a: Vec3, b: Vec3| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits);
             if !same(*x, state.position(s)) || !same(*v, state.velocity(s)) {
                 state.set(s, *x, *v);
+                moved.push(s as u32);
             }
         }
     }

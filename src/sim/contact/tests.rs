@@ -785,3 +785,43 @@ fn a_body_or_surface_with_bad_values_is_an_invalid_collider() {
     };
     assert!(sheet.validate().is_ok());
 }
+
+#[test]
+fn a_particle_the_layers_push_into_a_collider_is_pushed_out_again() {
+    // A vertex resting on a floor at its margin, and a triangle falling onto it from above: the
+    // layers' push moves the vertex down into the floor, which must push it out again.
+    let floor = Collider::fixed(
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Vec3::Y)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.01,
+    );
+    let start = vec![
+        Vec3::new(0.0, 0.03, 0.0),
+        Vec3::new(1.0, 0.03, 0.0),
+        Vec3::new(0.0, 0.03, 1.0),
+        Vec3::new(0.25, 0.01, 0.25),
+        Vec3::new(2.0, 0.01, 2.0),
+        Vec3::new(3.0, 0.01, 2.0),
+    ];
+    let tris = [0, 1, 2, 3, 4, 5];
+    let mut x = start.clone();
+    for p in &mut x[..3] {
+        p.y = 0.012;
+    }
+    let mut v = vec![Vec3::ZERO; 6];
+    for v in &mut v[..3] {
+        v.y = -2.0;
+    }
+    let w = [1.0; 6];
+    let mut c = Contacts::new(6, 1.0);
+    c.set_self_contacts(Some(SelfContacts::new(&tris, &start, 0.005, 0.0)));
+    c.begin_step(&[floor], (u32::MAX, true), bounds(&start), 10.0, 0.01);
+    c.begin_self_step(0.02);
+    c.begin_substep(&start);
+    c.resolve(0.0, 1.0, 0.01, &tris, &w, (&mut x, &mut v), None);
+    // The layers acted (the triangle went up), and the vertex they pushed down is out of the
+    // floor again (the colliders have the last word).
+    assert!(x[..3].iter().all(|p| p.y > 0.012), "{:?}", &x[..3]);
+    assert!(x[3].y >= 0.01 - 1e-6, "{}", x[3]);
+}
