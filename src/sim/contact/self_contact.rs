@@ -122,6 +122,9 @@ pub(crate) struct SelfContacts {
     involved: Vec<u32>,
     /// Per model particle: its place in `involved` (`u32::MAX` if it is in no candidate pair).
     local: Vec<u32>,
+    /// Per candidate (vertex–triangle ones, then edge–edge ones): its four particles' places in
+    /// `involved` (the vertex and the triangle's corners; the two edges' ends).
+    quads: Vec<[u32; 4]>,
     /// The particles of `involved`, copied out of the state for the narrow phase and written
     /// back after it (scratch).
     gathered: Gathered,
@@ -335,18 +338,11 @@ impl SelfContacts {
     /// Whether candidate `k`'s elements may have come within the thickness since they were found:
     /// its distance then less the most its two elements' particles have drifted.
     fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
-        let slot = |i: u32| drift[self.local[i as usize] as usize];
-        let closing = match self.vt.get(k) {
-            Some(&(p, t)) => {
-                let [a, b, c] = self.tris[t as usize];
-                slot(p) + slot(a).max(slot(b)).max(slot(c))
-            }
-            None => {
-                let (e, f) = self.ee[k - self.vt.len()];
-                let [a, b] = self.edges[e as usize];
-                let [c, d] = self.edges[f as usize];
-                slot(a).max(slot(b)) + slot(c).max(slot(d))
-            }
+        let [a, b, c, d] = self.quads[k].map(|i| drift[i as usize]);
+        let closing = if k < self.vt.len() {
+            a + b.max(c).max(d)
+        } else {
+            a.max(b) + c.max(d)
         };
         self.gap[k] - closing <= self.thickness
     }
@@ -355,20 +351,11 @@ impl SelfContacts {
     /// edge–edge pairs. Returns whether anything moved; adds what it moved each particle to
     /// `drift`.
     fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> bool {
-        let slot = |i: u32| self.local[i as usize] as usize;
-        match self.vt.get(k) {
-            Some(&(p, t)) => {
-                let [a, b, c] = self.tris[t as usize];
-                self.spacing()
-                    .vertex_triangle(state, [p, a, b, c].map(slot), inv_h, drift)
-            }
-            None => {
-                let (e, f) = self.ee[k - self.vt.len()];
-                let [a, b] = self.edges[e as usize];
-                let [c, d] = self.edges[f as usize];
-                self.spacing()
-                    .edge_edge(state, [a, b, c, d].map(slot), inv_h, drift)
-            }
+        let quad = self.quads[k].map(|i| i as usize);
+        if k < self.vt.len() {
+            self.spacing().vertex_triangle(state, quad, inv_h, drift)
+        } else {
+            self.spacing().edge_edge(state, quad, inv_h, drift)
         }
     }
 
@@ -477,6 +464,16 @@ impl SelfContacts {
         self.local.clear();
         self.local
             .extend(self.slot.iter().map(|&s| place[s as usize]));
+        let local = |p: u32| self.local[p as usize];
+        self.quads.clear();
+        for &(p, t) in &self.vt {
+            let [a, b, c] = self.tris[t as usize];
+            self.quads.push([p, a, b, c].map(local));
+        }
+        for &(e, f) in &self.ee {
+            let ([a, b], [c, d]) = (self.edges[e as usize], self.edges[f as usize]);
+            self.quads.push([a, b, c, d].map(local));
+        }
     }
 
     /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
