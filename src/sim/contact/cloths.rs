@@ -29,12 +29,12 @@
 
 use glam::Vec3;
 
-use super::Near;
 use super::narrow::ContactState;
 use super::self_contact::{
-    Hash, Spacing, closest_on_segments, edge_table, later_passes, max_or_infinite,
+    Gathered, Hash, Spacing, closest_on_segments, edge_table, later_passes, max_or_infinite,
     point_triangle_distance,
 };
+use super::{Near, Vectors};
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
 
 /// At most this many candidates per vertex or edge of the search, of each kind: enough for
@@ -141,6 +141,13 @@ pub(crate) struct ClothContacts {
     /// that acted in a substep's first pass.
     drift: Vec<f32>,
     acting: Vec<u32>,
+    /// The joined slots in a candidate pair, each once, sorted.
+    involved: Vec<u32>,
+    /// Scratch of the narrow phase: the particles of `involved` copied out of the state, their
+    /// drifts, and the ones it moved.
+    gathered: Gathered,
+    local_drift: Vec<f32>,
+    moved: Vec<u32>,
 }
 
 impl ClothContacts {
@@ -260,14 +267,27 @@ impl ClothContacts {
             t: (t0, t1),
             inv_dt: self.inv_dt,
         };
+        // As for the self-contacts: the pairs' particles copied out once, the moved ones set
+        // back (the others' are never moved).
+        let mut gathered = std::mem::take(&mut self.gathered);
+        gathered.read(&joined, &self.involved);
+        let mut local = std::mem::take(&mut self.local_drift);
+        local.clear();
+        local.extend(self.involved.iter().map(|&s| drift[s as usize]));
+        let mut copies = gathered.state();
         acting.clear();
         for k in 0..self.prepared.len() {
-            if self.may_touch(k, &drift) && self.pair(&mut joined, k, inv_h, &mut drift) {
+            if self.may_touch(k, &local) && self.pair(&mut copies, k, inv_h, &mut local) {
                 acting.push(k as u32);
             }
         }
-        later_passes(&acting, |k| self.pair(&mut joined, k, inv_h, &mut drift));
+        later_passes(&acting, |k| self.pair(&mut copies, k, inv_h, &mut local));
         let any = !acting.is_empty();
+        if any {
+            gathered.write(&mut joined, &self.involved, &mut self.moved);
+        }
+        self.gathered = gathered;
+        self.local_drift = local;
         self.drift = drift;
         self.acting = acting;
         any
@@ -450,6 +470,17 @@ impl ClothContacts {
                 gap,
             }
         }));
+        // The joined slots in a pair, each once; then each pair's places among them.
+        self.involved.clear();
+        self.involved.extend(prepared.iter().flat_map(|c| c.slots));
+        self.involved.sort_unstable();
+        self.involved.dedup();
+        for c in &mut prepared {
+            c.slots = c.slots.map(|s| {
+                // Every slot of a pair is in the list.
+                self.involved.binary_search(&s).unwrap_or_default() as u32
+            });
+        }
         self.prepared = prepared;
     }
 
@@ -466,15 +497,9 @@ impl ClothContacts {
         c.gap - closing <= self.spacing[c.spacing as usize].thickness
     }
 
-    /// Resolves candidate `k` on the joined state (see [`Spacing`]). Returns whether anything
-    /// moved; adds what it moved each particle to `drift`.
-    fn pair<S: ContactState>(
-        &self,
-        state: &mut Joined<S>,
-        k: usize,
-        inv_h: f32,
-        drift: &mut [f32],
-    ) -> bool {
+    /// Resolves candidate `k` on the copies of the joined state's pair particles (see
+    /// [`Spacing`]). Returns whether anything moved; adds what it moved each particle to `drift`.
+    fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> bool {
         let c = &self.prepared[k];
         let spacing = self.spacing[c.spacing as usize];
         let s = c.slots.map(|i| i as usize);
@@ -486,8 +511,8 @@ impl ClothContacts {
     }
 }
 
-/// A candidate as the substeps use it: its four particles' joined slots (the vertex first in a
-/// vertex–triangle pair), its kind, the copied cloth it meets and its distance when found.
+/// A candidate as the substeps use it: its four particles' places in `involved` (the vertex first
+/// in a vertex–triangle pair), its kind, the copied cloth it meets and its distance when found.
 #[derive(Debug, Clone, Copy)]
 struct Prepared {
     slots: [u32; 4],

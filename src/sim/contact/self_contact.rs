@@ -719,7 +719,7 @@ impl Spacing {
 /// Copies of some particles of a [`ContactState`] (each one's start, position, velocity and
 /// inverse mass), for a narrow phase that visits each many times.
 #[derive(Debug, Clone, Default)]
-struct Gathered {
+pub(super) struct Gathered {
     start: Vec<Vec3>,
     x: Vec<Vec3>,
     v: Vec<Vec3>,
@@ -728,7 +728,7 @@ struct Gathered {
 
 impl Gathered {
     /// Copies the stored particles `which` out of `state`.
-    fn read<S: ContactState>(&mut self, state: &S, which: &[u32]) {
+    pub(super) fn read<S: ContactState>(&mut self, state: &S, which: &[u32]) {
         let at = which.iter().map(|&s| s as usize);
         self.start.clear();
         self.start.extend(at.clone().map(|s| state.start(s)));
@@ -741,7 +741,7 @@ impl Gathered {
     }
 
     /// The copies as a state of their own (particle `k` is `which[k]` of [`Self::read`]).
-    fn state(&mut self) -> Vectors<'_> {
+    pub(super) fn state(&mut self) -> Vectors<'_> {
         Vectors {
             x: &mut self.x,
             v: &mut self.v,
@@ -753,7 +753,12 @@ impl Gathered {
 
     /// Writes back into `state` the particles of `which` (as read) whose copies changed, and lists
     /// them in `moved`.
-    fn write<S: ContactState>(&self, state: &mut S, which: &[u32], moved: &mut Vec<u32>) {
+    pub(super) fn write<S: ContactState>(
+        &self,
+        state: &mut S,
+        which: &[u32],
+        moved: &mut Vec<u32>,
+    ) {
         moved.clear();
         for ((&s, x), v) in which.iter().zip(&self.x).zip(&self.v) {
             let s = s as usize;
