@@ -120,8 +120,9 @@ pub(crate) struct SelfContacts {
     drift: Vec<f32>,
     /// The stored particles that are in a candidate pair, each once, in storage order.
     involved: Vec<u32>,
-    /// Per model particle: its place in `involved` (`u32::MAX` if it is in no candidate pair).
-    local: Vec<u32>,
+    /// Per stored particle: its place in `involved` (`u32::MAX` if it is in no candidate pair;
+    /// scratch of the search).
+    place: Vec<u32>,
     /// Per candidate (vertex–triangle ones, then edge–edge ones): its four particles' places in
     /// `involved` (the vertex and the triangle's corners; the two edges' ends).
     quads: Vec<[u32; 4]>,
@@ -454,17 +455,12 @@ impl SelfContacts {
         }
         self.involved.sort_unstable();
         self.involved.dedup();
-        // Stored particle → place in `involved`, then model particle → that place.
-        let mut place = std::mem::take(&mut self.local);
-        place.clear();
-        place.resize(self.slot.len(), u32::MAX);
+        self.place.clear();
+        self.place.resize(self.slot.len(), u32::MAX);
         for (k, &s) in self.involved.iter().enumerate() {
-            place[s as usize] = k as u32;
+            self.place[s as usize] = k as u32;
         }
-        self.local.clear();
-        self.local
-            .extend(self.slot.iter().map(|&s| place[s as usize]));
-        let local = |p: u32| self.local[p as usize];
+        let local = |p: u32| self.place[self.slot[p as usize] as usize];
         self.quads.clear();
         for &(p, t) in &self.vt {
             let [a, b, c] = self.tris[t as usize];
