@@ -399,9 +399,9 @@ fn with_self_collision(mut sim: ClothSim, enabled: bool) -> ClothSim {
 
 /// Self-collision off and on for the same cloth: the swinging cloth hanging from two corners
 /// (a few candidate pairs; its cost is the broad phase, searched again as its parts move
-/// relative to each other), the same cloth settled (its cost is the check between searches), and
-/// 64×64 (1.6 cm spacing) dropped nearly upright onto a floor,
-/// crumpled into a pile by 1.5 s of simulation with self-collision on.
+/// relative to each other), the same cloth settled (its cost is the check between searches),
+/// 64×64 (1.6 cm spacing) dropped nearly upright onto a floor, crumpled into a pile by 1.5 s of
+/// simulation with self-collision on, and the same cloth folded in half lying on the floor.
 fn self_collision(c: &mut Criterion) {
     let mut group = c.benchmark_group("self_collision_64x64");
     let floor = [Collider::fixed(
@@ -425,6 +425,26 @@ fn self_collision(c: &mut Criterion) {
     for _ in 0..90 {
         pile.step_in(1.0 / 60.0, &on_floor).unwrap();
     }
+    // The same cloth folded in half (a crease of 1 cm radius, the upper layer 2 cm above the
+    // lower) and laid on the floor, settled for 2 s: two layers resting on each other.
+    let r = 0.01;
+    let fold = |p: Vec3| {
+        let u = p.x + 0.1;
+        let turn = std::f32::consts::PI * r;
+        let q = if u <= 0.0 {
+            Vec3::new(u, 0.0, p.z)
+        } else if u < turn {
+            Vec3::new(r * (u / r).sin(), r - r * (u / r).cos(), p.z)
+        } else {
+            Vec3::new(turn - u, 2.0 * r, p.z)
+        };
+        q + Vec3::new(0.0, 0.006, 0.0)
+    };
+    let flat = ClothModel::grid(&GridSpec::new(64, 64, 1.0 / 63.0)).unwrap();
+    let mut folded = with_self_collision(ClothSim::new(flat, settings, fold).unwrap(), true);
+    for _ in 0..120 {
+        folded.step_in(1.0 / 60.0, &on_floor).unwrap();
+    }
     let none = Environment::default();
     // The same hanging cloth 20 s later, at rest but for a sway: it cannot touch itself.
     let mut settled = hanging(64);
@@ -435,6 +455,7 @@ fn self_collision(c: &mut Criterion) {
         ("hanging", hanging(64), &none),
         ("hanging_settled", settled, &none),
         ("pile", pile, &on_floor),
+        ("folded", folded, &on_floor),
     ] {
         for enabled in [false, true] {
             let mut sim = with_self_collision(sim.clone(), enabled);

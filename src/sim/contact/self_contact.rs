@@ -339,7 +339,7 @@ impl SelfContacts {
     /// Whether candidate `k`'s elements may have come within the thickness since they were found:
     /// its distance then less the most its two elements' particles have drifted.
     fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
-        let [a, b, c, d] = self.quads[k].map(|i| drift[i as usize]);
+        let [a, b, c, d] = four(self.quads[k], |i| drift[i as usize]);
         let closing = if k < self.vt.len() {
             a + b.max(c).max(d)
         } else {
@@ -352,7 +352,7 @@ impl SelfContacts {
     /// edge–edge pairs. Returns whether anything moved; adds what it moved each particle to
     /// `drift`.
     fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> bool {
-        let quad = self.quads[k].map(|i| i as usize);
+        let quad = four(self.quads[k], |i| i as usize);
         if k < self.vt.len() {
             self.spacing().vertex_triangle(state, quad, inv_h, drift)
         } else {
@@ -441,18 +441,21 @@ impl SelfContacts {
         (m0 / n as f32, m1 / n as f32)
     }
 
-    /// Lists the stored particles that are in a candidate pair.
+    /// Lists the stored particles that are in a candidate pair, and each candidate's four
+    /// particles' places among them.
     fn list_involved(&mut self) {
         let slot = |p: u32| self.slot[p as usize];
-        self.involved.clear();
+        self.quads.clear();
         for &(p, t) in &self.vt {
             let [a, b, c] = self.tris[t as usize];
-            self.involved.extend([p, a, b, c].map(slot));
+            self.quads.push([p, a, b, c].map(slot));
         }
         for &(e, f) in &self.ee {
             let ([a, b], [c, d]) = (self.edges[e as usize], self.edges[f as usize]);
-            self.involved.extend([a, b, c, d].map(slot));
+            self.quads.push([a, b, c, d].map(slot));
         }
+        self.involved.clear();
+        self.involved.extend(self.quads.iter().flatten());
         self.involved.sort_unstable();
         self.involved.dedup();
         self.place.clear();
@@ -460,15 +463,8 @@ impl SelfContacts {
         for (k, &s) in self.involved.iter().enumerate() {
             self.place[s as usize] = k as u32;
         }
-        let local = |p: u32| self.place[self.slot[p as usize] as usize];
-        self.quads.clear();
-        for &(p, t) in &self.vt {
-            let [a, b, c] = self.tris[t as usize];
-            self.quads.push([p, a, b, c].map(local));
-        }
-        for &(e, f) in &self.ee {
-            let ([a, b], [c, d]) = (self.edges[e as usize], self.edges[f as usize]);
-            self.quads.push([a, b, c, d].map(local));
+        for quad in &mut self.quads {
+            *quad = quad.map(|s| self.place[s as usize]);
         }
     }
 
@@ -593,11 +589,11 @@ impl Spacing {
         inv_h: f32,
         drift: &mut [f32],
     ) -> bool {
-        let w = s.map(|i| state.inv_mass(i));
+        let w = four(s, |i| state.inv_mass(i));
         if w == [0.0; 4] {
             return false;
         }
-        let [p, a, b, c] = s.map(|i| state.position(i));
+        let [p, a, b, c] = four(s, |i| state.position(i));
         let Some(n) = unit_normal(a, b, c) else {
             return false;
         };
@@ -608,7 +604,7 @@ impl Spacing {
         if u < INSIDE || v < INSIDE || t < INSIDE {
             return false;
         }
-        let [p0, a0, b0, c0] = s.map(|i| state.start(i));
+        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
         let side = match unit_normal(a0, b0, c0) {
             Some(n0) => {
                 if (p0 - (u * a0 + v * b0 + t * c0)).dot(n0) >= 0.0 {
@@ -632,14 +628,14 @@ impl Spacing {
         inv_h: f32,
         drift: &mut [f32],
     ) -> bool {
-        let w = s.map(|i| state.inv_mass(i));
+        let w = four(s, |i| state.inv_mass(i));
         if w == [0.0; 4] {
             return false;
         }
-        let [a, b, c, d] = s.map(|i| state.position(i));
+        let [a, b, c, d] = four(s, |i| state.position(i));
         let (u, t) = closest_on_segments(a, b, c, d);
         let gap = a.lerp(b, u) - c.lerp(d, t);
-        let [a0, b0, c0, d0] = s.map(|i| state.start(i));
+        let [a0, b0, c0, d0] = four(s, |i| state.start(i));
         let gap0 = a0.lerp(b0, u) - c0.lerp(d0, t);
         let length = gap.length();
         if length >= self.thickness && gap.dot(gap0) >= 0.0 {
@@ -683,7 +679,7 @@ impl Spacing {
             return false;
         }
         let push = depth / effective;
-        let v = s.map(|i| state.velocity(i));
+        let v = four(s, |i| state.velocity(i));
         let relative: Vec3 = (0..4).map(|k| weights[k] * v[k]).sum();
         let normal = relative.dot(n);
         // The normal change in velocity units: the approach removed plus the push-out per substep.
@@ -698,7 +694,7 @@ impl Spacing {
         };
         // Velocity change of the pair's combination, spread like the push.
         let dv = removed * n - stop * tangential;
-        let x = s.map(|i| state.position(i));
+        let x = four(s, |i| state.position(i));
         for k in 0..4 {
             let g = weights[k] * w[k];
             if g == 0.0 {
@@ -1044,6 +1040,13 @@ fn reach_cap(edge: f32, thickness: f32) -> f32 {
         return 0.0;
     }
     (0.45 * (0.7 * edge - thickness)).max(0.1 * edge)
+}
+
+/// `s.map(f)` for the four particles of a pair, written out: in the narrow phase's hot loop the
+/// library's `map` was left as a call.
+#[inline(always)]
+fn four<T: Copy, U>(s: [T; 4], f: impl Fn(T) -> U) -> [U; 4] {
+    [f(s[0]), f(s[1]), f(s[2]), f(s[3])]
 }
 
 /// The larger of `a` and `b`, infinite if `b` is NaN (a non-finite displacement must force a new
