@@ -22,6 +22,13 @@ impl Soa {
         }
     }
 
+    /// Makes it hold `n` vectors (new ones zero), keeping its allocation.
+    pub fn resize(&mut self, n: usize) {
+        for a in [&mut self.x, &mut self.y, &mut self.z] {
+            a.resize(n, 0.0);
+        }
+    }
+
     /// Number of vectors.
     pub fn len(&self) -> usize {
         self.x.len()

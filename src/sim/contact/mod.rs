@@ -602,9 +602,7 @@ pub(crate) fn soa_since<const AHEAD: bool>(x: &Soa, d: &Soa, at: &Soa, guess: Ve
 /// [`ContactState::ends`] of particles displaced by `d` over the substep (see [`soa_since`]).
 pub(crate) fn soa_ends<const AHEAD: bool>(x: &Soa, d: &Soa, out: &mut Soa) {
     let n = x.len().min(d.len());
-    for a in [&mut out.x, &mut out.y, &mut out.z] {
-        a.resize(n, 0.0);
-    }
+    out.resize(n);
     for (o, (x, d)) in [&mut out.x, &mut out.y, &mut out.z].into_iter().zip([
         (&x.x, &d.x),
         (&x.y, &d.y),

@@ -188,7 +188,7 @@ pub(crate) trait ContactState {
     where
         Self: Sized,
     {
-        *out = Soa::new(self.len());
+        out.resize(self.len());
         self.paths(|i, _, end| out.set(i, end));
     }
 }

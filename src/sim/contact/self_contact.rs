@@ -1448,6 +1448,18 @@ mod tests {
         let mut x: Vec<Vec3> = start.iter().map(|p| *p + step).collect();
         let c = closing_from(&mut regions, &found, &start, &mut x, 1.0);
         assert!(c.near < 1e-5, "{}", c.near);
+        // The same after three substeps without a check: the references are extrapolated over
+        // all four, and the next one from the motion over those four.
+        let mut regions = fresh();
+        let at = |k: f32| -> Vec<Vec3> { found.iter().map(|p| *p + step * k).collect() };
+        closing_from(&mut regions, &found, &found, &mut at(1.0), 0.01);
+        for _ in 0..3 {
+            regions.skip();
+        }
+        for k in [5.0, 6.0] {
+            let c = closing_from(&mut regions, &found, &at(k - 1.0), &mut at(k), 1.0);
+            assert!(c.near < 1e-5, "substep {k}: {}", c.near);
+        }
         // A position that is not a number makes both bounds infinite.
         let mut x = found.clone();
         x[3] = Vec3::NAN;
