@@ -74,6 +74,9 @@ pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> bool) 
 /// candidate. A pile of cloth needs far fewer.
 pub(super) const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
 
+/// Bands of distance the candidates of each kind are ordered into (see `SelfContacts::bands`).
+const BANDS: usize = 32;
+
 /// A vertex counts as over a triangle's interior when none of its barycentric coordinates is
 /// below this (a vertex just past an edge is caught by the edge–edge pairs of that edge).
 const INSIDE: f32 = -1e-3;
@@ -126,6 +129,15 @@ pub(crate) struct SelfContacts {
     /// Per candidate (vertex–triangle ones, then edge–edge ones): its four particles' places in
     /// `involved` (the vertex and the triangle's corners; the two edges' ends).
     quads: Vec<[u32; 4]>,
+    /// The candidates of each kind (vertex–triangle, edge–edge) in bands of growing distance at
+    /// the search: each band's end (a candidate index, exclusive) and the least distance in it.
+    /// A substep's first pass over a kind stops at the first band none of whose candidates can
+    /// have come within the thickness.
+    bands: [Vec<(u32, f32)>; 2],
+    /// Scratch of the ordering into bands: candidate indices, and the lists being reordered.
+    order: Vec<u32>,
+    reordered_pairs: Vec<(u32, u32)>,
+    reordered_gaps: Vec<f32>,
     /// The particles of `involved`, copied out of the state for the narrow phase and written
     /// back after it (scratch).
     gathered: Gathered,
@@ -298,9 +310,26 @@ impl SelfContacts {
         // near but never act).
         let mut acting = std::mem::take(&mut self.acting);
         acting.clear();
-        for k in 0..self.vt.len() + self.ee.len() {
-            if self.may_touch(k, &drift) && self.pair(&mut local, k, inv_h, &mut drift) {
-                acting.push(k as u32);
+        // A candidate's elements came closer by at most twice the largest drift, so a band whose
+        // least distance exceeds the thickness by more than that holds none that may touch (nor
+        // do the farther bands after it).
+        let mut closing = 2.0 * drift.iter().copied().fold(0.0, max_or_infinite);
+        for (kind, bands) in self.bands.iter().enumerate() {
+            let mut k = if kind == 0 { 0 } else { self.vt.len() };
+            for &(end, least) in bands {
+                if least - closing > self.thickness {
+                    break;
+                }
+                for k in k..end as usize {
+                    if self.may_touch(k, &drift) && self.pair(&mut local, k, inv_h, &mut drift) {
+                        acting.push(k as u32);
+                        let moved = four(self.quads[k], |i| drift[i as usize]);
+                        closing = moved
+                            .into_iter()
+                            .fold(closing, |c, d| max_or_infinite(c, 2.0 * d));
+                    }
+                }
+                k = end as usize;
             }
         }
         later_passes(&acting, |k| self.pair(&mut local, k, inv_h, &mut drift));
@@ -444,6 +473,7 @@ impl SelfContacts {
     /// Lists the stored particles that are in a candidate pair, and each candidate's four
     /// particles' places among them.
     fn list_involved(&mut self) {
+        self.order_by_gap(self.thickness + 2.0 * self.reach);
         let slot = |p: u32| self.slot[p as usize];
         self.quads.clear();
         for &(p, t) in &self.vt {
@@ -466,6 +496,61 @@ impl SelfContacts {
         for quad in &mut self.quads {
             *quad = quad.map(|s| self.place[s as usize]);
         }
+    }
+
+    /// Orders the candidates of each kind into [`BANDS`] bands of distance (each band in the
+    /// search's order), the distances found being below `margin`, and lists the bands.
+    fn order_by_gap(&mut self, margin: f32) {
+        let split = self.vt.len();
+        let width = margin / BANDS as f32;
+        // NaN and negative distances go to the first band, anything past the margin to the last.
+        let band = |gap: f32| ((gap / width) as usize).min(BANDS - 1);
+        self.order.clear();
+        self.order.resize(self.gap.len(), 0);
+        for (kind, range) in [0..split, split..self.gap.len()].into_iter().enumerate() {
+            let (mut count, mut least) = ([0u32; BANDS], [f32::INFINITY; BANDS]);
+            for &gap in &self.gap[range.clone()] {
+                count[band(gap)] += 1;
+                least[band(gap)] = least[band(gap)].min(gap);
+            }
+            let mut next = [0u32; BANDS];
+            let mut end = range.start as u32;
+            self.bands[kind].clear();
+            for b in 0..BANDS {
+                next[b] = end;
+                end += count[b];
+                if count[b] > 0 {
+                    // NaN distances (min ignores them) make the band's least −∞: always visited.
+                    let least = if least[b].is_finite() {
+                        least[b]
+                    } else {
+                        f32::NEG_INFINITY
+                    };
+                    self.bands[kind].push((end, least));
+                }
+            }
+            for k in range {
+                let b = band(self.gap[k]);
+                self.order[next[b] as usize] = k as u32;
+                next[b] += 1;
+            }
+        }
+        let order = &self.order;
+        reorder(
+            &mut self.gap,
+            &mut self.reordered_gaps,
+            order.iter().map(|&k| k as usize),
+        );
+        reorder(
+            &mut self.vt,
+            &mut self.reordered_pairs,
+            order[..split].iter().map(|&k| k as usize),
+        );
+        reorder(
+            &mut self.ee,
+            &mut self.reordered_pairs,
+            order[split..].iter().map(|&k| k as usize - split),
+        );
     }
 
     /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
@@ -594,6 +679,18 @@ impl Spacing {
             return false;
         }
         let [p, a, b, c] = four(s, |i| state.position(i));
+        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
+        // Most tested pairs are clear: a vertex at least the thickness from the triangle's plane,
+        // on the side it started the substep on (below, that side is the one of the start's
+        // plane, on which every point of the start triangle lies), is left alone wherever it is
+        // over the plane. Decided without normalising.
+        let area = (b - a).cross(c - a);
+        let above = (p - a).dot(area);
+        let above0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
+        let thickness2 = self.thickness * self.thickness;
+        if above * above0 > 0.0 && above * above >= thickness2 * area.length_squared() {
+            return false;
+        }
         let Some(n) = unit_normal(a, b, c) else {
             return false;
         };
@@ -604,7 +701,6 @@ impl Spacing {
         if u < INSIDE || v < INSIDE || t < INSIDE {
             return false;
         }
-        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
         let side = match unit_normal(a0, b0, c0) {
             Some(n0) => {
                 if (p0 - (u * a0 + v * b0 + t * c0)).dot(n0) >= 0.0 {
@@ -633,14 +729,34 @@ impl Spacing {
             return false;
         }
         let [a, b, c, d] = four(s, |i| state.position(i));
-        let (u, t) = closest_on_segments(a, b, c, d);
-        let gap = a.lerp(b, u) - c.lerp(d, t);
         let [a0, b0, c0, d0] = four(s, |i| state.start(i));
-        let gap0 = a0.lerp(b0, u) - c0.lerp(d0, t);
-        let length = gap.length();
-        if length >= self.thickness && gap.dot(gap0) >= 0.0 {
+        let thickness2 = self.thickness * self.thickness;
+        // Most tested pairs are clear. Edges on lines at least the thickness apart (not nearly
+        // parallel, where that distance is lost to rounding) are at least that apart, and if
+        // their ends moved less than half the thickness in the substep, their gap below differs
+        // from its start by less than its length, so it did not turn: clear, without the
+        // closest points.
+        let (ab, cd) = (b - a, d - c);
+        let across = ab.cross(cd);
+        let apart = (a - c).dot(across);
+        let moved = [a - a0, b - b0, c - c0, d - d0];
+        let [ma, mb, mc, md] = four(moved, Vec3::length_squared);
+        let moved = ma.max(mb).max(mc).max(md);
+        let across2 = across.length_squared();
+        if across2 > 1e-4 * ab.length_squared() * cd.length_squared()
+            && apart * apart >= thickness2 * across2
+            && 4.0 * moved < thickness2
+        {
             return false;
         }
+        let (u, t) = closest_on_segments(a, b, c, d);
+        let gap = a.lerp(b, u) - c.lerp(d, t);
+        let gap0 = a0.lerp(b0, u) - c0.lerp(d0, t);
+        // Otherwise clear pairs are decided without the square root.
+        if gap.length_squared() >= thickness2 && gap.dot(gap0) >= 0.0 {
+            return false;
+        }
+        let length = gap.length();
         // The direction apart: the gap's, turned to the starting side; the start's if the gap
         // has closed to nothing.
         let (n, dist) = if length > 1e-9 {
@@ -1042,6 +1158,13 @@ fn reach_cap(edge: f32, thickness: f32) -> f32 {
     (0.45 * (0.7 * edge - thickness)).max(0.1 * edge)
 }
 
+/// Replaces `v` by its elements at `order`, building it in `scratch` (which keeps the old list).
+fn reorder<T: Copy>(v: &mut Vec<T>, scratch: &mut Vec<T>, order: impl Iterator<Item = usize>) {
+    scratch.clear();
+    scratch.extend(order.map(|k| v[k]));
+    std::mem::swap(v, scratch);
+}
+
 /// `s.map(f)` for the four particles of a pair, written out: in the narrow phase's hot loop the
 /// library's `map` was left as a call.
 #[inline(always)]
@@ -1157,18 +1280,21 @@ pub(super) fn closest_on_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f
     }
     let bb = d1.dot(d2);
     let denom = aa * ee - bb * bb;
+    // The reciprocals are independent of each other, so their divisions overlap rather than
+    // queue behind `s`.
+    let (inv_aa, inv_ee) = (1.0 / aa, 1.0 / ee);
     let mut s = if denom > TINY * aa * ee {
         ((bb * f - cc * ee) / denom).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    let mut t = (bb * s + f) / ee;
+    let mut t = (bb * s + f) * inv_ee;
     if t < 0.0 {
         t = 0.0;
-        s = (-cc / aa).clamp(0.0, 1.0);
+        s = (-cc * inv_aa).clamp(0.0, 1.0);
     } else if t > 1.0 {
         t = 1.0;
-        s = ((bb - cc) / aa).clamp(0.0, 1.0);
+        s = ((bb - cc) * inv_aa).clamp(0.0, 1.0);
     }
     (s, t)
 }
@@ -1772,6 +1898,38 @@ mod tests {
         // The closest points, at the edges' middles, are the thickness apart on the starting side.
         let middle = 0.5 * (x[3] + x[4]);
         assert!(middle.y > 0.0049 && middle.y < 0.0051, "{} {}", x[3], x[4]);
+    }
+
+    #[test]
+    fn edges_off_every_triangle_are_kept_the_thickness_apart_on_their_side() {
+        // Edge 3–4 crosses edge 0–1 obliquely at their middles and moves down from above it:
+        // slowly to within the thickness, or through it to twice the thickness below. Neither
+        // of its ends is over triangle 0–1–2, and its own triangle stands upright, far from 0
+        // and 1: only the edge pair sees them.
+        for end in [0.004, -0.01] {
+            let start = vec![
+                Vec3::new(-1.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, -3.0),
+                Vec3::new(-0.9, 0.006, -0.5),
+                Vec3::new(0.9, 0.006, 0.5),
+                Vec3::new(0.0, 3.0, 0.0),
+            ];
+            let mut x = start.clone();
+            x[3].y = end;
+            x[4].y = end;
+            let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
+            let mut v = vec![Vec3::ZERO; 6];
+            let w = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0];
+            resolve(&mut c, &start, &mut x, &mut v, &w);
+            let middle = 0.5 * (x[3] + x[4]);
+            assert!(
+                middle.y > 0.0049 && middle.y < 0.0051,
+                "end {end}: {} {}",
+                x[3],
+                x[4]
+            );
+        }
     }
 
     #[test]
