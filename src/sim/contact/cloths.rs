@@ -31,7 +31,7 @@ use glam::Vec3;
 
 use super::narrow::ContactState;
 use super::self_contact::{
-    Gathered, Hash, Spacing, closest_on_segments, edge_table, later_passes, max_or_infinite,
+    Gathered, Hash, Spacing, closest_on_segments, edge_table, four, later_passes, max_or_infinite,
     point_triangle_distance,
 };
 use super::{Near, Vectors};
@@ -277,7 +277,7 @@ impl ClothContacts {
         let mut copies = gathered.state();
         acting.clear();
         for k in 0..self.prepared.len() {
-            if self.may_touch(k, &local) && self.pair(&mut copies, k, inv_h, &mut local) {
+            if self.may_touch(k, &local) && self.pair(&mut copies, k, inv_h, &mut local) > 0.0 {
                 acting.push(k as u32);
             }
         }
@@ -498,11 +498,12 @@ impl ClothContacts {
     }
 
     /// Resolves candidate `k` on the copies of the joined state's pair particles (see
-    /// [`Spacing`]). Returns whether anything moved; adds what it moved each particle to `drift`.
-    fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> bool {
+    /// [`Spacing`]). Returns how far it pushed the pair out, as a fraction of the thickness (0:
+    /// nothing moved); adds what it moved each particle to `drift`.
+    fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> f32 {
         let c = &self.prepared[k];
         let spacing = self.spacing[c.spacing as usize];
-        let s = c.slots.map(|i| i as usize);
+        let s = four(c.slots, |i| i as usize);
         if c.vertex {
             spacing.vertex_triangle(state, s, inv_h, drift)
         } else {

@@ -54,14 +54,18 @@ mod patches;
 /// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
 pub(super) const PASSES: u32 = 4;
 
+/// A later pass that pushes no pair out by more than this fraction of the thickness is the
+/// last: what is left is far below anything a crossing could come from.
+pub(super) const SETTLED: f32 = 1e-3;
+
 /// The passes after a substep's first, over the candidates `acting` that acted in it, until
-/// `pair(k)` (resolving candidate `k`, whether it moved anything) moves nothing, at most
-/// [`PASSES`] in all.
-pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> bool) {
+/// `pair(k)` (resolving candidate `k`: how far it pushed the pair out, as a fraction of the
+/// thickness) pushes none by more than [`SETTLED`], at most [`PASSES`] in all.
+pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> f32) {
     for _ in 1..PASSES {
         let mut moved = false;
         for &k in acting {
-            moved |= pair(k as usize);
+            moved |= pair(k as usize) > SETTLED;
         }
         if !moved {
             break;
@@ -321,7 +325,9 @@ impl SelfContacts {
                     break;
                 }
                 for k in k..end as usize {
-                    if self.may_touch(k, &drift) && self.pair(&mut local, k, inv_h, &mut drift) {
+                    if self.may_touch(k, &drift)
+                        && self.pair(&mut local, k, inv_h, &mut drift) > 0.0
+                    {
                         acting.push(k as u32);
                         let moved = four(self.quads[k], |i| drift[i as usize]);
                         closing = moved
@@ -378,9 +384,9 @@ impl SelfContacts {
     }
 
     /// Resolves candidate `k` on the gathered particles `state`: vertex–triangle pairs first, then
-    /// edge–edge pairs. Returns whether anything moved; adds what it moved each particle to
-    /// `drift`.
-    fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> bool {
+    /// edge–edge pairs. Returns how far it pushed the pair out, as a fraction of the thickness
+    /// (0: nothing moved); adds what it moved each particle to `drift`.
+    fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> f32 {
         let quad = four(self.quads[k], |i| i as usize);
         if k < self.vt.len() {
             self.spacing().vertex_triangle(state, quad, inv_h, drift)
@@ -665,41 +671,85 @@ pub(super) struct Spacing {
 }
 
 impl Spacing {
+    /// Whether vertex–triangle pair `s` is clear on a quick test (most tested pairs are), one
+    /// that [`Self::vertex_triangle`] leaves alone: a vertex that is not over the triangle's
+    /// interior, or at least the thickness from its plane on the side it started the substep on
+    /// (which is the side of the start's plane, on which every point of the start triangle
+    /// lies). Decided without normalising: the barycentric coordinates scaled by the squared
+    /// area.
+    #[inline(always)]
+    pub(super) fn vertex_triangle_clear<S: ContactState>(&self, state: &S, s: [usize; 4]) -> bool {
+        let [p, a, b, c] = four(s, |i| state.position(i));
+        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
+        let area = (b - a).cross(c - a);
+        let area2 = area.length_squared();
+        let above = (p - a).dot(area);
+        let above0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
+        let thickness2 = self.thickness * self.thickness;
+        let outside = INSIDE * area2;
+        let u = (c - b).cross(p - b).dot(area);
+        let v = (a - c).cross(p - c).dot(area);
+        let t = (b - a).cross(p - a).dot(area);
+        (above * above0 > 0.0 && above * above >= thickness2 * area2)
+            || u < outside
+            || v < outside
+            || t < outside
+    }
+
+    /// Whether edge–edge pair `s` is clear on a quick test (most tested pairs are): edges on
+    /// lines at least the thickness apart (not nearly parallel, where that distance is lost to
+    /// rounding), or with boxes that far apart, are at least that apart; if their ends also
+    /// moved less than half the thickness in the substep, the gap between their closest points
+    /// differs from its start by less than its length, so it did not turn, and
+    /// [`Self::edge_edge`] leaves them alone. Decided without the closest points.
+    #[inline(always)]
+    pub(super) fn edge_edge_clear<S: ContactState>(&self, state: &S, s: [usize; 4]) -> bool {
+        let [a, b, c, d] = four(s, |i| state.position(i));
+        let [a0, b0, c0, d0] = four(s, |i| state.start(i));
+        let thickness2 = self.thickness * self.thickness;
+        let (ab, cd) = (b - a, d - c);
+        let across = ab.cross(cd);
+        let apart = (a - c).dot(across);
+        let [ma, mb, mc, md] = four([a - a0, b - b0, c - c0, d - d0], Vec3::length_squared);
+        let moved = ma.max(mb).max(mc).max(md);
+        let across2 = across.length_squared();
+        let lines_apart = across2 > 1e-4 * ab.length_squared() * cd.length_squared()
+            && apart * apart >= thickness2 * across2;
+        // The distance between the edges' boxes is a lower bound too.
+        let boxes = (c.min(d) - a.max(b))
+            .max(a.min(b) - c.max(d))
+            .max(Vec3::ZERO);
+        (lines_apart || boxes.length_squared() >= thickness2) && 4.0 * moved < thickness2
+    }
+
     /// Keeps vertex `s[0]` at least the thickness from triangle `s[1..]` on the side it started
-    /// the substep on, when it is over the triangle's interior. Returns whether anything moved.
+    /// the substep on, when it is over the triangle's interior. Returns how far it pushed the
+    /// pair out, as a fraction of the thickness (0: nothing moved).
     pub(super) fn vertex_triangle<S: ContactState>(
         &self,
         state: &mut S,
         s: [usize; 4],
         inv_h: f32,
         drift: &mut [f32],
-    ) -> bool {
+    ) -> f32 {
+        if self.vertex_triangle_clear(state, s) {
+            return 0.0;
+        }
         let w = four(s, |i| state.inv_mass(i));
         if w == [0.0; 4] {
-            return false;
+            return 0.0;
         }
         let [p, a, b, c] = four(s, |i| state.position(i));
         let [p0, a0, b0, c0] = four(s, |i| state.start(i));
-        // Most tested pairs are clear: a vertex at least the thickness from the triangle's plane,
-        // on the side it started the substep on (below, that side is the one of the start's
-        // plane, on which every point of the start triangle lies), is left alone wherever it is
-        // over the plane. Decided without normalising.
-        let area = (b - a).cross(c - a);
-        let above = (p - a).dot(area);
-        let above0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
-        let thickness2 = self.thickness * self.thickness;
-        if above * above0 > 0.0 && above * above >= thickness2 * area.length_squared() {
-            return false;
-        }
         let Some(n) = unit_normal(a, b, c) else {
-            return false;
+            return 0.0;
         };
         let dist = (p - a).dot(n);
         let Some([u, v, t]) = barycentric(p - dist * n, a, b, c) else {
-            return false;
+            return 0.0;
         };
         if u < INSIDE || v < INSIDE || t < INSIDE {
-            return false;
+            return 0.0;
         }
         let side = match unit_normal(a0, b0, c0) {
             Some(n0) => {
@@ -716,45 +766,31 @@ impl Spacing {
     }
 
     /// Keeps edge `s[0..2]` at least the thickness from edge `s[2..]` on the side it started the
-    /// substep on. Returns whether anything moved.
+    /// substep on. Returns how far it pushed the pair out, as a fraction of the thickness (0:
+    /// nothing moved).
     pub(super) fn edge_edge<S: ContactState>(
         &self,
         state: &mut S,
         s: [usize; 4],
         inv_h: f32,
         drift: &mut [f32],
-    ) -> bool {
+    ) -> f32 {
+        if self.edge_edge_clear(state, s) {
+            return 0.0;
+        }
         let w = four(s, |i| state.inv_mass(i));
         if w == [0.0; 4] {
-            return false;
+            return 0.0;
         }
         let [a, b, c, d] = four(s, |i| state.position(i));
         let [a0, b0, c0, d0] = four(s, |i| state.start(i));
         let thickness2 = self.thickness * self.thickness;
-        // Most tested pairs are clear. Edges on lines at least the thickness apart (not nearly
-        // parallel, where that distance is lost to rounding) are at least that apart, and if
-        // their ends moved less than half the thickness in the substep, their gap below differs
-        // from its start by less than its length, so it did not turn: clear, without the
-        // closest points.
-        let (ab, cd) = (b - a, d - c);
-        let across = ab.cross(cd);
-        let apart = (a - c).dot(across);
-        let moved = [a - a0, b - b0, c - c0, d - d0];
-        let [ma, mb, mc, md] = four(moved, Vec3::length_squared);
-        let moved = ma.max(mb).max(mc).max(md);
-        let across2 = across.length_squared();
-        if across2 > 1e-4 * ab.length_squared() * cd.length_squared()
-            && apart * apart >= thickness2 * across2
-            && 4.0 * moved < thickness2
-        {
-            return false;
-        }
         let (u, t) = closest_on_segments(a, b, c, d);
         let gap = a.lerp(b, u) - c.lerp(d, t);
         let gap0 = a0.lerp(b0, u) - c0.lerp(d0, t);
         // Otherwise clear pairs are decided without the square root.
         if gap.length_squared() >= thickness2 && gap.dot(gap0) >= 0.0 {
-            return false;
+            return 0.0;
         }
         let length = gap.length();
         // The direction apart: the gap's, turned to the starting side; the start's if the gap
@@ -765,7 +801,7 @@ impl Spacing {
         } else {
             match gap0.try_normalize() {
                 Some(n0) => (n0, gap.dot(n0)),
-                None => return false,
+                None => return 0.0,
             }
         };
         let weights = [1.0 - u, u, t - 1.0, -t];
@@ -774,7 +810,8 @@ impl Spacing {
 
     /// The response to one pair: the combination `Σ weights[k] x[s[k]]` is `dist` along `n`;
     /// pushes it out to the thickness, then removes its approaching velocity along `n` and applies
-    /// friction to its tangential velocity. `w` are the particles' inverse masses.
+    /// friction to its tangential velocity. `w` are the particles' inverse masses. Returns the
+    /// push as a fraction of the thickness (0: nothing moved).
     #[allow(clippy::too_many_arguments)]
     fn separate<S: ContactState>(
         &self,
@@ -785,14 +822,14 @@ impl Spacing {
         dist: f32,
         inv_h: f32,
         drift: &mut [f32],
-    ) -> bool {
+    ) -> f32 {
         let depth = self.thickness - dist;
         if depth.is_nan() || depth <= 0.0 {
-            return false;
+            return 0.0;
         }
         let effective: f32 = (0..4).map(|k| weights[k] * weights[k] * w[k]).sum();
         if effective.is_nan() || effective <= 1e-12 {
-            return false;
+            return 0.0;
         }
         let push = depth / effective;
         let v = four(s, |i| state.velocity(i));
@@ -820,7 +857,7 @@ impl Spacing {
             state.set(s[k], x[k] + (push * g) * n, v[k] + scale * dv);
             drift[s[k]] += (push * g).abs();
         }
-        true
+        depth / self.thickness
     }
 }
 
@@ -1168,7 +1205,7 @@ fn reorder<T: Copy>(v: &mut Vec<T>, scratch: &mut Vec<T>, order: impl Iterator<I
 /// `s.map(f)` for the four particles of a pair, written out: in the narrow phase's hot loop the
 /// library's `map` was left as a call.
 #[inline(always)]
-fn four<T: Copy, U>(s: [T; 4], f: impl Fn(T) -> U) -> [U; 4] {
+pub(super) fn four<T: Copy, U>(s: [T; 4], f: impl Fn(T) -> U) -> [U; 4] {
     [f(s[0]), f(s[1]), f(s[2]), f(s[3])]
 }
 
