@@ -78,7 +78,7 @@ pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> f32) {
 /// candidate. A pile of cloth needs far fewer.
 pub(super) const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
 
-/// Bands of distance the candidates of each kind are ordered into (see `SelfContacts::bands`).
+/// Bands of distance a search's candidates are ordered into (see [`Bands`]).
 const BANDS: usize = 32;
 
 /// A vertex counts as over a triangle's interior when none of its barycentric coordinates is
@@ -134,11 +134,9 @@ pub(crate) struct SelfContacts {
     /// `involved` (the vertex and the triangle's corners; the two edges' ends).
     quads: Vec<[u32; 4]>,
     /// The candidates of each kind (vertex–triangle, edge–edge) in bands of growing distance at
-    /// the search: each band's end (a candidate index, exclusive) and the least distance in it.
-    /// A substep's first pass over a kind stops at the first band none of whose candidates can
-    /// have come within the thickness.
-    bands: [Vec<(u32, f32)>; 2],
-    /// Scratch of the ordering into bands: candidate indices, and the lists being reordered.
+    /// the search.
+    bands: [Bands; 2],
+    /// Scratch of the ordering into bands: the new order, and the lists being reordered.
     order: Vec<u32>,
     reordered_pairs: Vec<(u32, u32)>,
     reordered_gaps: Vec<f32>,
@@ -314,29 +312,18 @@ impl SelfContacts {
         // near but never act).
         let mut acting = std::mem::take(&mut self.acting);
         acting.clear();
-        // A candidate's elements came closer by at most twice the largest drift, so a band whose
-        // least distance exceeds the thickness by more than that holds none that may touch (nor
-        // do the farther bands after it).
+        // A candidate's elements came closer by at most twice the largest drift.
         let mut closing = 2.0 * drift.iter().copied().fold(0.0, max_or_infinite);
-        for (kind, bands) in self.bands.iter().enumerate() {
-            let mut k = if kind == 0 { 0 } else { self.vt.len() };
-            for &(end, least) in bands {
-                if least - closing > self.thickness {
-                    break;
+        for bands in &self.bands {
+            closing = bands.visit(closing, |k| {
+                if !(self.may_touch(k, &drift) && self.pair(&mut local, k, inv_h, &mut drift) > 0.0)
+                {
+                    return 0.0;
                 }
-                for k in k..end as usize {
-                    if self.may_touch(k, &drift)
-                        && self.pair(&mut local, k, inv_h, &mut drift) > 0.0
-                    {
-                        acting.push(k as u32);
-                        let moved = four(self.quads[k], |i| drift[i as usize]);
-                        closing = moved
-                            .into_iter()
-                            .fold(closing, |c, d| max_or_infinite(c, 2.0 * d));
-                    }
-                }
-                k = end as usize;
-            }
+                acting.push(k as u32);
+                let [a, b, c, d] = four(self.quads[k], |i| drift[i as usize]);
+                a.max(b).max(c).max(d)
+            });
         }
         later_passes(&acting, |k| self.pair(&mut local, k, inv_h, &mut drift));
         let any = !acting.is_empty();
@@ -504,44 +491,16 @@ impl SelfContacts {
         }
     }
 
-    /// Orders the candidates of each kind into [`BANDS`] bands of distance (each band in the
-    /// search's order), the distances found being below `margin`, and lists the bands.
+    /// Orders the candidates of each kind into bands of distance (see [`Bands`]), the distances
+    /// found being below `margin`.
     fn order_by_gap(&mut self, margin: f32) {
         let split = self.vt.len();
-        let width = margin / BANDS as f32;
-        // NaN and negative distances go to the first band, anything past the margin to the last.
-        let band = |gap: f32| ((gap / width) as usize).min(BANDS - 1);
-        self.order.clear();
-        self.order.resize(self.gap.len(), 0);
-        for (kind, range) in [0..split, split..self.gap.len()].into_iter().enumerate() {
-            let (mut count, mut least) = ([0u32; BANDS], [f32::INFINITY; BANDS]);
-            for &gap in &self.gap[range.clone()] {
-                count[band(gap)] += 1;
-                least[band(gap)] = least[band(gap)].min(gap);
-            }
-            let mut next = [0u32; BANDS];
-            let mut end = range.start as u32;
-            self.bands[kind].clear();
-            for b in 0..BANDS {
-                next[b] = end;
-                end += count[b];
-                if count[b] > 0 {
-                    // NaN distances (min ignores them) make the band's least −∞: always visited.
-                    let least = if least[b].is_finite() {
-                        least[b]
-                    } else {
-                        f32::NEG_INFINITY
-                    };
-                    self.bands[kind].push((end, least));
-                }
-            }
-            for k in range {
-                let b = band(self.gap[k]);
-                self.order[next[b] as usize] = k as u32;
-                next[b] += 1;
-            }
-        }
-        let order = &self.order;
+        let mut order = std::mem::take(&mut self.order);
+        order.clear();
+        let pair = |k: usize| (self.gap[k], self.thickness);
+        let [vt, ee] = &mut self.bands;
+        vt.order(0..split, margin, pair, &mut order);
+        ee.order(split..self.gap.len(), margin, pair, &mut order);
         reorder(
             &mut self.gap,
             &mut self.reordered_gaps,
@@ -557,6 +516,7 @@ impl SelfContacts {
             &mut self.reordered_pairs,
             order[split..].iter().map(|&k| k as usize - split),
         );
+        self.order = order;
     }
 
     /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
@@ -1195,8 +1155,103 @@ fn reach_cap(edge: f32, thickness: f32) -> f32 {
     (0.45 * (0.7 * edge - thickness)).max(0.1 * edge)
 }
 
+/// Candidates of a search in bands of growing distance at the search: a substep's first pass
+/// over them ([`Self::visit`]) stops at the first band none of whose candidates can have come
+/// within their thickness since, and so do the farther bands after it. A resting pile's pass
+/// visits only the candidates that were about touching.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Bands {
+    /// The first candidate (its index in the ordered list).
+    start: u32,
+    /// The bands in order.
+    list: Vec<Band>,
+}
+
+/// One of [`Bands`].
+#[derive(Debug, Clone, Copy)]
+struct Band {
+    /// The end of the band's candidates (exclusive).
+    end: u32,
+    /// The least distance at the search among them, m (−∞ if one is NaN).
+    least: f32,
+    /// The largest thickness among them, m.
+    thickness: f32,
+}
+
+impl Bands {
+    /// Orders the candidates `range` into [`BANDS`] bands of their distance at the search below
+    /// `margin` (`pair(k)`: candidate `k`'s distance and thickness; those past the margin go to
+    /// the last band), each band keeping their order: appends them to `order` in their new order
+    /// and lists the bands.
+    pub(super) fn order(
+        &mut self,
+        range: std::ops::Range<usize>,
+        margin: f32,
+        pair: impl Fn(usize) -> (f32, f32),
+        order: &mut Vec<u32>,
+    ) {
+        let width = margin / BANDS as f32;
+        // NaN and negative distances go to the first band.
+        let band = |gap: f32| ((gap / width) as usize).min(BANDS - 1);
+        let mut count = [0u32; BANDS];
+        let mut list = [(f32::INFINITY, 0.0f32); BANDS];
+        for k in range.clone() {
+            let (gap, thickness) = pair(k);
+            let b = band(gap);
+            count[b] += 1;
+            // `min` and `max` pass a NaN over: a NaN distance makes the least −∞.
+            let least = if gap.is_nan() { f32::NEG_INFINITY } else { gap };
+            list[b] = (list[b].0.min(least), list[b].1.max(thickness));
+        }
+        self.start = order.len() as u32;
+        self.list.clear();
+        let mut next = [0u32; BANDS];
+        let mut end = self.start;
+        for b in 0..BANDS {
+            next[b] = end;
+            end += count[b];
+            if count[b] > 0 {
+                let (least, thickness) = list[b];
+                self.list.push(Band {
+                    end,
+                    least,
+                    thickness,
+                });
+            }
+        }
+        order.resize(end as usize, 0);
+        for k in range {
+            let b = band(pair(k).0);
+            order[next[b] as usize] = k as u32;
+            next[b] += 1;
+        }
+    }
+
+    /// Calls `f(k)` for the candidates in order, band by band, while a band may hold one that
+    /// came within its thickness: particles of a candidate came closer by at most `closing` (m)
+    /// since the search, and after `f(k)` by at most twice what it returns (the largest drift
+    /// among its particles after it acted, or 0). Returns the bound at the end.
+    pub(super) fn visit(&self, mut closing: f32, mut f: impl FnMut(usize) -> f32) -> f32 {
+        let mut k = self.start as usize;
+        for band in &self.list {
+            if band.least - closing > band.thickness {
+                break;
+            }
+            for k in k..band.end as usize {
+                closing = max_or_infinite(closing, 2.0 * f(k));
+            }
+            k = band.end as usize;
+        }
+        closing
+    }
+}
+
 /// Replaces `v` by its elements at `order`, building it in `scratch` (which keeps the old list).
-fn reorder<T: Copy>(v: &mut Vec<T>, scratch: &mut Vec<T>, order: impl Iterator<Item = usize>) {
+pub(super) fn reorder<T: Copy>(
+    v: &mut Vec<T>,
+    scratch: &mut Vec<T>,
+    order: impl Iterator<Item = usize>,
+) {
     scratch.clear();
     scratch.extend(order.map(|k| v[k]));
     std::mem::swap(v, scratch);
