@@ -21,8 +21,9 @@
 //! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
 //!    particles in ([`ContactState`]): for each candidate whose distance at the broad phase, less
 //!    how far its particles have since moved relative to the cloth, may have fallen to the
-//!    thickness (a pile's candidates mostly have not), the signed distance at the end of the
-//!    substep along the pair's normal (the triangle's, for a vertex over a triangle's interior; the
+//!    thickness (a pile's candidates mostly have not; they are ordered by that distance, so the
+//!    pass stops where none further can have, see [`Bands`]), and that a quick test does not
+//!    find clear, the signed distance at the end of the substep along the pair's normal (the triangle's, for a vertex over a triangle's interior; the
 //!    line between the closest points, for two edges), with its sign taken from the start of the
 //!    substep. A pair closer than the thickness, or on the other side of each other than at the
 //!    start (it passed through within the substep), is pushed apart to the thickness on its
@@ -30,8 +31,8 @@
 //!    pair (momentum is kept). Then the relative velocity's approaching normal part is removed
 //!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
 //!    change (the velocity removed plus the push-out over the substep). Passes repeat
-//!    (Gauss-Seidel) over the pairs that acted in the first until nothing moves, at most
-//!    [`PASSES`] times in all.
+//!    (Gauss-Seidel) over the pairs that acted in the first until none is pushed by more than
+//!    [`SETTLED`] of the thickness, at most [`PASSES`] times in all.
 //!
 //! Deciding the side from the start of each substep is what keeps a pile from passing through
 //! itself: a proximity test alone pushes a particle that has already crossed further through.
@@ -51,7 +52,8 @@ use patches::Patches;
 
 mod patches;
 
-/// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves).
+/// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves
+/// by more than [`SETTLED`] of the thickness).
 pub(super) const PASSES: u32 = 4;
 
 /// A later pass that pushes no pair out by more than this fraction of the thickness is the
