@@ -633,31 +633,6 @@ pub(super) struct Spacing {
 }
 
 impl Spacing {
-    /// Whether vertex–triangle pair `s` is clear on a quick test (most tested pairs are), one
-    /// that [`Self::vertex_triangle`] leaves alone: a vertex that is not over the triangle's
-    /// interior, or at least the thickness from its plane on the side it started the substep on
-    /// (which is the side of the start's plane, on which every point of the start triangle
-    /// lies). Decided without normalising: the barycentric coordinates scaled by the squared
-    /// area.
-    #[inline(always)]
-    pub(super) fn vertex_triangle_clear<S: ContactState>(&self, state: &S, s: [usize; 4]) -> bool {
-        let [p, a, b, c] = four(s, |i| state.position(i));
-        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
-        let area = (b - a).cross(c - a);
-        let area2 = area.length_squared();
-        let above = (p - a).dot(area);
-        let above0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
-        let thickness2 = self.thickness * self.thickness;
-        let outside = INSIDE * area2;
-        let u = (c - b).cross(p - b).dot(area);
-        let v = (a - c).cross(p - c).dot(area);
-        let t = (b - a).cross(p - a).dot(area);
-        (above * above0 > 0.0 && above * above >= thickness2 * area2)
-            || u < outside
-            || v < outside
-            || t < outside
-    }
-
     /// Whether edge–edge pair `s` is clear on a quick test (most tested pairs are): edges on
     /// lines at least the thickness apart (not nearly parallel, where that distance is lost to
     /// rounding), or with boxes that far apart, are at least that apart; if their ends also
@@ -694,34 +669,24 @@ impl Spacing {
         inv_h: f32,
         drift: &mut [f32],
     ) -> f32 {
-        if self.vertex_triangle_clear(state, s) {
+        let over = Over::of(state, s);
+        if over.clear(self.thickness) {
             return 0.0;
         }
         let w = four(s, |i| state.inv_mass(i));
-        if w == [0.0; 4] {
+        if w == [0.0; 4] || !(over.area2 > 0.0 && over.area2.is_finite()) {
             return 0.0;
         }
-        let [p, a, b, c] = four(s, |i| state.position(i));
-        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
-        let Some(n) = unit_normal(a, b, c) else {
-            return 0.0;
-        };
-        let dist = (p - a).dot(n);
-        let Some([u, v, t]) = barycentric(p - dist * n, a, b, c) else {
-            return 0.0;
-        };
-        if u < INSIDE || v < INSIDE || t < INSIDE {
-            return 0.0;
-        }
-        let side = match unit_normal(a0, b0, c0) {
-            Some(n0) => {
-                if (p0 - (u * a0 + v * b0 + t * c0)).dot(n0) >= 0.0 {
-                    1.0
-                } else {
-                    -1.0
-                }
-            }
-            None => dist.signum(),
+        // Not clear, so over the interior: the coordinates are all at least `INSIDE`.
+        let inv_length = over.area2.sqrt().recip();
+        let (n, dist) = (over.area * inv_length, over.above * inv_length);
+        let [u, v, t] = over.scaled.map(|c| c / over.area2);
+        // The side it started on: that of the start's plane, through the start triangle (a
+        // degenerate one has none; then the side it ends on).
+        let side = if over.area0_2 > 0.0 {
+            if over.above0 >= 0.0 { 1.0 } else { -1.0 }
+        } else {
+            dist.signum()
         };
         let weights = [1.0, -u, -v, -t];
         self.separate(state, s, (w, weights), side * n, side * dist, inv_h, drift)
@@ -820,6 +785,57 @@ impl Spacing {
             drift[s[k]] += (push * g).abs();
         }
         depth / self.thickness
+    }
+}
+
+/// A vertex over a triangle (a vertex–triangle pair) at the end and the start of a substep,
+/// nothing normalised: the triangle's area vector (its normal times twice its area), the
+/// vertex's height over its plane times that area, and its barycentric coordinates in the plane
+/// times the squared area.
+struct Over {
+    area: Vec3,
+    area2: f32,
+    above: f32,
+    scaled: [f32; 3],
+    /// The same at the start (the area vector's squared length, the height).
+    area0_2: f32,
+    above0: f32,
+}
+
+impl Over {
+    /// Pair `s` (the vertex, then the triangle's corners) of `state`.
+    #[inline(always)]
+    fn of<S: ContactState>(state: &S, s: [usize; 4]) -> Self {
+        let [p, a, b, c] = four(s, |i| state.position(i));
+        let [p0, a0, b0, c0] = four(s, |i| state.start(i));
+        let area = (b - a).cross(c - a);
+        let area0 = (b0 - a0).cross(c0 - a0);
+        Self {
+            area,
+            area2: area.length_squared(),
+            above: (p - a).dot(area),
+            scaled: [
+                (c - b).cross(p - b).dot(area),
+                (a - c).cross(p - c).dot(area),
+                (b - a).cross(p - a).dot(area),
+            ],
+            area0_2: area0.length_squared(),
+            above0: (p0 - a0).dot(area0),
+        }
+    }
+
+    /// Whether the vertex is clear of the triangle at `thickness`: not over its interior, or at
+    /// least the thickness from its plane on the side it started the substep on (the side of
+    /// the start's plane, on which every point of the start triangle lies).
+    #[inline(always)]
+    fn clear(&self, thickness: f32) -> bool {
+        let outside = INSIDE * self.area2;
+        let [u, v, t] = self.scaled;
+        (self.above * self.above0 > 0.0
+            && self.above * self.above >= thickness * thickness * self.area2)
+            || u < outside
+            || v < outside
+            || t < outside
     }
 }
 
