@@ -77,9 +77,11 @@ pub(crate) use cloths::ClothContacts;
 pub use cloths::OtherCloth;
 pub(crate) use limits::Limits;
 pub use limits::Target;
+pub(crate) use narrow::ContactState;
 pub use narrow::Reaction;
+#[cfg(feature = "harness")]
+pub(crate) use narrow::convex_minimum;
 use narrow::{ActiveCollider, resolve, resolve_among};
-pub(crate) use narrow::{ContactState, convex_minimum};
 pub(crate) use self_contact::SelfContacts;
 pub(crate) use shapes::Near;
 pub use shapes::{Collider, ColliderShape, Friction, Pose, Shape, Surface, bounds};
