@@ -23,12 +23,12 @@
 //!    how far its particles have since moved relative to the cloth, may have fallen to the
 //!    thickness (a pile's candidates mostly have not; they are ordered by that distance, so the
 //!    pass stops where none further can have, see [`Bands`]), and that a quick test does not
-//!    find clear, the signed distance at the end of the substep along the pair's normal (the triangle's, for a vertex over a triangle's interior; the
-//!    line between the closest points, for two edges), with its sign taken from the start of the
-//!    substep. A pair closer than the thickness, or on the other side of each other than at the
-//!    start (it passed through within the substep), is pushed apart to the thickness on its
-//!    starting side, each particle moved in proportion to its inverse mass and its weight in the
-//!    pair (momentum is kept). Then the relative velocity's approaching normal part is removed
+//!    find clear, the signed distance at the end of the substep along the pair's normal (the
+//!    triangle's, for a vertex over a triangle's interior; the line between the closest points,
+//!    for two edges), with its sign taken from the start of the substep. A pair closer than the
+//!    thickness, or on the other side of each other than at the start (it passed through within
+//!    the substep), is pushed apart to the thickness on its starting side, each particle moved in
+//!    proportion to its inverse mass and its weight in the pair (momentum is kept). Then the relative velocity's approaching normal part is removed
 //!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
 //!    change (the velocity removed plus the push-out over the substep). Passes repeat
 //!    (Gauss-Seidel) over the pairs that acted in the first until none is pushed by more than
@@ -680,7 +680,8 @@ impl Spacing {
         // Not clear, so over the interior: the coordinates are all at least `INSIDE`.
         let inv_length = over.area2.sqrt().recip();
         let (n, dist) = (over.area * inv_length, over.above * inv_length);
-        let [u, v, t] = over.scaled.map(|c| c / over.area2);
+        let [u, v, t] = over.scaled;
+        let [u, v, t] = [u / over.area2, v / over.area2, t / over.area2];
         // The side it started on: that of the start's plane, through the start triangle (a
         // degenerate one has none; then the side it ends on).
         let side = if over.area0_2 > 0.0 {
