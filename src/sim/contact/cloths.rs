@@ -121,9 +121,9 @@ pub(crate) struct ClothContacts {
     reach_cap: f32,
     /// The reach the candidates were found with, m.
     reach: f32,
-    /// The candidates and each one's distance when found, m; and the same ready for the
-    /// substeps, ordered into bands of that distance.
+    /// The candidates and each one's distance when found, m, in the search's order.
     pairs: Vec<(Pair, f32)>,
+    /// The same ready for the substeps, ordered into `bands` of that distance.
     prepared: Vec<Prepared>,
     bands: Bands,
     /// Scratch of the ordering into bands.
