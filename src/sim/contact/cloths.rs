@@ -621,36 +621,44 @@ mod tests {
     use crate::sim::contact::{Vectors, bounds};
     use crate::sim::{ClothModel, GridSpec};
 
+    /// An 8×8 grid of 3 cm cells at rest (its model), and contacts for it begun with the same
+    /// grid shifted by `shift` (held still, 5 mm thick, with `friction`), the step's particles
+    /// moving `reach` at most.
+    fn under_a_copy(shift: Vec3, friction: f32, reach: f32) -> (ClothModel, ClothContacts) {
+        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let lower = &model.rest_positions;
+        let upper: Vec<Vec3> = lower.iter().map(|p| *p + shift).collect();
+        let mut contacts = ClothContacts::default();
+        let other = OtherCloth {
+            triangles: &model.triangles,
+            start: &upper,
+            end: &upper,
+            thickness: 0.005,
+            friction,
+        };
+        contacts.begin_step(
+            &[other],
+            (0.005, friction),
+            (bounds(lower), reach),
+            0.03,
+            1.0 / 60.0,
+        );
+        (model, contacts)
+    }
+
     #[test]
     fn a_particle_that_comes_within_reach_of_another_cloth_is_kept_apart() {
         // A fixed 8×8 grid 7 mm above a free one: every pair is a candidate but none touches.
         // In the next substep one particle rises 3 mm (within the reach, so no search), to 4 mm
         // below the other cloth: its pairs are found far from touching and must still be tested.
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let tris = &model.triangles;
-        let lower = model.rest_positions.clone();
-        let upper: Vec<Vec3> = lower.iter().map(|p| *p + Vec3::Y * 0.007).collect();
-        let mut contacts = ClothContacts::default();
-        let other = OtherCloth {
-            triangles: tris,
-            start: &upper,
-            end: &upper,
-            thickness: 0.005,
-            friction: 0.0,
-        };
+        let (model, mut contacts) = under_a_copy(Vec3::Y * 0.007, 0.0, 0.004);
+        let (tris, lower) = (&model.triangles, &model.rest_positions);
         let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
         let inv_mass = vec![1.0; lower.len()];
-        contacts.begin_step(
-            &[other],
-            (0.005, 0.0),
-            (bounds(&lower), 0.004),
-            0.03,
-            1.0 / 60.0,
-        );
         let mut state = Vectors {
             x: &mut x,
             v: &mut v,
-            start: &lower,
+            start: lower,
             inv_mass: &inv_mass,
             touches: None,
         };
@@ -673,32 +681,16 @@ mod tests {
     fn a_search_finds_every_pair_within_the_margin_once() {
         // Two 8×8 grids 4 mm apart, the upper one shifted across the lower one's cells: every
         // edge of one is near several of the other's.
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let tris = &model.triangles;
-        let lower = model.rest_positions.clone();
         let shift = Vec3::new(0.011, 0.004, 0.017);
+        let (model, mut contacts) = under_a_copy(shift, 0.3, 0.0);
+        let (tris, lower) = (&model.triangles, &model.rest_positions);
         let upper: Vec<Vec3> = lower.iter().map(|p| *p + shift).collect();
-        let mut contacts = ClothContacts::default();
-        let other = OtherCloth {
-            triangles: tris,
-            start: &upper,
-            end: &upper,
-            thickness: 0.005,
-            friction: 0.3,
-        };
         let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
         let inv_mass = vec![1.0; lower.len()];
-        contacts.begin_step(
-            &[other],
-            (0.005, 0.3),
-            (bounds(&lower), 0.0),
-            0.03,
-            1.0 / 60.0,
-        );
         let mut state = Vectors {
             x: &mut x,
             v: &mut v,
-            start: &lower,
+            start: lower,
             inv_mass: &inv_mass,
             touches: None,
         };
