@@ -646,6 +646,27 @@ mod tests {
         (model, contacts)
     }
 
+    /// [`ClothContacts::resolve`] over substep `t` for particles of unit mass that moved from
+    /// `start` to `x` (velocities `v`).
+    fn resolve(
+        contacts: &mut ClothContacts,
+        t: (f32, f32, f32),
+        tris: &[u32],
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+    ) -> bool {
+        let inv_mass = vec![1.0; x.len()];
+        let mut state = Vectors {
+            x,
+            v,
+            start,
+            inv_mass: &inv_mass,
+            touches: None,
+        };
+        contacts.resolve(t, tris, &mut state)
+    }
+
     #[test]
     fn a_particle_that_comes_within_reach_of_another_cloth_is_kept_apart() {
         // A fixed 8×8 grid 7 mm above a free one: every pair is a candidate but none touches.
@@ -654,25 +675,18 @@ mod tests {
         let (model, mut contacts) = under_a_copy(Vec3::Y * 0.007, 0.0, 0.004);
         let (tris, lower) = (&model.triangles, &model.rest_positions);
         let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
-        let inv_mass = vec![1.0; lower.len()];
-        let mut state = Vectors {
-            x: &mut x,
-            v: &mut v,
-            start: lower,
-            inv_mass: &inv_mass,
-            touches: None,
-        };
-        assert!(!contacts.resolve((0.0, 0.5, 1.0 / 120.0), tris, &mut state));
+        let first = (0.0, 0.5, 1.0 / 120.0);
+        assert!(!resolve(&mut contacts, first, tris, lower, &mut x, &mut v));
         let start = x.clone();
         x[27].y += 0.003;
-        let mut state = Vectors {
-            x: &mut x,
-            v: &mut v,
-            start: &start,
-            inv_mass: &inv_mass,
-            touches: None,
-        };
-        contacts.resolve((0.5, 1.0, 1.0 / 120.0), tris, &mut state);
+        resolve(
+            &mut contacts,
+            (0.5, 1.0, 1.0 / 120.0),
+            tris,
+            &start,
+            &mut x,
+            &mut v,
+        );
         assert_eq!(contacts.searches(), 1);
         assert!((x[27].y - 0.002).abs() < 1e-5, "{}", x[27]);
     }
@@ -686,15 +700,14 @@ mod tests {
         let (tris, lower) = (&model.triangles, &model.rest_positions);
         let upper: Vec<Vec3> = lower.iter().map(|p| *p + shift).collect();
         let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
-        let inv_mass = vec![1.0; lower.len()];
-        let mut state = Vectors {
-            x: &mut x,
-            v: &mut v,
-            start: lower,
-            inv_mass: &inv_mass,
-            touches: None,
-        };
-        contacts.resolve((0.0, 1.0, 1.0 / 60.0), tris, &mut state);
+        resolve(
+            &mut contacts,
+            (0.0, 1.0, 1.0 / 60.0),
+            tris,
+            lower,
+            &mut x,
+            &mut v,
+        );
         assert_eq!(contacts.searches(), 1);
         let margin = 0.005 + 2.0 * contacts.reach;
         // The grid's edges, found here independently of the contacts.

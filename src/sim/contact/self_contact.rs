@@ -28,11 +28,12 @@
 //!    for two edges), with its sign taken from the start of the substep. A pair closer than the
 //!    thickness, or on the other side of each other than at the start (it passed through within
 //!    the substep), is pushed apart to the thickness on its starting side, each particle moved in
-//!    proportion to its inverse mass and its weight in the pair (momentum is kept). Then the relative velocity's approaching normal part is removed
-//!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
-//!    change (the velocity removed plus the push-out over the substep). Passes repeat
-//!    (Gauss-Seidel) over the pairs that acted in the first until none is pushed by more than
-//!    [`SETTLED`] of the thickness, at most [`PASSES`] times in all.
+//!    proportion to its inverse mass and its weight in the pair (momentum is kept). Then the
+//!    relative velocity's approaching normal part is removed and Coulomb friction acts on its
+//!    tangential part, bounded by `friction` times the normal change (the velocity removed plus
+//!    the push-out over the substep). Passes repeat (Gauss-Seidel) over the pairs that acted in
+//!    the first until none is pushed by more than [`SETTLED`] of the thickness, at most
+//!    [`PASSES`] times in all.
 //!
 //! Deciding the side from the start of each substep is what keeps a pile from passing through
 //! itself: a proximity test alone pushes a particle that has already crossed further through.
@@ -455,6 +456,7 @@ impl SelfContacts {
         }
         self.found_at = positions;
         self.stale = false;
+        self.order_by_gap(self.thickness + 2.0 * self.reach);
         self.list_involved();
         let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
         let found = &self.found;
@@ -468,7 +470,6 @@ impl SelfContacts {
     /// Lists the stored particles that are in a candidate pair, and each candidate's four
     /// particles' places among them.
     fn list_involved(&mut self) {
-        self.order_by_gap(self.thickness + 2.0 * self.reach);
         let slot = |p: u32| self.slot[p as usize];
         self.quads.clear();
         for &(p, t) in &self.vt {
@@ -640,7 +641,7 @@ impl Spacing {
     /// differs from its start by less than its length, so it did not turn, and
     /// [`Self::edge_edge`] leaves them alone. Decided without the closest points.
     #[inline(always)]
-    pub(super) fn edge_edge_clear<S: ContactState>(&self, state: &S, s: [usize; 4]) -> bool {
+    fn edge_edge_clear<S: ContactState>(&self, state: &S, s: [usize; 4]) -> bool {
         let [a, b, c, d] = four(s, |i| state.position(i));
         let [a0, b0, c0, d0] = four(s, |i| state.start(i));
         let thickness2 = self.thickness * self.thickness;
@@ -1191,7 +1192,7 @@ pub(super) struct Bands {
 struct Band {
     /// The end of the band's candidates (exclusive).
     end: u32,
-    /// The least distance at the search among them, m (−∞ if one is NaN).
+    /// The least distance at the search among them, m.
     least: f32,
     /// The largest thickness among them, m.
     thickness: f32,
@@ -1218,9 +1219,8 @@ impl Bands {
             let (gap, thickness) = pair(k);
             let b = band(gap);
             count[b] += 1;
-            // `min` and `max` pass a NaN over: a NaN distance makes the least −∞.
-            let least = if gap.is_nan() { f32::NEG_INFINITY } else { gap };
-            list[b] = (list[b].0.min(least), list[b].1.max(thickness));
+            // A NaN distance is passed over: such a candidate never passes the filter.
+            list[b] = (list[b].0.min(gap), list[b].1.max(thickness));
         }
         self.start = order.len() as u32;
         self.list.clear();
