@@ -228,15 +228,83 @@ pub(super) fn resolve_among<S: ContactState>(
         let before = c.reaction;
         let pose0 = c.collider.start.lerp(&c.collider.end, t0);
         let pose1 = c.collider.start.lerp(&c.collider.end, t1);
-        let still = pose0 == pose1;
-        let bound = (pose0.rotation == pose1.rotation).then(|| c.collider.shape.near(&pose1));
-        if let Some(only) = only {
-            for &i in only {
-                if state.inv_mass(i as usize) > 0.0 {
-                    work += collide_particle(c, (&pose0, &pose1, still), h, state, i as usize);
+        let poses = (&pose0, &pose1, h);
+        let visit = match only {
+            Some(only) => Visit::Only(only),
+            None if pose0.rotation == pose1.rotation => {
+                let (near, radius) = c.collider.shape.near(&pose1);
+                Visit::Near(near, radius)
+            }
+            None => Visit::All,
+        };
+        let run = (visit, &mut *clearance);
+        // The shape's distance is chosen once per collider, so that the loop over the particles
+        // has it inline (the same arithmetic as `Shape::signed_distance`).
+        let shape = c.collider.shape.clone();
+        work += match &shape {
+            Shape::Primitive(ColliderShape::HalfSpace(plane)) => {
+                let n = Vec3::from(plane.normal);
+                collide_particles(c, (&shape, |p: Vec3| (p.dot(n), n)), poses, state, run)
+            }
+            Shape::Primitive(primitive) => collide_particles(
+                c,
+                (&shape, |p| primitive.signed_distance(p)),
+                poses,
+                state,
+                run,
+            ),
+            Shape::Surface(_) => {
+                collide_particles(c, (&shape, |p| shape.signed_distance(p)), poses, state, run)
+            }
+        };
+        if c.triangles {
+            for _ in 0..TRIANGLE_PASSES {
+                if !collide_triangles(c, (&pose0, &pose1, h), triangles, state, &mut work) {
+                    break;
                 }
             }
-        } else if let Some((near, radius)) = bound {
+        }
+        c.give_way(&before, (t0, t1));
+    }
+    work
+}
+
+/// Which particles a collider's contacts look at in a substep.
+#[derive(Clone, Copy)]
+enum Visit<'a> {
+    /// These (stored particles).
+    Only(&'a [u32]),
+    /// Those whose clearance from what the collider stays clear of, less its radius (see
+    /// `ColliderShape::near`), may be within reach (a collider that does not turn in the substep).
+    Near(Near, f32),
+    /// Every particle.
+    All,
+}
+
+/// The contacts with collider `c` over a substep between `poses` (`h` long) of the particles of
+/// `visit` (`clearance` is scratch of one per particle). `distance` is `shape`'s signed distance.
+/// Returns the collider's work (see [`push_out`]).
+fn collide_particles<S: ContactState, D: Fn(Vec3) -> (f32, Vec3)>(
+    c: &mut ActiveCollider,
+    shape: (&Shape, D),
+    (pose0, pose1, h): (&Pose, &Pose, f32),
+    state: &mut S,
+    (visit, clearance): (Visit, &mut Vec<f32>),
+) -> f64 {
+    let still = pose0 == pose1;
+    let mut work = 0.0;
+    let mut collide = |c: &mut ActiveCollider, state: &mut S, i: usize| {
+        if state.inv_mass(i) > 0.0 {
+            work += collide_particle(c, (shape.0, &shape.1), (pose0, pose1, still), h, state, i);
+        }
+    };
+    match visit {
+        Visit::Only(only) => {
+            for &i in only {
+                collide(c, state, i as usize);
+            }
+        }
+        Visit::Near(near, radius) => {
             let travel = pose0.translation.distance(pose1.translation);
             // Rounding in the exact test is far below this slack (relative to the coordinates).
             let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);
@@ -251,26 +319,15 @@ pub(super) fn resolve_among<S: ContactState>(
                 while close != 0 {
                     let i = 16 * k + close.trailing_zeros() as usize;
                     close &= close - 1;
-                    if state.inv_mass(i) > 0.0 {
-                        work += collide_particle(c, (&pose0, &pose1, still), h, state, i);
-                    }
+                    collide(c, state, i);
                 }
             }
-        } else {
+        }
+        Visit::All => {
             for i in 0..state.len() {
-                if state.inv_mass(i) > 0.0 {
-                    work += collide_particle(c, (&pose0, &pose1, still), h, state, i);
-                }
+                collide(c, state, i);
             }
         }
-        if c.triangles {
-            for _ in 0..TRIANGLE_PASSES {
-                if !collide_triangles(c, (&pose0, &pose1, h), triangles, state, &mut work) {
-                    break;
-                }
-            }
-        }
-        c.give_way(&before, (t0, t1));
     }
     work
 }
@@ -283,6 +340,7 @@ pub(super) fn resolve_among<S: ContactState>(
 /// the surface's), so this bounds what a contact gives the cloth even where the response also
 /// takes away energy the springs had just put in (a moving collider pressing the cloth against
 /// its springs does its work that way).
+#[inline]
 fn push_out<S: ContactState>(
     state: &mut S,
     i: usize,
@@ -301,18 +359,18 @@ fn push_out<S: ContactState>(
 /// Contact of particle `i` with one collider over a substep: projection, then the velocity split
 /// and Coulomb friction described in the module docs. Returns the collider's work (see
 /// [`push_out`]).
-fn collide_particle<S: ContactState>(
+fn collide_particle<S: ContactState, D: Fn(Vec3) -> (f32, Vec3)>(
     c: &mut ActiveCollider,
+    (shape, distance): (&Shape, &D),
     (pose0, pose1, still): (&Pose, &Pose, bool),
     h: f32,
     state: &mut S,
     i: usize,
 ) -> f64 {
-    let shape = &c.collider.shape;
     let margin = c.collider.margin;
     let (x, start) = (state.position(i), state.start(i));
     let mut local = pose1.inverse_transform_point(x);
-    let (mut d, mut normal) = shape.signed_distance(local);
+    let (mut d, mut normal) = distance(local);
     // The signed distance changes no faster than the point moves: a particle that ends the
     // substep farther from a collider at rest than it travelled cannot have passed through it.
     if d >= margin && still && d - margin > x.distance(start) {
@@ -322,8 +380,8 @@ fn collide_particle<S: ContactState>(
     // frame) first came within the margin, whether it ends outside (it passed through) or
     // inside: the nearest surface of its end point may be the far side of a thin collider.
     let local0 = pose0.inverse_transform_point(start);
-    let (d0, n0) = shape.signed_distance(local0);
-    match sweep(shape, (local0, d0), local, margin) {
+    let (d0, n0) = distance(local0);
+    match sweep(distance, (local0, d0), local, margin) {
         Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
         None => {
             // Started in contact: it went through if it ends inside where the nearest surface
@@ -333,7 +391,7 @@ fn collide_particle<S: ContactState>(
                 && if d < margin {
                     normal.dot(n0) <= 0.0
                 } else {
-                    went_through(shape, (local0, d0), (local, d), margin)
+                    went_through((shape, distance), (local0, d0), (local, d), margin)
                 };
             if through {
                 // Out to the tangent plane where it started, plus the margin: the shape lies
@@ -368,6 +426,7 @@ fn collide_particle<S: ContactState>(
 /// surface moving at `vc`: Coulomb friction on the tangential displacement relative to the surface
 /// over the substep (`h` long, the particle starting at `start`), and removal of the inward
 /// relative normal velocity. See the module docs.
+#[inline]
 fn respond(
     friction: &Friction,
     n: Vec3,
@@ -402,7 +461,13 @@ fn respond(
 /// A shell (an open [`Surface`](super::Surface)) has no inside to reach into, and a non-convex
 /// surface's distance has no single minimum along a path: a path went through such a surface if
 /// it crosses it, which a path shorter than the way to the surface and on cannot.
-fn went_through(shape: &Shape, (from, d0): (Vec3, f32), (to, d): (Vec3, f32), margin: f32) -> bool {
+/// `distance` is `shape`'s signed distance.
+fn went_through(
+    (shape, distance): (&Shape, &impl Fn(Vec3) -> (f32, Vec3)),
+    (from, d0): (Vec3, f32),
+    (to, d): (Vec3, f32),
+    margin: f32,
+) -> bool {
     let length = from.distance(to);
     match shape {
         Shape::Surface(s) if s.is_shell() || !s.is_convex() => {
@@ -410,7 +475,7 @@ fn went_through(shape: &Shape, (from, d0): (Vec3, f32), (to, d): (Vec3, f32), ma
         }
         _ => {
             length > d0 + d + 2.0 * margin
-                && convex_minimum(|t| shape.signed_distance(from.lerp(to, t)).0) < -margin
+                && convex_minimum(|t| distance(from.lerp(to, t)).0) < -margin
         }
     }
 }
@@ -434,7 +499,7 @@ pub(crate) fn convex_minimum(f: impl Fn(f32) -> f32) -> f32 {
 /// path within `margin` of the surface, with its distance and normal; `None` if the path stays
 /// clear or starts in contact.
 fn sweep(
-    shape: &Shape,
+    distance: &impl Fn(Vec3) -> (f32, Vec3),
     (from, d0): (Vec3, f32),
     to: Vec3,
     margin: f32,
@@ -449,7 +514,7 @@ fn sweep(
     let mut t = 0.0;
     for _ in 0..MAX_SWEEP_STEPS {
         let p = from + dir * t;
-        let (d, n) = shape.signed_distance(p);
+        let (d, n) = distance(p);
         if d < margin {
             return Some((p, d, n));
         }

@@ -337,25 +337,30 @@ impl ContactState for AheadOfEnd<'_> {
     fn len(&self) -> usize {
         self.x.len()
     }
+    #[inline]
     fn inv_mass(&self, i: usize) -> f32 {
         self.layout.inv_mass[i]
     }
     fn slot(&self, p: u32) -> usize {
         self.layout.stored(p) as usize
     }
+    #[inline]
     fn start(&self, i: usize) -> Vec3 {
         self.x.get(i)
     }
+    #[inline]
     fn position(&self, i: usize) -> Vec3 {
         // The end pass's `x += d`, coordinate by coordinate.
         self.x.get(i) + self.d.get(i)
     }
+    #[inline]
     fn velocity(&self, i: usize) -> Vec3 {
         match self.entry[i] {
             0 => self.d.get(i) * self.inv_h,
             k => self.touched[k as usize - 1].1,
         }
     }
+    #[inline]
     fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
         self.d.set(i, x - self.x.get(i));
         match self.entry[i] {
