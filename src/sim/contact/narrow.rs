@@ -409,7 +409,7 @@ fn collide_particle<S: ContactState, D: Fn(Vec3) -> (f32, Vec3)>(
     let push = (x - state.position(i)).length();
     let mut v = state.velocity(i);
     let vc = c.velocity_at(x, pose1.translation);
-    let normal = pose1.rotation * normal;
+    let normal = pose1.rotate(normal);
     respond(
         &c.collider.friction,
         normal,

@@ -358,13 +358,31 @@ impl Pose {
     }
 
     /// Local point to world.
+    #[inline]
     pub fn transform_point(&self, p: Vec3) -> Vec3 {
-        self.rotation * p + self.translation
+        self.rotate(p) + self.translation
     }
 
-    /// World point to local.
+    /// World point to local (an unrotated pose skips the rotation, see [`Self::rotate`]).
+    #[inline]
     pub fn inverse_transform_point(&self, p: Vec3) -> Vec3 {
-        self.rotation.inverse() * (p - self.translation)
+        let p = p - self.translation;
+        if self.rotation == Quat::IDENTITY {
+            p
+        } else {
+            self.rotation.inverse() * p
+        }
+    }
+
+    /// Local direction to world. An unrotated pose (a floor, most colliders) skips the rotation,
+    /// which would give the same vector but for the sign of zero coordinates.
+    #[inline]
+    pub fn rotate(&self, v: Vec3) -> Vec3 {
+        if self.rotation == Quat::IDENTITY {
+            v
+        } else {
+            self.rotation * v
+        }
     }
 
     /// The placement a fraction `t` of the way to `other` (linear in position, spherical in
