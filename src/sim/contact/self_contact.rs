@@ -5,19 +5,20 @@
 //!    vertex–triangle and edge–edge pairs that share no vertex but are closer than the thickness
 //!    at rest (neighbours along the mesh of a fine cloth). Those are exempt for good.
 //! 2. **Broad phase, when needed** ([`SelfContacts::begin_step`]): every triangle's bounding
-//!    box, grown by the thickness and twice a reach (the step's relative motion, capped below what
-//!    a flat grid's non-neighbours allow), goes into a spatial hash whose cells are as large as
-//!    the largest box; vertices and edges are looked up in it, and the pairs closer than the
-//!    thickness plus twice the reach are the candidates (at most `MAX_CANDIDATES_PER_TRIANGLE`
-//!    per triangle). Two elements farther apart than that cannot come within the thickness
-//!    until their displacements since differ by twice the reach. Each substep bounds that from
-//!    the particles' displacements, patch by patch (`Regions`): a cloth moving as a whole keeps
-//!    its candidates; one whose parts move relative to each other searches again, within a step
-//!    if need be. A cloth at rest searches once, and while its particles stay within the slack
-//!    the last check left, it is not checked either: one vector pass over the particles
-//!    (`Watch`) shows they did. Parts of the cloth too flat to fold onto
-//!    themselves are not searched (normal cones of patches, see [`patches`]), so a hanging or
-//!    gently curved cloth's search is one pass over its triangles.
+//!    box is grown by the thickness and twice a reach (the step's relative motion, capped below
+//!    what a flat grid's non-neighbours allow). Parts of the cloth too flat to fold onto
+//!    themselves are not searched (normal cones of patches, see [`patches`]); the pairs of
+//!    patches that are, vertices against triangles and edges against edges by their boxes, give
+//!    the candidates: the pairs closer than the thickness plus twice the reach (at most
+//!    `MAX_CANDIDATES_PER_TRIANGLE` per triangle). So a hanging or gently curved cloth's search
+//!    is one pass over its triangles. (A mesh with a vertex in no triangle is searched through a
+//!    spatial hash of the boxes instead.) Two elements farther apart than that cannot come
+//!    within the thickness until their displacements since differ by twice the reach. Each
+//!    substep bounds that from the particles' displacements, cube by cube (`Regions`): a cloth
+//!    moving as a whole keeps its candidates; one whose parts move relative to each other
+//!    searches again, within a step if need be. A cloth at rest searches once, and while its
+//!    particles stay within the slack the last check left, it is not checked either: one vector
+//!    pass over the particles (`Watch`) shows they did.
 //! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
 //!    particles in ([`ContactState`]): for each candidate whose distance at the broad phase, less
 //!    how far its particles have since moved relative to the cloth, may have fallen to the
@@ -114,6 +115,11 @@ pub(crate) struct SelfContacts {
     patches: Patches,
     /// Patch of each edge (that of the triangle owning it).
     edge_patch: Vec<u32>,
+    /// The vertices of each patch (see `Patches::of_vertex`), and its edges.
+    patch_vertices: Grouped,
+    patch_edges: Grouped,
+    /// Whether some vertex is in no triangle (then every search goes through the hash).
+    loose: bool,
     /// The shortest altitude of a triangle at rest, m.
     altitude: f32,
     /// The spatial hash of the triangles' grown boxes.
@@ -204,6 +210,11 @@ impl SelfContacts {
                 edge_patch[e as usize] = patches.of_triangle(t as u32);
             }
         }
+        let groups = patches.len();
+        let patch_vertices =
+            Grouped::new(groups, (0..rest.len() as u32).map(|p| patches.of_vertex(p)));
+        let loose = (0..rest.len() as u32).any(|p| patches.of_vertex(p) as usize >= groups);
+        let patch_edges = Grouped::new(groups, edge_patch.iter().copied());
         let altitude = tris
             .iter()
             .map(|t| {
@@ -215,6 +226,9 @@ impl SelfContacts {
         let mut contacts = Self {
             patches,
             edge_patch,
+            patch_vertices,
+            patch_edges,
+            loose,
             altitude,
             thickness,
             friction,
@@ -546,6 +560,18 @@ impl SelfContacts {
             self.patches
                 .update(x, &self.tris, &self.hash.boxes, (flat, margin));
         }
+        if cull.is_some() && !self.loose {
+            // Non-finite positions pair nothing (as in the hash).
+            if self
+                .hash
+                .boxes
+                .iter()
+                .all(|(lo, hi)| lo.is_finite() && hi.is_finite())
+            {
+                self.pair_patches(x, margin, cap);
+            }
+            return;
+        }
         let patches = &self.patches;
         let cull = cull.is_some();
         let live = |patch: u32| !cull || patches.live(patch);
@@ -619,6 +645,98 @@ impl SelfContacts {
                 }
             });
         }
+    }
+
+    /// The search's pairs through the patches it pairs (`Patches::pairs`) rather than the hash:
+    /// each pair's vertices against its triangles and its edges against its edges, by box, then
+    /// by distance. Finds the same candidates as the hash (every close pair that is not culled
+    /// lies in one of the patch pairs), cheaply when few patches take part.
+    fn pair_patches(&mut self, x: &[Vec3], margin: f32, cap: usize) {
+        let grow = Vec3::splat(margin);
+        for &(a, b) in self.patches.pairs() {
+            let sides: &[(u32, u32)] = if a == b { &[(a, a)] } else { &[(a, b), (b, a)] };
+            for &(v, t) in sides {
+                for &p in self.patch_vertices.of(v) {
+                    let at = x[p as usize];
+                    for &t in self.patches.triangles(t) {
+                        let tri = self.tris[t as usize];
+                        let (lo, hi) = self.hash.boxes[t as usize];
+                        if tri.contains(&p)
+                            || !(lo.cmple(at).all() && hi.cmpge(at).all())
+                            || is_exempt(&self.exempt_vt, pair_key(p, t))
+                        {
+                            continue;
+                        }
+                        let [ta, tb, tc] = tri.map(|i| x[i as usize]);
+                        let gap = point_triangle_distance(at, ta, tb, tc);
+                        if gap < margin && self.vt.len() < cap {
+                            self.vt.push((p, t));
+                            self.gap.push(gap);
+                        }
+                    }
+                }
+            }
+        }
+        for &(a, b) in self.patches.pairs() {
+            for &e in self.patch_edges.of(a) {
+                let [pa, pb] = self.edges[e as usize].map(|i| x[i as usize]);
+                let (lo, hi) = (pa.min(pb) - grow, pa.max(pb) + grow);
+                for &f in self.patch_edges.of(b) {
+                    if a == b && f <= e {
+                        continue;
+                    }
+                    let ([ea, eb], [fc, fd]) = (self.edges[e as usize], self.edges[f as usize]);
+                    if fc == ea || fc == eb || fd == ea || fd == eb {
+                        continue;
+                    }
+                    let [pc, pd] = [fc, fd].map(|i| x[i as usize]);
+                    let key = pair_key(e.min(f), e.max(f));
+                    if !(pc.min(pd).cmple(hi).all() && pc.max(pd).cmpge(lo).all())
+                        || is_exempt(&self.exempt_ee, key)
+                    {
+                        continue;
+                    }
+                    let (s, t) = closest_on_segments(pa, pb, pc, pd);
+                    let gap = pa.lerp(pb, s).distance(pc.lerp(pd, t));
+                    if gap < margin && self.ee.len() < cap {
+                        self.ee.push((e.min(f), e.max(f)));
+                        self.gap.push(gap);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Items grouped by patch: those of patch `p` are `items[start[p]..start[p + 1]]`.
+#[derive(Debug, Clone, Default)]
+struct Grouped {
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Grouped {
+    /// Items `0..` grouped by `group` (of each item in order; one not below `groups` in none).
+    fn new(groups: usize, group: impl Iterator<Item = u32> + Clone) -> Self {
+        let mut start = vec![0u32; groups + 1];
+        for g in group.clone().filter(|&g| (g as usize) < groups) {
+            start[g as usize + 1] += 1;
+        }
+        for g in 0..groups {
+            start[g + 1] += start[g];
+        }
+        let mut items = vec![0; start[groups] as usize];
+        let mut next = start.clone();
+        for (i, g) in group.enumerate().filter(|&(_, g)| (g as usize) < groups) {
+            items[next[g as usize] as usize] = i as u32;
+            next[g as usize] += 1;
+        }
+        Self { start, items }
+    }
+
+    /// The items of group `g`.
+    fn of(&self, g: u32) -> &[u32] {
+        &self.items[self.start[g as usize] as usize..self.start[g as usize + 1] as usize]
     }
 }
 
@@ -2099,6 +2217,52 @@ mod tests {
         assert_eq!(c.ee.len(), expected_ee.len(), "each pair once");
     }
 
+    #[test]
+    fn the_patch_pairs_find_what_the_hash_finds() {
+        // A crumpled grid and a folded one, searched through the patch pairs and through the hash
+        // (the path of a mesh with a loose vertex), with some patches culled and with none: the
+        // same candidates, each once.
+        let model = ClothModel::grid(&GridSpec::new(24, 24, 0.02)).unwrap();
+        let jitter = |i: usize, k: usize| ((i * 7919 + k * 104_729) % 1000) as f32 / 1000.0 - 0.5;
+        let rest = &model.rest_positions;
+        let crumpled: Vec<Vec3> = (rest.iter().enumerate())
+            .map(|(i, p)| {
+                let fold = Vec3::new(0.0, (p.x * 30.0).sin() * 0.04, 0.0);
+                *p + fold + 0.01 * Vec3::new(jitter(i, 0), jitter(i, 1), jitter(i, 2))
+            })
+            .collect();
+        let folded: Vec<Vec3> = rest
+            .iter()
+            .map(|p| {
+                if p.x < 0.0 {
+                    *p
+                } else {
+                    Vec3::new(-p.x, 0.012, p.z)
+                }
+            })
+            .collect();
+        let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+        assert!(!c.loose);
+        let search = |c: &mut SelfContacts, x: &[Vec3], flat: f32, loose: bool| {
+            c.loose = loose;
+            c.find_candidates(x, 0.015, usize::MAX, Some(flat));
+            let (mut vt, mut ee) = (c.vt.clone(), c.ee.clone());
+            vt.sort_unstable();
+            ee.sort_unstable();
+            (vt, ee)
+        };
+        for x in [&crumpled, &folded] {
+            for flat in [1.0, -1.0] {
+                let through_pairs = search(&mut c, x, flat, false);
+                let through_hash = search(&mut c, x, flat, true);
+                assert!(!through_hash.0.is_empty() && !through_hash.1.is_empty());
+                assert_eq!(through_pairs, through_hash, "flat {flat}");
+                let (vt, ee) = through_pairs;
+                assert!(vt.windows(2).all(|w| w[0] != w[1]) && ee.windows(2).all(|w| w[0] != w[1]));
+            }
+        }
+    }
+
     /// Every vertex–triangle and edge–edge pair of `c` at `x` sharing no vertex and closer than
     /// `margin`, found by brute force.
     fn pairs_within(c: &SelfContacts, x: &[Vec3], margin: f32) -> [Vec<(u32, u32)>; 2] {
@@ -2137,7 +2301,7 @@ mod tests {
         let margin = 0.025;
         let flat = 1.0;
         c.find_candidates(&model.rest_positions, margin, usize::MAX, Some(flat));
-        assert!(c.hash.entries.is_empty(), "a flat cloth is not searched");
+        assert!(c.patches.pairs().is_empty(), "a flat cloth is not searched");
         assert_eq!(c.candidate_count(), (0, 0));
 
         let (r, bend) = (0.01, 0.0);

@@ -21,7 +21,7 @@ use glam::Vec3;
 const LOOSE: u32 = u32::MAX;
 
 /// Triangles per patch, about (the patches are cubes of the rest shape).
-const SIZE: usize = 32;
+const SIZE: usize = 16;
 
 /// A cloth's triangles grouped into patches, with each patch's box and normal cone as of the last
 /// [`Patches::update`].
@@ -62,6 +62,9 @@ pub(super) struct Patches {
     flat: f32,
     /// Patches by the low x of their boxes (scratch of the sweep).
     order: Vec<u32>,
+    /// The pairs of patches whose elements this search pairs, `a <= b`: each folded patch with
+    /// itself, and nearby or overlapping patches neither culled with each other nor apart.
+    pairs: Vec<(u32, u32)>,
 }
 
 impl Patches {
@@ -179,6 +182,7 @@ impl Patches {
             live: vec![false; patches],
             flat: -1.0,
             order: (0..patches as u32).collect(),
+            pairs: Vec::new(),
         }
     }
 
@@ -195,6 +199,17 @@ impl Patches {
     /// Patch of vertex `p`.
     pub fn of_vertex(&self, p: u32) -> u32 {
         self.of_vertex[p as usize]
+    }
+
+    /// The triangles of patch `p`.
+    pub fn triangles(&self, p: u32) -> &[u32] {
+        self.members(p as usize)
+    }
+
+    /// The pairs of patches whose elements this search pairs (see [`Self::update`]): every pair
+    /// of elements closer than the search's margin that is not culled lies in one of them.
+    pub fn pairs(&self) -> &[(u32, u32)] {
+        &self.pairs
     }
 
     /// Whether patch `a`'s elements take part in this search.
@@ -265,6 +280,12 @@ impl Patches {
             self.extent[p] = along(axis, members, tris, x);
             self.live[p] = self.angle[p] > flat;
         }
+        self.pairs.clear();
+        self.pairs.extend(
+            (0..self.len() as u32)
+                .filter(|&p| self.live[p as usize])
+                .map(|p| (p, p)),
+        );
         self.culled_with.fill(false);
         let bounds = &self.bounds;
         self.order
@@ -290,6 +311,7 @@ impl Patches {
                     _ => {
                         self.live[a] = true;
                         self.live[b] = true;
+                        self.pairs.push((a.min(b) as u32, a.max(b) as u32));
                     }
                 }
             }
