@@ -1122,13 +1122,22 @@ impl Regions {
         self.of.clear();
         self.of.resize(x.len(), 0);
         self.count.clear();
+        // Neighbours along the mesh mostly share a cube: the last one is looked up first.
+        let mut last: Option<([i32; 3], u32)> = None;
         for (p, &s) in x.iter().zip(slot) {
             let cell = (*p * inv).floor().as_ivec3().to_array();
-            let next = self.index.len() as u32;
-            let r = *self.index.entry(cell).or_insert(next);
-            if r == next {
-                self.count.push(0);
-            }
+            let r = match last {
+                Some((c, r)) if c == cell => r,
+                _ => {
+                    let next = self.index.len() as u32;
+                    let r = *self.index.entry(cell).or_insert(next);
+                    if r == next {
+                        self.count.push(0);
+                    }
+                    last = Some((cell, r));
+                    r
+                }
+            };
             self.count[r as usize] += 1;
             self.of[s as usize] = r;
         }
