@@ -353,24 +353,27 @@ impl Patches {
     /// Whether nearby patches `a` and `b` make a connected surface within `flat` of one
     /// direction: the two, if adjacent, or with a patch adjacent to both.
     fn flat_together(&self, a: usize, b: usize) -> bool {
+        let cone = |p: usize| (self.axis[p], self.angle[p]);
         if self.adjacent(a).binary_search(&(b as u32)).is_ok() {
-            return self.cone_of(&[a, b]) <= self.flat;
+            return within(cone(a), cone(b), self.flat);
         }
         self.adjacent(a).iter().any(|&c| {
             self.adjacent(c as usize).binary_search(&(b as u32)).is_ok()
-                && self.cone_of(&[c as usize, a, b]) <= self.flat
+                && within(merge(cone(c as usize), cone(a)), cone(b), self.flat)
         })
     }
+}
 
-    /// Half-angle of a cone holding the normals of `patches` (their cones merged one by one; NaN
-    /// if a patch has no axis, which compares as not flat).
-    fn cone_of(&self, patches: &[usize]) -> f32 {
-        let cone = |p: usize| (self.axis[p], self.angle[p]);
-        patches[1..]
-            .iter()
-            .fold(cone(patches[0]), |m, &p| merge(m, cone(p)))
-            .1
+/// Whether the narrowest cone holding cones `(u, a)` and `(v, b)` (unit axes) is within `flat`
+/// (radians): its half-angle is the larger of `a`, `b` and half of `a + b` and the angle between
+/// the axes. False for a zero axis or a NaN.
+fn within((u, a): (Vec3, f32), (v, b): (Vec3, f32), flat: f32) -> bool {
+    if u == Vec3::ZERO || v == Vec3::ZERO || !(a <= flat && b <= flat) {
+        return false;
     }
+    // The angle between the axes may be up to `spread` (at least 0 here).
+    let spread = 2.0 * flat - a - b;
+    spread >= std::f32::consts::PI || u.dot(v) >= spread.cos()
 }
 
 /// The narrowest cone (axis, half-angle) holding cones `(u, a)` and `(v, b)` (unit axes): the
@@ -458,6 +461,39 @@ mod tests {
         // A right angle between two flat patches is a quarter turn's cone.
         let (_, half) = merge((Vec3::X, 0.0), (Vec3::Y, 0.0));
         assert!((half - FRAC_PI_4).abs() < 1e-5 && half < FRAC_PI_2);
+    }
+
+    #[test]
+    fn two_cones_are_within_an_angle_when_their_merged_cone_is() {
+        let axis = |k: usize| {
+            let turn =
+                Quat::from_rotation_y(0.7 * k as f32) * Quat::from_rotation_x(0.37 * k as f32);
+            turn * Vec3::Y
+        };
+        let mut both = [0, 0];
+        for i in 0..12 {
+            for j in 0..12 {
+                let (u, v) = (axis(i), axis(j));
+                for (a, b) in [(0.0, 0.0), (0.1, 0.4), (0.5, 0.2), (0.9, 0.05), (1.3, 0.6)] {
+                    for flat in [0.3, 0.8, 1.0, 1.4] {
+                        let half = merge((u, a), (v, b)).1;
+                        if (half - flat).abs() < 1e-4 {
+                            continue; // on the edge, within rounding
+                        }
+                        let merged = half <= flat;
+                        assert_eq!(
+                            within((u, a), (v, b), flat),
+                            merged,
+                            "{u} {a} {v} {b} {flat}"
+                        );
+                        both[usize::from(merged)] += 1;
+                    }
+                }
+            }
+        }
+        assert!(both[0] > 100 && both[1] > 100, "{both:?}");
+        assert!(!within((Vec3::ZERO, 0.0), (Vec3::Y, 0.0), 1.0));
+        assert!(!within((Vec3::Y, f32::NAN), (Vec3::Y, 0.0), 1.0));
     }
 
     #[test]
