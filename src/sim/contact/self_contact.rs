@@ -647,10 +647,11 @@ impl SelfContacts {
         }
     }
 
-    /// The search's pairs through the patches it pairs (`Patches::pairs`) rather than the hash:
-    /// each pair's vertices against its triangles and its edges against its edges, by box, then
-    /// by distance. Finds the same candidates as the hash (every close pair that is not culled
-    /// lies in one of the patch pairs), cheaply when few patches take part.
+    /// The candidates within `margin` (up to `cap` of each kind) among the pairs of patches that
+    /// take part in the search (`Patches::pairs`): each pair's vertices against its triangles
+    /// and its edges against its edges, by box, then by distance. The same candidates as the
+    /// hash finds (every close pair that is not culled lies in one of the patch pairs), cheaply
+    /// when few patches take part.
     fn pair_patches(&mut self, x: &[Vec3], margin: f32, cap: usize) {
         let grow = Vec3::splat(margin);
         for &(a, b) in self.patches.pairs() {

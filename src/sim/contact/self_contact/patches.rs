@@ -1,7 +1,7 @@
 //! Patches of a cloth's triangles and their normal cones: what lets the self-contact broad phase
 //! skip the parts of a cloth that cannot touch themselves.
 //!
-//! A patch is a few dozen edge-connected triangles, close together at rest. When all its
+//! A patch is a dozen or two edge-connected triangles, close together at rest. When all its
 //! triangle normals lie within an angle `flat` below 90° of one direction, the patch is a height
 //! field over the plane across that direction: it has no fold and cannot pass through itself
 //! (Volino and Magnenat-Thalmann's normal-cone test). Its elements are then not paired with each
