@@ -657,8 +657,13 @@ impl SelfContacts {
         for &(a, b) in self.patches.pairs() {
             let sides: &[(u32, u32)] = if a == b { &[(a, a)] } else { &[(a, b), (b, a)] };
             for &(v, t) in sides {
+                // An element outside the other patch's box meets none of its triangles' boxes.
+                let (blo, bhi) = self.patches.bounds(t);
                 for &p in self.patch_vertices.of(v) {
                     let at = x[p as usize];
+                    if !(blo.cmple(at).all() && bhi.cmpge(at).all()) {
+                        continue;
+                    }
                     for &t in self.patches.triangles(t) {
                         let tri = self.tris[t as usize];
                         let (lo, hi) = self.hash.boxes[t as usize];
@@ -679,8 +684,12 @@ impl SelfContacts {
             }
         }
         for &(a, b) in self.patches.pairs() {
+            let (blo, bhi) = self.patches.bounds(b);
             for &e in self.patch_edges.of(a) {
                 let [pa, pb] = self.edges[e as usize].map(|i| x[i as usize]);
+                if !(pa.min(pb).cmple(bhi).all() && pa.max(pb).cmpge(blo).all()) {
+                    continue;
+                }
                 let (lo, hi) = (pa.min(pb) - grow, pa.max(pb) + grow);
                 for &f in self.patch_edges.of(b) {
                     if a == b && f <= e {

@@ -206,6 +206,11 @@ impl Patches {
         self.members(p as usize)
     }
 
+    /// The box of patch `p` as of the last [`Self::update`]: the union of its triangles' boxes.
+    pub fn bounds(&self, p: u32) -> (Vec3, Vec3) {
+        self.bounds[p as usize]
+    }
+
     /// The pairs of patches whose elements this search pairs (see [`Self::update`]): every pair
     /// of elements closer than the search's margin that is not culled lies in one of them.
     pub fn pairs(&self) -> &[(u32, u32)] {
