@@ -115,9 +115,14 @@ pub(crate) struct SelfContacts {
     patches: Patches,
     /// Patch of each edge (that of the triangle owning it).
     edge_patch: Vec<u32>,
-    /// The vertices of each patch (see `Patches::of_vertex`), and its edges.
+    /// The vertices of each patch (see `Patches::of_vertex`), its triangles and its edges.
     patch_vertices: Grouped,
+    patch_triangles: Grouped,
     patch_edges: Grouped,
+    /// The triangles' grown boxes in `patch_triangles`' order, and the edges' boxes in
+    /// `patch_edges`' order (scratch of the search through patch pairs).
+    triangle_boxes: Vec<(Vec3, Vec3)>,
+    edge_boxes: Vec<(Vec3, Vec3)>,
     /// Whether some vertex is in no triangle (then every search goes through the hash).
     loose: bool,
     /// The shortest altitude of a triangle at rest, m.
@@ -215,6 +220,10 @@ impl SelfContacts {
             Grouped::new(groups, (0..rest.len() as u32).map(|p| patches.of_vertex(p)));
         let loose = (0..rest.len() as u32).any(|p| patches.of_vertex(p) as usize >= groups);
         let patch_edges = Grouped::new(groups, edge_patch.iter().copied());
+        let patch_triangles = Grouped::new(
+            groups,
+            (0..tris.len() as u32).map(|t| patches.of_triangle(t)),
+        );
         let altitude = tris
             .iter()
             .map(|t| {
@@ -227,6 +236,7 @@ impl SelfContacts {
             patches,
             edge_patch,
             patch_vertices,
+            patch_triangles,
             patch_edges,
             loose,
             altitude,
@@ -654,23 +664,41 @@ impl SelfContacts {
     /// when few patches take part.
     fn pair_patches(&mut self, x: &[Vec3], margin: f32, cap: usize) {
         let grow = Vec3::splat(margin);
+        // The boxes patch by patch, so that a pair's inner loop reads them in order.
+        self.triangle_boxes.clear();
+        (self.triangle_boxes).extend(
+            self.patch_triangles
+                .items
+                .iter()
+                .map(|&t| self.hash.boxes[t as usize]),
+        );
+        self.edge_boxes.clear();
+        self.edge_boxes
+            .extend(self.patch_edges.items.iter().map(|&e| {
+                let [a, b] = self.edges[e as usize].map(|i| x[i as usize]);
+                (a.min(b), a.max(b))
+            }));
         for &(a, b) in self.patches.pairs() {
             let sides: &[(u32, u32)] = if a == b { &[(a, a)] } else { &[(a, b), (b, a)] };
-            for &(v, t) in sides {
+            for &(v, w) in sides {
                 // An element outside the other patch's box meets none of its triangles' boxes.
-                let (blo, bhi) = self.patches.bounds(t);
+                let (wlo, whi) = self.patches.bounds(w);
+                let range = self.patch_triangles.range(w);
+                let (triangles, boxes) = (
+                    &self.patch_triangles.items[range.clone()],
+                    &self.triangle_boxes[range],
+                );
                 for &p in self.patch_vertices.of(v) {
                     let at = x[p as usize];
-                    if !(blo.cmple(at).all() && bhi.cmpge(at).all()) {
+                    if !(wlo.cmple(at).all() && whi.cmpge(at).all()) {
                         continue;
                     }
-                    for &t in self.patches.triangles(t) {
+                    for (&t, &(lo, hi)) in triangles.iter().zip(boxes) {
+                        if !(lo.cmple(at).all() && hi.cmpge(at).all()) {
+                            continue;
+                        }
                         let tri = self.tris[t as usize];
-                        let (lo, hi) = self.hash.boxes[t as usize];
-                        if tri.contains(&p)
-                            || !(lo.cmple(at).all() && hi.cmpge(at).all())
-                            || is_exempt(&self.exempt_vt, pair_key(p, t))
-                        {
+                        if tri.contains(&p) || is_exempt(&self.exempt_vt, pair_key(p, t)) {
                             continue;
                         }
                         let [ta, tb, tc] = tri.map(|i| x[i as usize]);
@@ -685,27 +713,31 @@ impl SelfContacts {
         }
         for &(a, b) in self.patches.pairs() {
             let (blo, bhi) = self.patches.bounds(b);
-            for &e in self.patch_edges.of(a) {
-                let [pa, pb] = self.edges[e as usize].map(|i| x[i as usize]);
-                if !(pa.min(pb).cmple(bhi).all() && pa.max(pb).cmpge(blo).all()) {
+            let (ra, rb) = (self.patch_edges.range(a), self.patch_edges.range(b));
+            let (others, boxes) = (&self.patch_edges.items[rb.clone()], &self.edge_boxes[rb]);
+            for (&e, &(elo, ehi)) in self.patch_edges.items[ra.clone()]
+                .iter()
+                .zip(&self.edge_boxes[ra])
+            {
+                if !(elo.cmple(bhi).all() && ehi.cmpge(blo).all()) {
                     continue;
                 }
-                let (lo, hi) = (pa.min(pb) - grow, pa.max(pb) + grow);
-                for &f in self.patch_edges.of(b) {
-                    if a == b && f <= e {
+                let (lo, hi) = (elo - grow, ehi + grow);
+                for (&f, &(flo, fhi)) in others.iter().zip(boxes) {
+                    if !(flo.cmple(hi).all() && fhi.cmpge(lo).all()) || (a == b && f <= e) {
                         continue;
                     }
                     let ([ea, eb], [fc, fd]) = (self.edges[e as usize], self.edges[f as usize]);
-                    if fc == ea || fc == eb || fd == ea || fd == eb {
-                        continue;
-                    }
-                    let [pc, pd] = [fc, fd].map(|i| x[i as usize]);
                     let key = pair_key(e.min(f), e.max(f));
-                    if !(pc.min(pd).cmple(hi).all() && pc.max(pd).cmpge(lo).all())
+                    if fc == ea
+                        || fc == eb
+                        || fd == ea
+                        || fd == eb
                         || is_exempt(&self.exempt_ee, key)
                     {
                         continue;
                     }
+                    let [pa, pb, pc, pd] = [ea, eb, fc, fd].map(|i| x[i as usize]);
                     let (s, t) = closest_on_segments(pa, pb, pc, pd);
                     let gap = pa.lerp(pb, s).distance(pc.lerp(pd, t));
                     if gap < margin && self.ee.len() < cap {
@@ -746,7 +778,12 @@ impl Grouped {
 
     /// The items of group `g`.
     fn of(&self, g: u32) -> &[u32] {
-        &self.items[self.start[g as usize] as usize..self.start[g as usize + 1] as usize]
+        &self.items[self.range(g)]
+    }
+
+    /// Where group `g`'s items are in `items`.
+    fn range(&self, g: u32) -> std::ops::Range<usize> {
+        self.start[g as usize] as usize..self.start[g as usize + 1] as usize
     }
 }
 

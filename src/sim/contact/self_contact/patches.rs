@@ -201,11 +201,6 @@ impl Patches {
         self.of_vertex[p as usize]
     }
 
-    /// The triangles of patch `p`.
-    pub fn triangles(&self, p: u32) -> &[u32] {
-        self.members(p as usize)
-    }
-
     /// The box of patch `p` as of the last [`Self::update`]: the union of its triangles' boxes.
     pub fn bounds(&self, p: u32) -> (Vec3, Vec3) {
         self.bounds[p as usize]
