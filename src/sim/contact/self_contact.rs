@@ -504,14 +504,18 @@ impl SelfContacts {
             let ([a, b], [c, d]) = (self.edges[e as usize], self.edges[f as usize]);
             self.quads.push([a, b, c, d].map(slot));
         }
-        self.involved.clear();
-        self.involved.extend(self.quads.iter().flatten());
-        self.involved.sort_unstable();
-        self.involved.dedup();
+        // Marked, then listed in storage order.
         self.place.clear();
         self.place.resize(self.slot.len(), u32::MAX);
-        for (k, &s) in self.involved.iter().enumerate() {
-            self.place[s as usize] = k as u32;
+        for &s in self.quads.iter().flatten() {
+            self.place[s as usize] = 0;
+        }
+        self.involved.clear();
+        for (s, place) in self.place.iter_mut().enumerate() {
+            if *place == 0 {
+                *place = self.involved.len() as u32;
+                self.involved.push(s as u32);
+            }
         }
         for quad in &mut self.quads {
             *quad = quad.map(|s| self.place[s as usize]);
