@@ -44,7 +44,8 @@ pub(super) struct Patches {
     nearby_start: Vec<u32>,
     /// The patches adjacent to each patch or to one of its adjacent patches, sorted per patch.
     nearby: Vec<u32>,
-    /// Per entry of `nearby`: whether the two patches' elements are not paired this search.
+    /// Per entry of `nearby`: whether the two patches' elements are not paired this search (one
+    /// of a pair's two entries is marked).
     culled_with: Vec<bool>,
     /// Per triangle: its unit normal (zero if degenerate); scratch.
     normal: Vec<Vec3>,
@@ -62,6 +63,9 @@ pub(super) struct Patches {
     flat: f32,
     /// Patches by the low x of their boxes (scratch of the sweep).
     order: Vec<u32>,
+    /// Per patch: its entry in the list of nearby patches of the patch being swept (`u32::MAX`
+    /// for none), and whether it is adjacent to that patch (scratch of the sweep).
+    near: Vec<(u32, bool)>,
     /// The pairs of patches whose elements this search pairs, `a <= b`: each folded patch with
     /// itself, and nearby or overlapping patches neither culled with each other nor apart.
     pairs: Vec<(u32, u32)>,
@@ -183,6 +187,7 @@ impl Patches {
             flat: -1.0,
             order: (0..patches as u32).collect(),
             pairs: Vec::new(),
+            near: Vec::new(),
         }
     }
 
@@ -225,8 +230,12 @@ impl Patches {
         if a == b {
             return self.angle[a as usize] <= self.flat;
         }
-        self.entry(a as usize, b as usize)
-            .is_some_and(|k| self.culled_with[k])
+        // The sweep marks one of the pair's two entries.
+        let marked = |a: u32, b: u32| {
+            self.entry(a as usize, b as usize)
+                .is_some_and(|k| self.culled_with[k])
+        };
+        marked(a, b) || marked(b, a)
     }
 
     /// Takes the patches' boxes (the union of their triangles' `boxes`) and normal cones from the
@@ -290,9 +299,21 @@ impl Patches {
         let bounds = &self.bounds;
         self.order
             .sort_unstable_by(|&a, &b| bounds[a as usize].0.x.total_cmp(&bounds[b as usize].0.x));
+        // Patch `a`'s nearby patches, marked with their entries in its list, and its adjacent
+        // ones (scratch, unmarked again after each `a`).
+        let mut near = std::mem::take(&mut self.near);
+        near.clear();
+        near.resize(self.len(), (u32::MAX, false));
         for i in 0..self.order.len() {
             let a = self.order[i] as usize;
             let (alo, ahi) = self.bounds[a];
+            let entries = self.nearby_start[a] as usize..self.nearby_start[a + 1] as usize;
+            for k in entries.clone() {
+                near[self.nearby[k] as usize].0 = k as u32;
+            }
+            for &c in self.adjacent(a) {
+                near[c as usize].1 = true;
+            }
             for j in i + 1..self.order.len() {
                 let b = self.order[j] as usize;
                 let (blo, bhi) = self.bounds[b];
@@ -302,20 +323,23 @@ impl Patches {
                 if !(blo.cmple(ahi).all() && bhi.cmpge(alo).all()) {
                     continue;
                 }
-                match (self.entry(a, b), self.entry(b, a)) {
-                    (Some(ab), Some(ba)) if self.flat_together(a, b) => {
-                        self.culled_with[ab] = true;
-                        self.culled_with[ba] = true;
-                    }
-                    _ if self.apart(a, b, (tris, x), margin) => {}
-                    _ => {
-                        self.live[a] = true;
-                        self.live[b] = true;
-                        self.pairs.push((a.min(b) as u32, a.max(b) as u32));
-                    }
+                let (entry, adjacent) = near[b];
+                if entry != u32::MAX && self.flat_together(a, b, adjacent) {
+                    self.culled_with[entry as usize] = true;
+                } else if !self.apart(a, b, (tris, x), margin) {
+                    self.live[a] = true;
+                    self.live[b] = true;
+                    self.pairs.push((a.min(b) as u32, a.max(b) as u32));
                 }
             }
+            for k in entries {
+                near[self.nearby[k] as usize].0 = u32::MAX;
+            }
+            for &c in self.adjacent(a) {
+                near[c as usize].1 = false;
+            }
         }
+        self.near = near;
     }
 
     /// Whether patches `a` and `b` (of triangles `tris` at `x`) lie farther than `margin` apart
@@ -350,11 +374,11 @@ impl Patches {
         &self.adjacent[self.adjacent_start[a] as usize..self.adjacent_start[a + 1] as usize]
     }
 
-    /// Whether nearby patches `a` and `b` make a connected surface within `flat` of one
-    /// direction: the two, if adjacent, or with a patch adjacent to both.
-    fn flat_together(&self, a: usize, b: usize) -> bool {
+    /// Whether nearby patches `a` and `b` (`adjacent` if they are) make a connected surface
+    /// within `flat` of one direction: the two, if adjacent, or with a patch adjacent to both.
+    fn flat_together(&self, a: usize, b: usize, adjacent: bool) -> bool {
         let cone = |p: usize| (self.axis[p], self.angle[p]);
-        if self.adjacent(a).binary_search(&(b as u32)).is_ok() {
+        if adjacent {
             return within(cone(a), cone(b), self.flat);
         }
         self.adjacent(a).iter().any(|&c| {
