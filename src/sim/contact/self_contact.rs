@@ -1176,7 +1176,7 @@ impl Regions {
         // Neighbours along the mesh mostly share a cube: the last one is looked up first.
         let mut last: Option<([i32; 3], u32)> = None;
         for (p, &s) in x.iter().zip(slot) {
-            let cell = (*p * inv).floor().as_ivec3().to_array();
+            let cell = cell_of(*p, inv);
             let r = match last {
                 Some((c, r)) if c == cell => r,
                 _ => {
@@ -1748,7 +1748,13 @@ fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
 
 /// The cell of point `p` in a grid of cells `1 / inv` wide.
 fn cell_of(p: Vec3, inv: f32) -> [i32; 3] {
-    (p * inv).floor().as_ivec3().to_array()
+    // `floor` without a library call where the target lacks a rounding instruction: truncate,
+    // then step down where that rounded up (negative non-integers). Saturating as `floor` and
+    // `as` would, and 0 for NaN.
+    (p * inv).to_array().map(|x| {
+        let t = x as i32;
+        t.saturating_sub(i32::from((t as f32) > x))
+    })
 }
 
 /// The bucket of cell `c`.
@@ -2275,6 +2281,35 @@ mod tests {
         assert_eq!(vt, expected_vt);
         assert_eq!(ee, expected_ee);
         assert_eq!(c.ee.len(), expected_ee.len(), "each pair once");
+    }
+
+    #[test]
+    fn a_cell_is_the_floor_of_the_scaled_point() {
+        let values = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999,
+            -2.999,
+            3.0,
+            -3.0,
+            1e-30,
+            -1e-30,
+            1e6 + 0.5,
+            -1e6 - 0.5,
+            3e9,
+            -3e9,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        for x in values {
+            let expected = Vec3::splat(x).floor().as_ivec3().x;
+            assert_eq!(cell_of(Vec3::new(x, 0.0, 0.0), 1.0)[0], expected, "{x}");
+        }
     }
 
     #[test]
