@@ -119,7 +119,7 @@ pub(crate) struct SelfContacts {
     patch_vertices: Grouped,
     patch_triangles: Grouped,
     patch_edges: Grouped,
-    /// The triangles' grown boxes in `patch_triangles`' order, and the edges' boxes in
+    /// The triangles' grown boxes in `patch_triangles`' order, and the edges' own boxes in
     /// `patch_edges`' order (scratch of the search through patch pairs).
     triangle_boxes: Vec<(Vec3, Vec3)>,
     edge_boxes: Vec<(Vec3, Vec3)>,
@@ -670,7 +670,7 @@ impl SelfContacts {
         let grow = Vec3::splat(margin);
         // The boxes patch by patch, so that a pair's inner loop reads them in order.
         self.triangle_boxes.clear();
-        (self.triangle_boxes).extend(
+        self.triangle_boxes.extend(
             self.patch_triangles
                 .items
                 .iter()

@@ -389,8 +389,8 @@ impl Patches {
 }
 
 /// Whether the narrowest cone holding cones `(u, a)` and `(v, b)` (unit axes) is within `flat`
-/// (radians): its half-angle is the larger of `a`, `b` and half of `a + b` and the angle between
-/// the axes. False for a zero axis or a NaN.
+/// (radians): its half-angle is the largest of `a`, `b`, and half the sum of `a`, `b` and the
+/// angle between the axes. False for a zero axis or a NaN.
 fn within((u, a): (Vec3, f32), (v, b): (Vec3, f32), flat: f32) -> bool {
     if u == Vec3::ZERO || v == Vec3::ZERO || !(a <= flat && b <= flat) {
         return false;
