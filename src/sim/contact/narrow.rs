@@ -239,7 +239,8 @@ pub(super) fn resolve_among<S: ContactState>(
         };
         let run = (visit, &mut *clearance);
         // The shape's distance is chosen once per collider, so that the loop over the particles
-        // has it inline (the same arithmetic as `Shape::signed_distance`).
+        // has it inline (the same arithmetic as `Shape::signed_distance`). A copy of the shape
+        // (an `Arc` for a surface), since the loop also updates the collider's reaction.
         let shape = c.collider.shape.clone();
         work += match &shape {
             Shape::Primitive(ColliderShape::HalfSpace(plane)) => {

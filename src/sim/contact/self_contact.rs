@@ -575,13 +575,7 @@ impl SelfContacts {
                 .update(x, &self.tris, &self.hash.boxes, (flat, margin));
         }
         if cull.is_some() && !self.loose {
-            // Non-finite positions pair nothing (as in the hash).
-            if self
-                .hash
-                .boxes
-                .iter()
-                .all(|(lo, hi)| lo.is_finite() && hi.is_finite())
-            {
+            if self.hash.finite() {
                 self.pair_patches(x, margin, cap);
             }
             return;
@@ -646,8 +640,9 @@ impl SelfContacts {
                     }
                     let [pa, pb, pc, pd] = [a, b, c, d].map(|i| x[i as usize]);
                     let (flo, fhi) = (pc.min(pd), pc.max(pd));
-                    let boxes_meet = (flo - grow).cmple(hi).all() && (fhi + grow).cmpge(lo).all();
-                    if !boxes_meet || is_exempt(&self.exempt_ee, pair_key(e, f)) {
+                    if !boxes_meet((flo - grow, fhi + grow), (lo, hi))
+                        || is_exempt(&self.exempt_ee, pair_key(e, f))
+                    {
                         continue;
                     }
                     let (s, t) = closest_on_segments(pa, pb, pc, pd);
@@ -694,11 +689,11 @@ impl SelfContacts {
                 );
                 for &p in self.patch_vertices.of(v) {
                     let at = x[p as usize];
-                    if !(wlo.cmple(at).all() && whi.cmpge(at).all()) {
+                    if !boxes_meet((wlo, whi), (at, at)) {
                         continue;
                     }
                     for (&t, &(lo, hi)) in triangles.iter().zip(boxes) {
-                        if !(lo.cmple(at).all() && hi.cmpge(at).all()) {
+                        if !boxes_meet((lo, hi), (at, at)) {
                             continue;
                         }
                         let tri = self.tris[t as usize];
@@ -723,12 +718,12 @@ impl SelfContacts {
                 .iter()
                 .zip(&self.edge_boxes[ra])
             {
-                if !(elo.cmple(bhi).all() && ehi.cmpge(blo).all()) {
+                if !boxes_meet((elo, ehi), (blo, bhi)) {
                     continue;
                 }
                 let (lo, hi) = (elo - grow, ehi + grow);
                 for (&f, &(flo, fhi)) in others.iter().zip(boxes) {
-                    if !(flo.cmple(hi).all() && fhi.cmpge(lo).all()) || (a == b && f <= e) {
+                    if !boxes_meet((flo, fhi), (lo, hi)) || (a == b && f <= e) {
                         continue;
                     }
                     let ([ea, eb], [fc, fd]) = (self.edges[e as usize], self.edges[f as usize]);
@@ -1611,12 +1606,12 @@ impl Hash {
     /// Lists the boxes `i` for which `include(i)` holds in their cells. Returns `false` (and lists
     /// nothing) if a box is not finite.
     pub(super) fn build(&mut self, include: impl Fn(u32) -> bool) -> bool {
+        if !self.finite() {
+            self.entries.clear();
+            return false;
+        }
         let mut extent = 0.0f32;
         for (i, (lo, hi)) in self.boxes.iter().enumerate() {
-            if !(lo.is_finite() && hi.is_finite()) {
-                self.entries.clear();
-                return false;
-            }
             if include(i as u32) {
                 extent = extent.max((*hi - *lo).max_element());
             }
@@ -1670,6 +1665,13 @@ impl Hash {
         true
     }
 
+    /// Whether every box is finite (a search on non-finite positions pairs nothing).
+    pub(super) fn finite(&self) -> bool {
+        self.boxes
+            .iter()
+            .all(|(lo, hi)| lo.is_finite() && hi.is_finite())
+    }
+
     /// Sets the boxes to those of triangles `tris` over positions `x`, grown by `grow`.
     pub(super) fn triangle_boxes(&mut self, tris: &[[u32; 3]], x: &[Vec3], grow: Vec3) {
         self.boxes.clear();
@@ -1702,7 +1704,7 @@ impl Hash {
                 // of a point is monotonic in it.
                 let low = self.low[i as usize];
                 let first = [0, 1, 2].map(|k| low[k].max(from[k]));
-                if blo.cmple(hi).all() && bhi.cmpge(lo).all() && first == c {
+                if boxes_meet((blo, bhi), (lo, hi)) && first == c {
                     f(i);
                 }
             }
@@ -1744,6 +1746,11 @@ fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
             }
         }
     }
+}
+
+/// Whether boxes `a` and `b` (low and high corners) meet; false if a corner is NaN.
+fn boxes_meet((alo, ahi): (Vec3, Vec3), (blo, bhi): (Vec3, Vec3)) -> bool {
+    alo.cmple(bhi).all() && ahi.cmpge(blo).all()
 }
 
 /// The cell of point `p` in a grid of cells `1 / inv` wide.
@@ -2281,6 +2288,24 @@ mod tests {
         assert_eq!(vt, expected_vt);
         assert_eq!(ee, expected_ee);
         assert_eq!(c.ee.len(), expected_ee.len(), "each pair once");
+    }
+
+    #[test]
+    fn a_search_on_positions_that_are_not_finite_pairs_nothing() {
+        // A crumpled grid with one particle at infinity and one NaN, searched through the patch
+        // pairs and through the hash: no candidates (and no grid of cells spanning infinity).
+        let model = ClothModel::grid(&GridSpec::new(12, 12, 0.02)).unwrap();
+        let mut x: Vec<Vec3> = (model.rest_positions.iter())
+            .map(|p| Vec3::new(p.x, (p.x * 30.0).sin() * 0.02, p.z))
+            .collect();
+        x[5].x = f32::INFINITY;
+        x[40].y = f32::NAN;
+        let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        for loose in [false, true] {
+            c.loose = loose;
+            c.find_candidates(&x, 0.015, usize::MAX, Some(1.0));
+            assert_eq!(c.candidate_count(), (0, 0), "loose {loose}");
+        }
     }
 
     #[test]

@@ -100,7 +100,7 @@ impl Patches {
             .iter()
             .map(|t| {
                 let centre = t.iter().map(|&i| rest[i as usize]).sum::<Vec3>() / 3.0;
-                (centre * inv).floor().as_ivec3().to_array()
+                super::cell_of(centre, inv)
             })
             .collect();
         let mut of_triangle = vec![u32::MAX; tris.len()];
@@ -320,7 +320,7 @@ impl Patches {
                 if blo.x > ahi.x {
                     break;
                 }
-                if !(blo.cmple(ahi).all() && bhi.cmpge(alo).all()) {
+                if !super::boxes_meet((blo, bhi), (alo, ahi)) {
                     continue;
                 }
                 let (entry, adjacent) = near[b];
