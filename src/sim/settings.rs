@@ -270,8 +270,10 @@ impl SolverSettings {
 pub struct SelfCollision {
     /// Whether the cloth collides with itself.
     pub enabled: bool,
-    /// Distance the cloth keeps between its own layers, m (positive). Keeping it below half the
-    /// cloth's particle spacing leaves the mesh's own neighbours out of it.
+    /// Distance the cloth keeps between its own layers, m (positive): between a vertex and a
+    /// triangle; two edges are kept 0.9 of it apart, so that edges of layers resting on each
+    /// other are left alone. Keeping it below half the cloth's particle spacing leaves the mesh's
+    /// own neighbours out of it.
     pub thickness: f32,
     /// Coulomb friction between layers (0 = frictionless).
     pub friction: f32,

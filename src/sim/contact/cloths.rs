@@ -23,7 +23,8 @@
 //!    to this cloth's mean motion, since they were found; past that they are found again, within
 //!    a step if need be. Cloths falling or swinging together keep their candidates.
 //! 3. **Narrow phase and response, every substep**: as for self-contacts (sides taken from the
-//!    start of the substep, pushes to the thickness, the approaching velocity removed, friction),
+//!    start of the substep, pushes to the thickness, two edges a little less, the approaching
+//!    velocity removed, friction),
 //!    on the candidates whose distance when found, less how far their particles have moved since,
 //!    may have closed to the thickness.
 
@@ -494,7 +495,7 @@ impl ClothContacts {
         order.clear();
         let pair = |k: usize| {
             let c: &Prepared = &prepared[k];
-            (c.gap, self.spacing[c.spacing as usize].thickness)
+            (c.gap, self.spacing[c.spacing as usize].kept(c.vertex))
         };
         let margin = thickest + 2.0 * self.reach;
         self.bands
@@ -508,8 +509,8 @@ impl ClothContacts {
         self.prepared = prepared;
     }
 
-    /// Whether candidate `k` may have come within its thickness since it was found: its gap then
-    /// less the most its two elements' particles have drifted.
+    /// Whether candidate `k` may have come within its kept distance since it was found: its gap
+    /// then less the most its two elements' particles have drifted.
     fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
         let c = &self.prepared[k];
         let d = four(c.slots, |i| drift[i as usize]);
@@ -518,7 +519,7 @@ impl ClothContacts {
         } else {
             d[0].max(d[1]) + d[2].max(d[3])
         };
-        c.gap - closing <= self.spacing[c.spacing as usize].thickness
+        c.gap - closing <= self.spacing[c.spacing as usize].kept(c.vertex)
     }
 
     /// Resolves candidate `k` on the copies of the joined state's pair particles (see
