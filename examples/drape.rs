@@ -1,9 +1,8 @@
 //! The source paper's scene (its Figure 5): a textured cloth pinned at its four corners above a
 //! sphere, with wind, pin release, texture and wireframe toggles, a movable sphere, and the cloth
 //! inspector panel (every `ClothConfig` field, subdivision level and rule, fps, step time).
-//! Self-collision is off (its broad phase is still too slow for a moving cloth at this frame
-//! rate); the panel's checkbox turns it on, so that a released cloth piles without passing
-//! through itself.
+//! Self-collision is on, so that a released cloth lands on the sphere and the floor without
+//! passing through itself (the panel's checkbox turns it off).
 //!
 //! `cargo run --release --features examples --example drape`
 //!
@@ -95,7 +94,13 @@ fn setup(
         .insert((
             // Scenes show the exact simulated state; on screen, interpolate between fixed steps.
             ClothConfig {
-                solver: paper.solver,
+                solver: SolverSettings {
+                    self_collision: SelfCollision {
+                        enabled: true,
+                        ..paper.solver.self_collision
+                    },
+                    ..paper.solver
+                },
                 ..default()
             },
             // The paper renders the first subdivision level.
