@@ -194,9 +194,10 @@ pub struct ClothConfig {
     /// `layers` share a bit with this mask. Every layer by default.
     pub collision_mask: u32,
     /// Layers this cloth is on for other cloths: two cloths keep apart when their `cloth_layers`
-    /// share a bit, at the mean of their thicknesses and with the mean of their frictions
-    /// ([`SelfCollision`](crate::sim::SelfCollision)'s `thickness` and `friction`, whether or
-    /// not self-collision is on). 0, the default, meets no other cloth. Cloths that meet
+    /// share a bit, at the mean of their thicknesses (two edges 0.9 of it, as within a cloth) and
+    /// with the mean of their frictions ([`SelfCollision`](crate::sim::SelfCollision)'s
+    /// `thickness` and `friction`, whether or not self-collision is on). 0, the default, meets no
+    /// other cloth. Cloths that meet
     /// another step one after the other, in the order of their entities, so the result does not
     /// depend on the thread count.
     pub cloth_layers: u32,
