@@ -78,11 +78,13 @@ impl Soa {
     }
 
     /// Vector `i`.
+    #[inline]
     pub fn get(&self, i: usize) -> Vec3 {
         Vec3::new(self.x[i], self.y[i], self.z[i])
     }
 
     /// Sets vector `i`.
+    #[inline]
     pub fn set(&mut self, i: usize, v: Vec3) {
         (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
     }

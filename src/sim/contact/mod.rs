@@ -110,21 +110,26 @@ impl ContactState for Vectors<'_> {
     fn len(&self) -> usize {
         self.x.len()
     }
+    #[inline(always)]
     fn inv_mass(&self, i: usize) -> f32 {
         self.inv_mass[i]
     }
     fn slot(&self, p: u32) -> usize {
         p as usize
     }
+    #[inline(always)]
     fn start(&self, i: usize) -> Vec3 {
         self.start[i]
     }
+    #[inline(always)]
     fn position(&self, i: usize) -> Vec3 {
         self.x[i]
     }
+    #[inline(always)]
     fn velocity(&self, i: usize) -> Vec3 {
         self.v[i]
     }
+    #[inline(always)]
     fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
         (self.x[i], self.v[i]) = (x, v);
     }

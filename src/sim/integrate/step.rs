@@ -284,21 +284,26 @@ impl ContactState for SoaContacts<'_> {
     fn len(&self) -> usize {
         self.state.x.len()
     }
+    #[inline(always)]
     fn inv_mass(&self, i: usize) -> f32 {
         self.inv_mass[i]
     }
     fn slot(&self, p: u32) -> usize {
         self.order.stored(p) as usize
     }
+    #[inline(always)]
     fn start(&self, i: usize) -> Vec3 {
         self.state.x.get(i) - self.state.d.get(i)
     }
+    #[inline(always)]
     fn position(&self, i: usize) -> Vec3 {
         self.state.x.get(i)
     }
+    #[inline(always)]
     fn velocity(&self, i: usize) -> Vec3 {
         self.state.v.get(i)
     }
+    #[inline(always)]
     fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
         let s = &mut self.state;
         s.d.set(i, s.d.get(i) + (x - s.x.get(i)));

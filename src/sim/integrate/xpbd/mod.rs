@@ -337,30 +337,30 @@ impl ContactState for AheadOfEnd<'_> {
     fn len(&self) -> usize {
         self.x.len()
     }
-    #[inline]
+    #[inline(always)]
     fn inv_mass(&self, i: usize) -> f32 {
         self.layout.inv_mass[i]
     }
     fn slot(&self, p: u32) -> usize {
         self.layout.stored(p) as usize
     }
-    #[inline]
+    #[inline(always)]
     fn start(&self, i: usize) -> Vec3 {
         self.x.get(i)
     }
-    #[inline]
+    #[inline(always)]
     fn position(&self, i: usize) -> Vec3 {
         // The end pass's `x += d`, coordinate by coordinate.
         self.x.get(i) + self.d.get(i)
     }
-    #[inline]
+    #[inline(always)]
     fn velocity(&self, i: usize) -> Vec3 {
         match self.entry[i] {
             0 => self.d.get(i) * self.inv_h,
             k => self.touched[k as usize - 1].1,
         }
     }
-    #[inline]
+    #[inline(always)]
     fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
         self.d.set(i, x - self.x.get(i));
         match self.entry[i] {
