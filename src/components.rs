@@ -197,9 +197,8 @@ pub struct ClothConfig {
     /// share a bit, at the mean of their thicknesses (two edges 0.9 of it, as within a cloth) and
     /// with the mean of their frictions ([`SelfCollision`](crate::sim::SelfCollision)'s
     /// `thickness` and `friction`, whether or not self-collision is on). 0, the default, meets no
-    /// other cloth. Cloths that meet
-    /// another step one after the other, in the order of their entities, so the result does not
-    /// depend on the thread count.
+    /// other cloth. Cloths that meet another step one after the other, in the order of their
+    /// entities, so the result does not depend on the thread count.
     pub cloth_layers: u32,
 }
 

@@ -24,9 +24,8 @@
 //!    a step if need be. Cloths falling or swinging together keep their candidates.
 //! 3. **Narrow phase and response, every substep**: as for self-contacts (sides taken from the
 //!    start of the substep, pushes to the thickness, two edges a little less, the approaching
-//!    velocity removed, friction),
-//!    on the candidates whose distance when found, less how far their particles have moved since,
-//!    may have closed to the thickness.
+//!    velocity removed, friction), on the candidates whose distance when found, less how far
+//!    their particles have moved since, may have closed to the thickness.
 
 use glam::Vec3;
 
@@ -523,8 +522,8 @@ impl ClothContacts {
     }
 
     /// Resolves candidate `k` on the copies of the joined state's pair particles (see
-    /// [`Spacing`]). Returns how far it pushed the pair out, as a fraction of the thickness (0:
-    /// nothing moved); adds what it moved each particle to `drift`.
+    /// [`Spacing`]). Returns how far it pushed the pair out, as a fraction of its kept distance
+    /// (0: nothing moved); adds what it moved each particle to `drift`.
     fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> f32 {
         let c = &self.prepared[k];
         let spacing = self.spacing[c.spacing as usize];

@@ -29,8 +29,8 @@
 //!    for two edges), with its sign taken from the start of the substep. A pair closer than the
 //!    thickness (two edges: [`EDGES_APART`] of it), or on the other side of each other than at
 //!    the start (it passed through within the substep), is pushed apart to that distance on its
-//!    starting side, each particle moved in
-//!    proportion to its inverse mass and its weight in the pair (momentum is kept). Then the
+//!    starting side, each particle moved in proportion to its inverse mass and its weight in the
+//!    pair (momentum is kept). Then the
 //!    relative velocity's approaching normal part is removed and Coulomb friction acts on its
 //!    tangential part, bounded by `friction` times the normal change (the velocity removed plus
 //!    the push-out over the substep). Passes repeat (Gauss-Seidel) over the pairs that acted in
@@ -55,17 +55,17 @@ use patches::Patches;
 
 mod patches;
 
-/// Gauss-Seidel passes over the candidate pairs per substep (stopping early once nothing moves
-/// by more than [`SETTLED`] of the thickness).
+/// Gauss-Seidel passes over the candidate pairs per substep (stopping early once no pair is
+/// pushed by more than [`SETTLED`] of its kept distance).
 pub(super) const PASSES: u32 = 4;
 
-/// A later pass that pushes no pair out by more than this fraction of the thickness is the
+/// A later pass that pushes no pair out by more than this fraction of its kept distance is the
 /// last: what is left is far below anything a crossing could come from.
 pub(super) const SETTLED: f32 = 1e-3;
 
 /// The passes after a substep's first, over the candidates `acting` that acted in it, until
-/// `pair(k)` (resolving candidate `k`: how far it pushed the pair out, as a fraction of the
-/// thickness) pushes none by more than [`SETTLED`], at most [`PASSES`] in all.
+/// `pair(k)` (resolving candidate `k`: how far it pushed the pair out, as a fraction of its kept
+/// distance) pushes none by more than [`SETTLED`], at most [`PASSES`] in all.
 pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> f32) {
     for _ in 1..PASSES {
         let mut moved = false;
@@ -406,8 +406,8 @@ impl SelfContacts {
     }
 
     /// Resolves candidate `k` on the gathered particles `state`: vertex–triangle pairs first, then
-    /// edge–edge pairs. Returns how far it pushed the pair out, as a fraction of the thickness
-    /// (0: nothing moved); adds what it moved each particle to `drift`.
+    /// edge–edge pairs. Returns how far it pushed the pair out, as a fraction of its kept
+    /// distance (0: nothing moved); adds what it moved each particle to `drift`.
     fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> f32 {
         let quad = four(self.quads[k], |i| i as usize);
         if k < self.vt.len() {
@@ -875,15 +875,8 @@ impl Spacing {
             dist.signum()
         };
         let weights = [1.0, -u, -v, -t];
-        let kept = self.thickness;
-        self.separate(
-            state,
-            s,
-            (w, weights),
-            (side * n, side * dist, kept),
-            inv_h,
-            drift,
-        )
+        let apart = (side * n, side * dist, self.kept(true));
+        self.separate(state, s, (w, weights), apart, inv_h, drift)
     }
 
     /// Keeps edge `s[0..2]` at least [`EDGES_APART`] of the thickness from edge `s[2..]` on the
@@ -926,15 +919,14 @@ impl Spacing {
             }
         };
         let weights = [1.0 - u, u, t - 1.0, -t];
-        let kept = self.kept(false);
-        self.separate(state, s, (w, weights), (n, dist, kept), inv_h, drift)
+        let apart = (n, dist, self.kept(false));
+        self.separate(state, s, (w, weights), apart, inv_h, drift)
     }
 
     /// The response to one pair: the combination `Σ weights[k] x[s[k]]` is `dist` along `n`;
     /// pushes it out to `kept`, then removes its approaching velocity along `n` and applies
     /// friction to its tangential velocity. `w` are the particles' inverse masses. Returns the
     /// push as a fraction of `kept` (0: nothing moved).
-    #[allow(clippy::too_many_arguments)]
     fn separate<S: ContactState>(
         &self,
         state: &mut S,
