@@ -618,6 +618,7 @@ impl<S: ContactState> ContactState for Joined<'_, S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::contact::self_contact::EDGES_APART;
     use crate::sim::contact::{Vectors, bounds};
     use crate::sim::{ClothModel, GridSpec};
 
@@ -689,6 +690,54 @@ mod tests {
         );
         assert_eq!(contacts.searches(), 1);
         assert!((x[27].y - 0.002).abs() < 1e-5, "{}", x[27]);
+    }
+
+    #[test]
+    fn edges_of_two_cloths_are_kept_their_distance_apart() {
+        // This cloth's edge 0–1 crosses the other cloth's edge 0–1 obliquely at their middles
+        // and moves down from 6 mm above it to 4 mm, within the edges' kept distance but not
+        // half of it. Neither edge's ends are over the other cloth's triangle (both triangles'
+        // third corners are far away): only the edge pair sees them.
+        let other = [
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -3.0),
+        ];
+        let start = vec![
+            Vec3::new(-0.9, 0.006, -0.5),
+            Vec3::new(0.9, 0.006, 0.5),
+            Vec3::new(0.0, 3.0, 0.0),
+        ];
+        let tris = [0, 1, 2];
+        let mut contacts = ClothContacts::default();
+        contacts.begin_step(
+            &[OtherCloth {
+                triangles: &tris,
+                start: &other,
+                end: &other,
+                thickness: 0.005,
+                friction: 0.0,
+            }],
+            (0.005, 0.0),
+            (bounds(&start), 0.01),
+            3.0,
+            1.0 / 60.0,
+        );
+        let mut x = start.clone();
+        x[0].y = 0.004;
+        x[1].y = 0.004;
+        let mut v = vec![Vec3::ZERO; 3];
+        assert!(resolve(
+            &mut contacts,
+            (0.0, 1.0, 1.0 / 60.0),
+            &tris,
+            &start,
+            &mut x,
+            &mut v
+        ));
+        let middle = 0.5 * (x[0] + x[1]);
+        let kept = EDGES_APART * 0.005;
+        assert!((middle.y - kept).abs() < 1e-4, "{} {}", x[0], x[1]);
     }
 
     #[test]

@@ -30,12 +30,11 @@
 //!    thickness (two edges: [`EDGES_APART`] of it), or on the other side of each other than at
 //!    the start (it passed through within the substep), is pushed apart to that distance on its
 //!    starting side, each particle moved in proportion to its inverse mass and its weight in the
-//!    pair (momentum is kept). Then the
-//!    relative velocity's approaching normal part is removed and Coulomb friction acts on its
-//!    tangential part, bounded by `friction` times the normal change (the velocity removed plus
-//!    the push-out over the substep). Passes repeat (Gauss-Seidel) over the pairs that acted in
-//!    the first until none is pushed by more than [`SETTLED`] of the thickness, at most
-//!    [`PASSES`] times in all.
+//!    pair (momentum is kept). Then the relative velocity's approaching normal part is removed
+//!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
+//!    change (the velocity removed plus the push-out over the substep). Passes repeat
+//!    (Gauss-Seidel) over the pairs that acted in the first until none is pushed by more than
+//!    [`SETTLED`] of its kept distance, at most [`PASSES`] times in all.
 //!
 //! Deciding the side from the start of each substep is what keeps a pile from passing through
 //! itself: a proximity test alone pushes a particle that has already crossed further through.
@@ -828,7 +827,8 @@ impl Spacing {
     fn edge_edge_clear<S: ContactState>(&self, state: &S, s: [usize; 4]) -> bool {
         let [a, b, c, d] = four(s, |i| state.position(i));
         let [a0, b0, c0, d0] = four(s, |i| state.start(i));
-        let kept2 = self.kept(false) * self.kept(false);
+        let kept = self.kept(false);
+        let kept2 = kept * kept;
         let (ab, cd) = (b - a, d - c);
         let across = ab.cross(cd);
         let apart = (a - c).dot(across);
@@ -898,12 +898,12 @@ impl Spacing {
         }
         let [a, b, c, d] = four(s, |i| state.position(i));
         let [a0, b0, c0, d0] = four(s, |i| state.start(i));
-        let kept2 = self.kept(false) * self.kept(false);
+        let kept = self.kept(false);
         let (u, t) = closest_on_segments(a, b, c, d);
         let gap = a.lerp(b, u) - c.lerp(d, t);
         let gap0 = a0.lerp(b0, u) - c0.lerp(d0, t);
         // Otherwise clear pairs are decided without the square root.
-        if gap.length_squared() >= kept2 && gap.dot(gap0) >= 0.0 {
+        if gap.length_squared() >= kept * kept && gap.dot(gap0) >= 0.0 {
             return 0.0;
         }
         let length = gap.length();
@@ -919,7 +919,7 @@ impl Spacing {
             }
         };
         let weights = [1.0 - u, u, t - 1.0, -t];
-        let apart = (n, dist, self.kept(false));
+        let apart = (n, dist, kept);
         self.separate(state, s, (w, weights), apart, inv_h, drift)
     }
 
