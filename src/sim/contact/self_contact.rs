@@ -685,7 +685,9 @@ impl SelfContacts {
                 let [a, b] = self.edges[e as usize].map(|i| x[i as usize]);
                 (a.min(b), a.max(b))
             }));
-        for &(a, b) in self.patches.pairs() {
+        // Once a kind's list is full, nothing more of it is looked at (a cloth crushed into a
+        // ball has every pair of patches in the search).
+        'vt: for &(a, b) in self.patches.pairs() {
             let sides: &[(u32, u32)] = if a == b { &[(a, a)] } else { &[(a, b), (b, a)] };
             for &(v, w) in sides {
                 // An element outside the other patch's box meets none of its triangles' boxes.
@@ -696,6 +698,9 @@ impl SelfContacts {
                     &self.triangle_boxes[range],
                 );
                 for &p in self.patch_vertices.of(v) {
+                    if self.vt.len() >= cap {
+                        break 'vt;
+                    }
                     let at = x[p as usize];
                     if !boxes_meet((wlo, whi), (at, at)) {
                         continue;
@@ -718,7 +723,7 @@ impl SelfContacts {
                 }
             }
         }
-        for &(a, b) in self.patches.pairs() {
+        'ee: for &(a, b) in self.patches.pairs() {
             let (blo, bhi) = self.patches.bounds(b);
             let (ra, rb) = (self.patch_edges.range(a), self.patch_edges.range(b));
             let (others, boxes) = (&self.patch_edges.items[rb.clone()], &self.edge_boxes[rb]);
@@ -726,6 +731,9 @@ impl SelfContacts {
                 .iter()
                 .zip(&self.edge_boxes[ra])
             {
+                if self.ee.len() >= cap {
+                    break 'ee;
+                }
                 if !boxes_meet((elo, ehi), (blo, bhi)) {
                     continue;
                 }
@@ -2436,6 +2444,44 @@ mod tests {
             }
         }
         [vt, ee]
+    }
+
+    #[test]
+    fn a_full_list_ends_its_search_with_the_first_candidates() {
+        // A 12×12 grid crushed into a ball a few millimetres across: every pair is within the
+        // margin. Capped, each list holds exactly the first candidates of the uncapped search,
+        // and a full list of one kind does not cut the other short.
+        let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
+        let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        let x: Vec<Vec3> = (0..model.rest_positions.len())
+            .map(|i| {
+                let h = |k: u64| {
+                    (crate::hash::mix64(i as u64 * 3 + k) >> 40) as f32 / (1u64 << 24) as f32
+                };
+                0.004 * (Vec3::new(h(0), h(1), h(2)) - 0.5)
+            })
+            .collect();
+        let (margin, flat) = (0.02, 0.5);
+        c.find_candidates(&x, margin, usize::MAX, Some(flat));
+        assert!(
+            !c.patches.pairs().is_empty(),
+            "the ball is searched patch by patch"
+        );
+        let (vt, ee) = (c.vt.clone(), c.ee.clone());
+        let vt_gaps = c.gap[..vt.len()].to_vec();
+        let cap = vt.len() / 3;
+        assert!(
+            cap < ee.len() / 2 && ee.len() > vt.len(),
+            "the cap binds both kinds"
+        );
+        c.find_candidates(&x, margin, cap, Some(flat));
+        assert_eq!(c.vt, vt[..cap]);
+        assert_eq!(c.ee, ee[..cap]);
+        assert_eq!(c.gap[..cap], vt_gaps[..cap]);
+        // A cap only the edge pairs reach leaves the vertex–triangle pairs whole.
+        c.find_candidates(&x, margin, vt.len(), Some(flat));
+        assert_eq!((c.vt.len(), c.ee.len()), (vt.len(), vt.len()));
+        assert_eq!(c.ee, ee[..vt.len()]);
     }
 
     #[test]
