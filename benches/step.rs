@@ -5,14 +5,15 @@
 //! integrators (Verlet, symplectic Euler) on the same cloths at their stable substeps. Then the same
 //! 64×64 frame among colliders (none, a sphere it drapes over, 100 far away) and in wind, and
 //! whole App frames with one active cloth against 100 sleeping ones. Then self-collision's cost:
-//! a hanging 64×64 cloth swinging and settled, and one lying crumpled on a floor, each with it off
-//! and on. Then
+//! a hanging 64×64 cloth swinging (also its first second replayed frame for frame) and settled,
+//! and one lying crumpled on a floor, each with it off and on. Then
 //! character cloth: App frames of a 32×32 cape skinned to a walking, turning torso against the
 //! same cape on static pins, and tethers' cost in a step. And tolerance mode on the 64×64 frame
 //! with a sphere and wind against the fixed setting it settles on. Last, cloth–cloth contacts:
 //! a 32×32 cloth's step lying on another, alone, and with the other out of reach.
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 use bevy::math::Vec3;
 use bevy::math::primitives::{InfinitePlane3d, Sphere};
@@ -464,6 +465,31 @@ fn self_collision(c: &mut Criterion) {
                 b.iter(|| sim.step_in(black_box(1.0 / 60.0), env).unwrap())
             });
         }
+    }
+    group.finish();
+    // `hanging` above keeps stepping one cloth, whose swing calms over the run, so its calmer
+    // seconds weigh in. Here the first second of the swing (frames 30 to 90 after the cloth is
+    // let go) is replayed from the same state every iteration and timed per frame, so that two
+    // builds are compared on the same frames.
+    let mut group = c.benchmark_group("self_collision_64x64_swing");
+    group.sample_size(10);
+    for enabled in [false, true] {
+        let start = with_self_collision(hanging(64), enabled);
+        let label = if enabled { "on" } else { "off" };
+        group.bench_function(format!("first_second_{label}"), |b| {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
+                    let mut sim = start.clone();
+                    let t = Instant::now();
+                    for _ in 0..60 {
+                        sim.step(black_box(1.0 / 60.0)).unwrap();
+                    }
+                    total += t.elapsed();
+                }
+                total / 60
+            })
+        });
     }
     group.finish();
 }
