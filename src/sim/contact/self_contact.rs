@@ -40,7 +40,8 @@
 //! itself: a proximity test alone pushes a particle that has already crossed further through.
 //! Not covered: two elements that pass through each other and beyond within a single substep
 //! (faster than the thickness per substep relative to each other; that needs a continuous
-//! test), and more candidate pairs than the cap (a cloth crushed into a ball).
+//! test), and more candidate pairs than the cap (a cloth crushed into a ball: the search stops
+//! when a list is full, and is not run again until the next step).
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -182,6 +183,8 @@ pub(crate) struct SelfContacts {
     reach_cap: f32,
     /// Whether the candidates must be found again before the next resolution.
     stale: bool,
+    /// Whether the last search filled a list to its cap.
+    full: bool,
     /// Broad phases run so far.
     searches: u64,
     /// How much closer particles in cubes of `regions` that are not neighbours may come before a
@@ -421,7 +424,8 @@ impl SelfContacts {
     /// since then, at the start and at the end of the substep.
     fn refresh_candidates<S: ContactState>(&mut self, state: &S) -> (Vec3, Vec3) {
         let n = state.len();
-        if std::mem::take(&mut self.new_step)
+        let new_step = std::mem::take(&mut self.new_step);
+        if new_step
             && (self.slot.len() != n
                 || (0..n).any(|p| state.slot(p as u32) != self.slot[p] as usize))
         {
@@ -437,6 +441,13 @@ impl SelfContacts {
             if closing.near <= near_limit && closing.far <= self.far_limit {
                 let slack = (near_limit - closing.near).min(self.far_limit - closing.far);
                 self.watch.take(state, slack, closing.mean);
+                return closing.mean;
+            }
+            // A full list holds an arbitrary share of the close pairs (a cloth crushed into a
+            // ball): searching again within the step would only pick another share, at the
+            // cost of a search per substep. The next step's first substep searches.
+            if self.full && !new_step {
+                self.watch.valid = false;
                 return closing.mean;
             }
         }
@@ -473,6 +484,7 @@ impl SelfContacts {
             cap,
             Some(cull),
         );
+        self.full = self.vt.len() >= cap || self.ee.len() >= cap;
         self.regions.assign(&positions, &self.slot);
         let longest = self
             .edges
@@ -2482,6 +2494,45 @@ mod tests {
         c.find_candidates(&x, margin, vt.len(), Some(flat));
         assert_eq!((c.vt.len(), c.ee.len()), (vt.len(), vt.len()));
         assert_eq!(c.ee, ee[..vt.len()]);
+    }
+
+    #[test]
+    fn a_full_list_is_searched_again_only_in_the_next_step() {
+        // A 12×12 grid crushed into a ball 2 cm across, its particles jostled every substep by
+        // more than the search's reach: both lists fill up at each search. Within a step the
+        // candidates are kept; the next step searches again.
+        let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
+        let n = model.rest_positions.len();
+        let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        let jitter = |i: usize, k: u64| {
+            let h = |a: u64| {
+                (crate::hash::mix64((i as u64 * 3 + a) ^ (k << 32)) >> 40) as f32
+                    / (1u64 << 24) as f32
+            };
+            0.02 * (Vec3::new(h(0), h(1), h(2)) - 0.5)
+        };
+        let w = vec![1.0; n];
+        let mut x: Vec<Vec3> = (0..n).map(|i| jitter(i, 0)).collect();
+        let mut v = vec![Vec3::ZERO; n];
+        let mut substep = 0;
+        for step in 1..=3 {
+            c.begin_step(0.001);
+            for _ in 0..4 {
+                substep += 1;
+                let start = x.clone();
+                x = (0..n).map(|i| jitter(i, substep)).collect();
+                let mut state = Vectors {
+                    x: &mut x,
+                    v: &mut v,
+                    start: &start,
+                    inv_mass: &w,
+                    touches: None,
+                };
+                c.resolve(1.0 / 1200.0, &mut state);
+                assert!(c.full, "the crushed ball fills a list");
+            }
+            assert_eq!(c.searches(), step, "one search in step {step}");
+        }
     }
 
     #[test]
