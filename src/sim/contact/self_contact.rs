@@ -2458,6 +2458,20 @@ mod tests {
         [vt, ee]
     }
 
+    /// `n` particles scattered in a cube `across` wide about the origin (a cloth crushed into a
+    /// ball), a different scatter for each `seed`.
+    fn crushed(n: usize, across: f32, seed: u64) -> Vec<Vec3> {
+        (0..n)
+            .map(|i| {
+                let h = |k: u64| {
+                    let bits = crate::hash::mix64((i as u64 * 3 + k) ^ (seed << 32)) >> 40;
+                    bits as f32 / (1u64 << 24) as f32
+                };
+                across * (Vec3::new(h(0), h(1), h(2)) - 0.5)
+            })
+            .collect()
+    }
+
     #[test]
     fn a_full_list_ends_its_search_with_the_first_candidates() {
         // A 12×12 grid crushed into a ball a few millimetres across: every pair is within the
@@ -2465,14 +2479,7 @@ mod tests {
         // and a full list of one kind does not cut the other short.
         let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
-        let x: Vec<Vec3> = (0..model.rest_positions.len())
-            .map(|i| {
-                let h = |k: u64| {
-                    (crate::hash::mix64(i as u64 * 3 + k) >> 40) as f32 / (1u64 << 24) as f32
-                };
-                0.004 * (Vec3::new(h(0), h(1), h(2)) - 0.5)
-            })
-            .collect();
+        let x = crushed(model.rest_positions.len(), 0.004, 0);
         let (margin, flat) = (0.02, 0.5);
         c.find_candidates(&x, margin, usize::MAX, Some(flat));
         assert!(
@@ -2504,15 +2511,8 @@ mod tests {
         let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
         let n = model.rest_positions.len();
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
-        let jitter = |i: usize, k: u64| {
-            let h = |a: u64| {
-                (crate::hash::mix64((i as u64 * 3 + a) ^ (k << 32)) >> 40) as f32
-                    / (1u64 << 24) as f32
-            };
-            0.02 * (Vec3::new(h(0), h(1), h(2)) - 0.5)
-        };
         let w = vec![1.0; n];
-        let mut x: Vec<Vec3> = (0..n).map(|i| jitter(i, 0)).collect();
+        let mut x = crushed(n, 0.02, 0);
         let mut v = vec![Vec3::ZERO; n];
         let mut substep = 0;
         for step in 1..=3 {
@@ -2520,7 +2520,7 @@ mod tests {
             for _ in 0..4 {
                 substep += 1;
                 let start = x.clone();
-                x = (0..n).map(|i| jitter(i, substep)).collect();
+                x = crushed(n, 0.02, substep);
                 let mut state = Vectors {
                     x: &mut x,
                     v: &mut v,
