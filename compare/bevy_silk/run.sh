@@ -32,7 +32,8 @@ for line in open(sys.argv[1]):
 med = lambda rows, key: statistics.median(r[key] for r in rows)
 frame = med(cloth, "median_ms")
 print(f"bevy_cloth whole App frame: median {frame:.3f} ms over {len(cloth)} rounds, "
-      f"median structural strain {100 * med(cloth, 'median_structural_strain'):.3f}%")
+      f"median structural strain {100 * med(cloth, 'median_structural_strain'):.3f}%, "
+      f"shear {100 * med(cloth, 'median_shear_strain'):.3f}%")
 print(f"bevy_silk 0.10 whole App frame: {med(silk, 'app_frame_median_ms'):.3f} ms, "
       f"step alone: {med(silk, 'step_median_ms'):.3f} ms, "
       f"median edge strain {100 * med(silk, 'median_strain'):.3f}%")
