@@ -12,6 +12,12 @@ pub(crate) fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The top 24 bits of `h` as a number in `[0, 1]` (both ends included, exactly).
+#[inline]
+pub(crate) fn unit_interval(h: u64) -> f32 {
+    (h >> 40) as f32 / ((1u32 << 24) - 1) as f32
+}
+
 /// Entry `i` of the SplitMix64 stream that starts from state 0.
 pub(crate) fn splitmix(i: u64) -> u64 {
     mix64(i.wrapping_add(1).wrapping_mul(GOLDEN_GAMMA))

@@ -16,7 +16,7 @@
 //! SI units throughout (m, s, kg, N). Plain slices in, plain slices out; nothing here allocates and
 //! nothing holds state.
 
-use crate::hash::{GOLDEN_GAMMA, mix64};
+use crate::hash::{GOLDEN_GAMMA, mix64, unit_interval};
 use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -405,12 +405,6 @@ fn lattice_value(seed: u64, i: i64) -> f32 {
 #[inline]
 fn channel_seed(seed: u64, channel: u64) -> u64 {
     mix64(seed ^ mix64(channel.wrapping_add(1).wrapping_mul(GOLDEN_GAMMA)))
-}
-
-/// The top 24 bits of `h` as a number in `[0, 1]` (both ends included, exactly).
-#[inline]
-fn unit_interval(h: u64) -> f32 {
-    (h >> 40) as f32 / ((1u32 << 24) - 1) as f32
 }
 
 #[cfg(test)]

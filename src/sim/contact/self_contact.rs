@@ -183,8 +183,6 @@ pub(crate) struct SelfContacts {
     reach_cap: f32,
     /// Whether the candidates must be found again before the next resolution.
     stale: bool,
-    /// Whether the last search filled a list to its cap.
-    full: bool,
     /// Broad phases run so far.
     searches: u64,
     /// How much closer particles in cubes of `regions` that are not neighbours may come before a
@@ -301,6 +299,17 @@ impl SelfContacts {
     /// Number of broad phases run so far.
     pub fn searches(&self) -> u64 {
         self.searches
+    }
+
+    /// The most candidates a search lists of each kind.
+    fn cap(&self) -> usize {
+        MAX_CANDIDATES_PER_TRIANGLE * self.tris.len()
+    }
+
+    /// Whether the last search filled a list to its cap.
+    fn full(&self) -> bool {
+        let cap = self.cap();
+        self.vt.len() >= cap || self.ee.len() >= cap
     }
 
     /// The layers' spacing and friction.
@@ -446,7 +455,7 @@ impl SelfContacts {
             // A full list holds an arbitrary share of the close pairs (a cloth crushed into a
             // ball): searching again within the step would only pick another share, at the
             // cost of a search per substep. The next step's first substep searches.
-            if self.full && !new_step {
+            if self.full() && !new_step {
                 self.watch.valid = false;
                 return closing.mean;
             }
@@ -475,7 +484,7 @@ impl SelfContacts {
             }
         }
         let positions = std::mem::take(&mut self.found_at);
-        let cap = MAX_CANDIDATES_PER_TRIANGLE * self.tris.len();
+        let cap = self.cap();
         self.searches += 1;
         let cull = self.cull_angle();
         self.find_candidates(
@@ -484,7 +493,6 @@ impl SelfContacts {
             cap,
             Some(cull),
         );
-        self.full = self.vt.len() >= cap || self.ee.len() >= cap;
         self.regions.assign(&positions, &self.slot);
         let longest = self
             .edges
@@ -1820,6 +1828,7 @@ fn bucket(c: [i32; 3], mask: u32) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hash::{mix64, unit_interval};
     use crate::sim::contact::Vectors;
     use crate::sim::{ClothModel, GridSpec};
 
@@ -2463,10 +2472,7 @@ mod tests {
     fn crushed(n: usize, across: f32, seed: u64) -> Vec<Vec3> {
         (0..n)
             .map(|i| {
-                let h = |k: u64| {
-                    let bits = crate::hash::mix64((i as u64 * 3 + k) ^ (seed << 32)) >> 40;
-                    bits as f32 / (1u64 << 24) as f32
-                };
+                let h = |k: u64| unit_interval(mix64((i as u64 * 3 + k) ^ (seed << 32)));
                 across * (Vec3::new(h(0), h(1), h(2)) - 0.5)
             })
             .collect()
@@ -2529,7 +2535,7 @@ mod tests {
                     touches: None,
                 };
                 c.resolve(1.0 / 1200.0, &mut state);
-                assert!(c.full, "the crushed ball fills a list");
+                assert!(c.full(), "the crushed ball fills a list");
             }
             assert_eq!(c.searches(), step, "one search in step {step}");
         }
