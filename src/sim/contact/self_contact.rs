@@ -131,6 +131,8 @@ pub(crate) struct SelfContacts {
     /// `patch_edges`' order (scratch of the search through patch pairs).
     triangle_boxes: Vec<(Vec3, Vec3)>,
     edge_boxes: Vec<(Vec3, Vec3)>,
+    /// Per patch: whether its boxes are in `triangle_boxes` and `edge_boxes` (scratch).
+    boxed: Vec<bool>,
     /// Whether some vertex is in no triangle (then every search goes through the hash).
     loose: bool,
     /// The shortest altitude of a triangle at rest, m.
@@ -499,7 +501,10 @@ impl SelfContacts {
             .iter()
             .map(|&[a, b]| positions[a as usize].distance(positions[b as usize]))
             .fold(0.0, max_or_infinite);
-        self.far_limit = self.regions.size - longest - self.thickness;
+        // Two elements' particles lie within a side of their closest points each: two particles
+        // that were not in neighbouring cubes (at least the cubes' size apart) belong to
+        // elements that were at least that less two sides apart.
+        self.far_limit = self.regions.size - 2.0 * longest - self.thickness;
         self.found.clear();
         self.found.resize(n, Vec3::ZERO);
         for (&s, x) in self.slot.iter().zip(&positions) {
@@ -691,20 +696,35 @@ impl SelfContacts {
     /// when few patches take part.
     fn pair_patches(&mut self, x: &[Vec3], margin: f32, cap: usize) {
         let grow = Vec3::splat(margin);
-        // The boxes patch by patch, so that a pair's inner loop reads them in order.
-        self.triangle_boxes.clear();
-        self.triangle_boxes.extend(
-            self.patch_triangles
-                .items
-                .iter()
-                .map(|&t| self.hash.boxes[t as usize]),
-        );
-        self.edge_boxes.clear();
-        self.edge_boxes
-            .extend(self.patch_edges.items.iter().map(|&e| {
+        // The boxes patch by patch, so that a pair's inner loop reads them in order; only those
+        // of the patches in a pair (a hanging cloth's search has few), the others left as they
+        // were.
+        let unset = (Vec3::NAN, Vec3::NAN);
+        self.triangle_boxes
+            .resize(self.patch_triangles.items.len(), unset);
+        self.edge_boxes.resize(self.patch_edges.items.len(), unset);
+        self.boxed.clear();
+        self.boxed.resize(self.patches.len(), false);
+        for &p in self.patches.pairs().iter().flat_map(|(a, b)| [a, b]) {
+            if std::mem::replace(&mut self.boxed[p as usize], true) {
+                continue;
+            }
+            let range = self.patch_triangles.range(p);
+            for (out, &t) in self.triangle_boxes[range.clone()]
+                .iter_mut()
+                .zip(&self.patch_triangles.items[range])
+            {
+                *out = self.hash.boxes[t as usize];
+            }
+            let range = self.patch_edges.range(p);
+            for (out, &e) in self.edge_boxes[range.clone()]
+                .iter_mut()
+                .zip(&self.patch_edges.items[range])
+            {
                 let [a, b] = self.edges[e as usize].map(|i| x[i as usize]);
-                (a.min(b), a.max(b))
-            }));
+                *out = (a.min(b), a.max(b));
+            }
+        }
         // Once a kind's list is full, nothing more of it is looked at (a cloth crushed into a
         // ball has every pair of patches in the search).
         'vt: for &(a, b) in self.patches.pairs() {
@@ -2086,6 +2106,58 @@ mod tests {
             searches > 2 && skipped > 150,
             "{searches} searches, {skipped} skipped"
         );
+    }
+
+    #[test]
+    fn the_far_limit_holds_for_elements_with_particles_in_cubes_not_neighbouring() {
+        // Two triangles whose long edges (4 cm; the shortest edge 1 cm, so the cubes are about
+        // 5 cm) run parallel 5 mm apart, overlapping by 2 mm: the first edge's far end and the
+        // second's lie in cubes two apart. Any two particles may come closer by the far limit
+        // before the cubes' check asks for a search, so every pair of elements with such
+        // particles must be farther apart than that plus the thickness.
+        let x = vec![
+            Vec3::new(0.05, 0.0, 0.0),
+            Vec3::new(0.09, 0.0, 0.0),
+            Vec3::new(0.05, 0.0, -0.01),
+            Vec3::new(0.088, 0.005, 0.0),
+            Vec3::new(0.128, 0.005, 0.0),
+            Vec3::new(0.128, 0.005, 0.01),
+        ];
+        let thickness = 0.001;
+        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, thickness, 0.0);
+        let (mut moved, mut v, w) = (x.clone(), vec![Vec3::ZERO; 6], vec![1.0; 6]);
+        resolve(&mut c, &x, &mut moved, &mut v, &w);
+        assert_eq!(c.searches(), 1);
+        let of = &c.regions.of;
+        let apart = |p: usize, q: usize| {
+            let cell = |i: usize| cell_of(x[i], 1.0 / c.regions.size);
+            let (a, b) = (cell(p), cell(q));
+            (0..3).any(|k| (a[k] - b[k]).abs() > 1)
+        };
+        assert!(
+            apart(0, 4) && of[0] != of[4],
+            "the far ends are in cubes two apart"
+        );
+        let mut checked = 0;
+        for e in &c.edges {
+            for f in &c.edges {
+                let quad = [e[0], e[1], f[0], f[1]].map(|i| i as usize);
+                let far = (0..2).any(|i| (2..4).any(|j| apart(quad[i], quad[j])));
+                if quad[..2].iter().any(|i| quad[2..].contains(i)) || !far {
+                    continue;
+                }
+                let [a, b, p, q] = quad.map(|i| x[i]);
+                let (s, t) = closest_on_segments(a, b, p, q);
+                let gap = a.lerp(b, s).distance(p.lerp(q, t));
+                assert!(
+                    gap >= c.far_limit + thickness,
+                    "edges {e:?} and {f:?} are {gap} apart, the far limit {}",
+                    c.far_limit
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 0);
     }
 
     /// [`Vectors`] stored in another order: model particle `p` at `slot[p]`.

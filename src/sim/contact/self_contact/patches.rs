@@ -55,8 +55,9 @@ pub(super) struct Patches {
     axis: Vec<Vec3>,
     /// Per patch: the half-angle of its normal cone (π if it has no axis).
     angle: Vec<f32>,
-    /// Per patch: the lowest and highest of its vertices along its axis.
-    extent: Vec<(f32, f32)>,
+    /// Per patch: the lowest and highest of its vertices along its axis, once a test of
+    /// [`Self::apart`] has needed them in this update (most patches take none).
+    extent: Vec<Option<(f32, f32)>>,
     /// Per patch: whether its elements take part in the search.
     live: Vec<bool>,
     /// The widest normal cone (half-angle, radians) of patches not searched this time.
@@ -182,7 +183,7 @@ impl Patches {
             bounds: vec![(Vec3::ZERO, Vec3::ZERO); patches],
             axis: vec![Vec3::ZERO; patches],
             angle: vec![0.0; patches],
-            extent: vec![(0.0, 0.0); patches],
+            extent: vec![None; patches],
             live: vec![false; patches],
             flat: -1.0,
             order: (0..patches as u32).collect(),
@@ -286,7 +287,7 @@ impl Patches {
                     cos.clamp(-1.0, 1.0).acos()
                 }
             };
-            self.extent[p] = along(axis, members, tris, x);
+            self.extent[p] = None;
             self.live[p] = self.angle[p] > flat;
         }
         self.pairs.clear();
@@ -344,10 +345,18 @@ impl Patches {
 
     /// Whether patches `a` and `b` (of triangles `tris` at `x`) lie farther than `margin` apart
     /// along the axis of either.
-    fn apart(&self, a: usize, b: usize, mesh: (&[[u32; 3]], &[Vec3]), margin: f32) -> bool {
-        let beyond = |p: usize, q: usize| {
-            let (lo, hi) = self.extent[p];
-            let (qlo, qhi) = along(self.axis[p], self.members(q), mesh.0, mesh.1);
+    fn apart(&mut self, a: usize, b: usize, mesh: (&[[u32; 3]], &[Vec3]), margin: f32) -> bool {
+        let mut beyond = |p: usize, q: usize| {
+            let axis = self.axis[p];
+            let (lo, hi) = match self.extent[p] {
+                Some(e) => e,
+                None => {
+                    let e = along(axis, self.members(p), mesh.0, mesh.1);
+                    self.extent[p] = Some(e);
+                    e
+                }
+            };
+            let (qlo, qhi) = along(axis, self.members(q), mesh.0, mesh.1);
             // NaN compares false: not apart.
             qlo > hi + margin || qhi < lo - margin
         };
