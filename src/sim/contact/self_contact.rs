@@ -189,7 +189,8 @@ pub(crate) struct SelfContacts {
     searches: u64,
     /// How much closer particles in cubes of `regions` that are not neighbours may come before a
     /// search is due: they were at least the cubes' size apart, so the elements they belong to
-    /// were at least that less the longest edge apart.
+    /// were at least that less twice the longest edge apart (less one edge for a vertex and a
+    /// triangle).
     far_limit: f32,
     /// The particles' patches at the last broad phase, whose motion since tells when to search
     /// again.
