@@ -214,10 +214,13 @@ impl SelfContacts {
             .collect();
         let (mut keyed, mut edges, mut tri_edges) = (Vec::new(), Vec::new(), Vec::new());
         edge_table(&tris, &mut keyed, &mut edges, &mut tri_edges);
-        let shortest = edges
-            .iter()
-            .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
-            .fold(f32::INFINITY, f32::min);
+        let lengths = || {
+            edges
+                .iter()
+                .map(|&[a, b]| rest[a as usize].distance(rest[b as usize]))
+        };
+        let shortest = lengths().fold(f32::INFINITY, f32::min);
+        let longest = lengths().fold(0.0, f32::max);
         let cap = reach_cap(shortest, thickness);
         let patches = Patches::new(&tris, rest, &keyed);
         let mut edge_patch = vec![0; edges.len()];
@@ -258,8 +261,11 @@ impl SelfContacts {
             tri_edges,
             stale: true,
             reach_cap: cap,
+            // Eight margins of the widest search, and at least enough that the far limit (the
+            // size less two edges and the thickness) is an edge at rest: a mesh whose edges differ
+            // much in length (a disc's spokes and hem) would otherwise search every substep.
             regions: Regions {
-                size: 8.0 * (thickness + 2.0 * cap),
+                size: (8.0 * (thickness + 2.0 * cap)).max(3.0 * longest + thickness),
                 ..Regions::default()
             },
             ..Self::default()
@@ -2111,21 +2117,32 @@ mod tests {
 
     #[test]
     fn the_far_limit_holds_for_elements_with_particles_in_cubes_not_neighbouring() {
-        // Two triangles whose long edges (4 cm; the shortest edge 1 cm, so the cubes are about
-        // 5 cm) run parallel 5 mm apart, overlapping by 2 mm: the first edge's far end and the
-        // second's lie in cubes two apart. Any two particles may come closer by the far limit
-        // before the cubes' check asks for a search, so every pair of elements with such
-        // particles must be farther apart than that plus the thickness.
-        let x = vec![
-            Vec3::new(0.05, 0.0, 0.0),
-            Vec3::new(0.09, 0.0, 0.0),
-            Vec3::new(0.05, 0.0, -0.01),
-            Vec3::new(0.088, 0.005, 0.0),
-            Vec3::new(0.128, 0.005, 0.0),
-            Vec3::new(0.128, 0.005, 0.01),
-        ];
+        // Two triangles whose long edges (4 cm; the shortest edge 1 cm) lie along x, the second
+        // beyond the first and 5 mm above its line, so that the first edge's near end and the
+        // second's far end lie in cubes two apart while the edges' facing ends are a cube's size
+        // less two edges apart. Any two particles may come closer by the far limit before the
+        // cubes' check asks for a search, so every pair of elements with such particles must be
+        // farther apart than that plus the thickness.
+        let place = |size: f32| {
+            let a = Vec3::new(0.99 * size, 0.0, 0.0);
+            let c = a + Vec3::new(1.02 * size - 0.04, 0.005, 0.0);
+            vec![
+                a,
+                a + Vec3::new(0.04, 0.0, 0.0),
+                a + Vec3::new(0.0, 0.0, -0.01),
+                c,
+                c + Vec3::new(0.04, 0.0, 0.0),
+                c + Vec3::new(0.04, 0.0, 0.01),
+            ]
+        };
         let thickness = 0.001;
+        // The cubes' size depends on the edges' lengths only.
+        let size = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &place(0.1), thickness, 0.0)
+            .regions
+            .size;
+        let x = place(size);
         let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, thickness, 0.0);
+        assert!((c.regions.size - size).abs() < 1e-6);
         let (mut moved, mut v, w) = (x.clone(), vec![Vec3::ZERO; 6], vec![1.0; 6]);
         resolve(&mut c, &x, &mut moved, &mut v, &w);
         assert_eq!(c.searches(), 1);
@@ -2137,7 +2154,7 @@ mod tests {
         };
         assert!(
             apart(0, 4) && of[0] != of[4],
-            "the far ends are in cubes two apart"
+            "the ends are in cubes two apart"
         );
         let mut checked = 0;
         for e in &c.edges {
@@ -2159,6 +2176,24 @@ mod tests {
             }
         }
         assert!(checked > 0);
+    }
+
+    #[test]
+    fn a_mesh_of_uneven_edges_at_rest_searches_once() {
+        // An eight-sector disc: its hem edges are 0.39 of its spokes and its longest edges (the
+        // quads' diagonals) 2.7 times its shortest, so cubes sized by the shortest edge alone
+        // would leave no far limit, and every substep would search again.
+        use crate::sim::DiscSpec;
+        let disc = ClothModel::disc(&DiscSpec::new(8, 12, 0.5)).unwrap();
+        let x = disc.rest_positions.clone();
+        let mut c = SelfContacts::new(&disc.triangles, &x, 0.005, 0.0);
+        let w = vec![1.0; x.len()];
+        for _ in 0..10 {
+            let (mut moved, mut v) = (x.clone(), vec![Vec3::ZERO; x.len()]);
+            resolve(&mut c, &x, &mut moved, &mut v, &w);
+        }
+        assert!(c.far_limit > 0.0, "{}", c.far_limit);
+        assert_eq!(c.searches(), 1);
     }
 
     /// [`Vectors`] stored in another order: model particle `p` at `slot[p]`.
