@@ -124,6 +124,10 @@ pub struct SelfContactStats {
     /// changed): none while the particles stay within the last one's reach (a cloth at rest),
     /// several within a step while the cloth's parts move fast relative to each other.
     pub searches: u64,
+    /// Substeps whose pairs were resolved since self-collision was turned on: every substep
+    /// while the cloth's parts move relative to each other, a few a step while it rests folded
+    /// or piled (its layers approach too slowly to need more).
+    pub resolutions: u64,
 }
 
 /// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),
@@ -650,6 +654,7 @@ impl ClothSim {
                     vertex_triangle,
                     edge_edge,
                     searches: s.searches(),
+                    resolutions: s.resolutions(),
                 }
             })
     }

@@ -478,7 +478,8 @@ fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
 /// and the contacts with other cloths (if near); the colliders once more if either moved
 /// anything, since pushing layers apart may push one into a collider: for the particles the
 /// self-contacts moved, or every particle if the cloth contacts moved any. Colliders come after
-/// the limits so that they have the last word.
+/// the limits so that they have the last word; the self-contacts then note where the substep
+/// ended (see [`SelfContacts::end_substep`]).
 /// Returns the colliders' work (see [`Contacts::resolve_state`]).
 fn resolve_all<S: ContactState>(
     (active, clearance, self_contacts, limits): (
@@ -496,16 +497,19 @@ fn resolve_all<S: ContactState>(
         limits.resolve(t, state);
     }
     let mut work = resolve(active, clearance, t, triangles, state);
-    let (layered, moved) = match self_contacts {
-        Some(s) => (s.resolve(t.2, state), s.moved()),
-        None => (false, &[][..]),
-    };
+    let mut self_contacts = self_contacts;
+    // A step's last substep ends at t = 1 exactly (`sub + 1 == n` substeps of `n`).
+    let last = t.1 >= 1.0;
+    let layered = (self_contacts.as_deref_mut()).is_some_and(|s| s.resolve((t.2, last), state));
     let apart = cloths.resolve(t, triangles, state);
     if apart {
         work += resolve(active, clearance, t, triangles, state);
-    } else if layered {
+    } else if layered && let Some(s) = self_contacts.as_deref() {
         // Only the particles the layers moved can have been pushed into a collider.
-        work += resolve_among(active, clearance, t, triangles, state, Some(moved));
+        work += resolve_among(active, clearance, t, triangles, state, Some(s.moved()));
+    }
+    if let Some(s) = self_contacts {
+        s.end_substep(state);
     }
     work
 }

@@ -19,29 +19,33 @@
 //!    searches again, within a step if need be. A cloth at rest searches once, and while its
 //!    particles stay within the slack the last check left, it is not checked either: one vector
 //!    pass over the particles (`Watch`) shows they did.
-//! 3. **Narrow phase and response, every substep**, on whatever layout the stepper keeps its
-//!    particles in ([`ContactState`]): for each candidate whose distance at the broad phase, less
-//!    how far its particles have since moved relative to the cloth, may have fallen to the
-//!    thickness (a pile's candidates mostly have not; they are ordered by that distance, so the
-//!    pass stops where none further can have, see [`Bands`]), and that a quick test does not
-//!    find clear, the signed distance at the end of the substep along the pair's normal (the
-//!    triangle's, for a vertex over a triangle's interior; the line between the closest points,
-//!    for two edges), with its sign taken from the start of the substep. A pair closer than the
-//!    thickness (two edges: [`EDGES_APART`] of it), or on the other side of each other than at
-//!    the start (it passed through within the substep), is pushed apart to that distance on its
-//!    starting side, each particle moved in proportion to its inverse mass and its weight in the
-//!    pair (momentum is kept). Then the relative velocity's approaching normal part is removed
-//!    and Coulomb friction acts on its tangential part, bounded by `friction` times the normal
-//!    change (the velocity removed plus the push-out over the substep). Passes repeat
+//! 3. **Narrow phase and response, at every substep where the layers may have come closer** (at the
+//!    step's last substep always; at others only once any two particles can have come [`DEFER`] of
+//!    the thickness closer since the last one, so a resting fold or pile is resolved every few
+//!    substeps, see `Settled`), on whatever layout the stepper keeps its particles in
+//!    ([`ContactState`]): for each candidate whose distance at the broad phase, less how far its
+//!    particles have since moved relative to the cloth, may have fallen to the thickness (a pile's
+//!    candidates mostly have not; they are ordered by that distance, so the pass stops where none
+//!    further can have, see [`Bands`]), and that a quick test does not find clear, the signed
+//!    distance at the end of the substep along the pair's normal (the triangle's, for a vertex over
+//!    a triangle's interior; the line between the closest points, for two edges), with its sign
+//!    taken from the start of the substep. A pair closer than the thickness (two edges:
+//!    [`EDGES_APART`] of it), or on the other side of each other than at the start (it passed
+//!    through within the substep), is pushed apart to that distance on its starting side, each
+//!    particle moved in proportion to its inverse mass and its weight in the pair (momentum is
+//!    kept). Then the relative velocity's approaching normal part is removed and Coulomb friction
+//!    acts on its tangential part, bounded by `friction` times the normal change (the velocity
+//!    removed plus the push-out over the time since the last resolution). Passes repeat
 //!    (Gauss-Seidel) over the pairs that acted in the first until none is pushed by more than
 //!    [`SETTLED`] of its kept distance, at most [`PASSES`] times in all.
 //!
 //! Deciding the side from the start of each substep is what keeps a pile from passing through
-//! itself: a proximity test alone pushes a particle that has already crossed further through.
-//! Not covered: two elements that pass through each other and beyond within a single substep
-//! (faster than the thickness per substep relative to each other; that needs a continuous
-//! test), and more candidate pairs than the cap (a cloth crushed into a ball: the search stops
-//! when a list is full, and is not run again until the next step).
+//! itself: a proximity test alone pushes a particle that has already crossed further through. A
+//! deferred resolution keeps that sound: no pair can cross while it closes by less than its kept
+//! distance, and deferring stops at a share of it. Not covered: two elements that pass through each
+//! other and beyond within a single substep (faster than the thickness per substep relative to each
+//! other; that needs a continuous test), and more candidate pairs than the cap (a cloth crushed
+//! into a ball: the search stops when a list is full, and is not run again until the next step).
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -84,6 +88,13 @@ pub(super) fn later_passes(acting: &[u32], mut pair: impl FnMut(usize) -> f32) {
 /// are mostly not tested, while edges that come closer (where no vertex is over a triangle) are
 /// still kept from passing through each other.
 pub(super) const EDGES_APART: f32 = 0.9;
+
+/// How much closer than at their last resolution, as a share of the thickness, any two of the
+/// cloth's particles may have come before its pairs are resolved again (see [`Settled`]): a
+/// resting fold or pile, whose layers approach each other by micrometres a substep, is resolved
+/// every few substeps instead of every one, and no layer sinks more than this into another
+/// meanwhile. Far below what a crossing needs (a pair closing by its whole kept distance).
+pub(super) const DEFER: f32 = 0.25;
 
 /// At most this many candidate pairs per triangle of the cloth (of each kind): a cloth crushed
 /// into a ball smaller than the margin would otherwise have every pair of its elements as a
@@ -187,6 +198,8 @@ pub(crate) struct SelfContacts {
     stale: bool,
     /// Broad phases run so far.
     searches: u64,
+    /// Substeps whose pairs were resolved so far (the others deferred theirs).
+    resolutions: u64,
     /// How much closer particles in cubes of `regions` that are not neighbours may come before a
     /// search is due: they were at least the cubes' size apart, so the elements they belong to
     /// were at least that less twice the longest edge apart (less one edge for a vertex and a
@@ -197,6 +210,8 @@ pub(crate) struct SelfContacts {
     regions: Regions,
     /// Where the particles were at the last check of `regions`, which lets substeps skip it.
     watch: Watch,
+    /// Where the particles were at the last resolution, which lets substeps defer the next.
+    settled: Settled,
     /// The candidates that acted in a substep's first pass (scratch).
     acting: Vec<u32>,
     /// Whether the next resolution is a step's first (whose stepper may store the particles in
@@ -310,6 +325,11 @@ impl SelfContacts {
         self.searches
     }
 
+    /// Number of substeps whose pairs were resolved so far (see [`DEFER`]).
+    pub fn resolutions(&self) -> u64 {
+        self.resolutions
+    }
+
     /// The most candidates a search lists of each kind.
     fn cap(&self) -> usize {
         MAX_CANDIDATES_PER_TRIANGLE * self.tris.len()
@@ -341,15 +361,52 @@ impl SelfContacts {
             self.reach_cap
         };
         self.new_step = true;
+        self.settled.order_checked = false;
     }
 
-    /// The narrow phase and response at the end of a substep of length `h` (see the module docs).
+    /// The narrow phase and response at the end of a substep of length `h` (see the module docs),
+    /// or nothing while no two particles can have come [`DEFER`] of the thickness closer since
+    /// the last resolution, unless the substep is the step's `last` (every step ends resolved).
     /// Returns whether any particle moved.
-    pub fn resolve<S: ContactState>(&mut self, h: f32, state: &mut S) -> bool {
+    pub fn resolve<S: ContactState>(&mut self, (h, last): (f32, bool), state: &mut S) -> bool {
         self.moved.clear();
         if self.tris.is_empty() {
             return false;
         }
+        if self.new_step && !self.settled.order_checked && self.settled.valid {
+            // A stepper may store the particles in another order from one step to the next.
+            self.settled.order_checked = true;
+            if self.slot.len() != state.len()
+                || (0..state.len()).any(|p| state.slot(p as u32) != self.slot[p] as usize)
+            {
+                self.settled.forget();
+            }
+        }
+        let deferred = self.settled.deferred;
+        if !last && self.settled.holds(state, DEFER * self.thickness) {
+            self.regions.skip();
+            return false;
+        }
+        self.resolutions += 1;
+        let any = self.resolve_now(h * (deferred + 1) as f32, state);
+        // A cloth with no candidates (hanging, or flat) has nothing to defer.
+        self.settled.forget();
+        self.settled.due = !(self.vt.is_empty() && self.ee.is_empty());
+        any
+    }
+
+    /// Ends a substep's contacts: after a resolution, once the colliders have had their last
+    /// word, keeps the positions that the next substeps' motion is measured from (taken before
+    /// the colliders, a layer pushed into the floor and back would count as motion).
+    pub fn end_substep<S: ContactState>(&mut self, state: &S) {
+        if std::mem::take(&mut self.settled.due) {
+            self.settled.take(state);
+        }
+    }
+
+    /// [`Self::resolve`] at this substep of length `h`: every candidate that may have come within
+    /// its kept distance.
+    fn resolve_now<S: ContactState>(&mut self, h: f32, state: &mut S) -> bool {
         let mean = self.refresh_candidates(state);
         if self.vt.is_empty() && self.ee.is_empty() {
             return false;
@@ -1192,6 +1249,62 @@ impl Watch {
     }
 }
 
+/// Where the particles were when the pairs were last resolved (each then at least its kept
+/// distance apart, or being pushed there), and the substeps deferred since. Two particles'
+/// displacements since then differ by at most twice the largest distance of one from any common
+/// vector, and no pair can have crossed or come more than that closer; while that stays within
+/// [`DEFER`] of the thickness, the substep's resolution is deferred, for one vector pass over the
+/// particles.
+#[derive(Debug, Clone, Default)]
+struct Settled {
+    /// Each stored particle's position at the last resolution.
+    at: Soa,
+    /// The common displacement since then expected at the next substep.
+    guess: Vec3,
+    /// Whether `at` holds the last resolution's positions in the state's current order.
+    valid: bool,
+    /// Whether this step's storage order has been compared with the last one's.
+    order_checked: bool,
+    /// Substeps deferred since the last resolution.
+    deferred: u32,
+    /// Whether this substep resolved the pairs and its end is to be taken.
+    due: bool,
+}
+
+impl Settled {
+    /// Keeps `state`'s positions after a resolution.
+    fn take<S: ContactState>(&mut self, state: &S) {
+        state.ends(&mut self.at);
+        self.guess = Vec3::ZERO;
+        self.valid = true;
+        self.deferred = 0;
+    }
+
+    /// No resolution to defer from.
+    fn forget(&mut self) {
+        self.valid = false;
+        self.deferred = 0;
+    }
+
+    /// Whether no two particles of `state` can have come more than `slack` closer since the last
+    /// resolution (then the substep is counted as deferred).
+    fn holds<S: ContactState>(&mut self, state: &S, slack: f32) -> bool {
+        let n = state.len();
+        if !self.valid || self.at.len() != n || n == 0 {
+            return false;
+        }
+        let since = state.since(&self.at, self.guess);
+        // The next substep is expected to move like this one.
+        self.guess = (since.moved + since.step) / n as f32;
+        // False for NaN (`worst` is infinite then).
+        let holds = 2.0 * since.worst.sqrt() <= slack;
+        if holds {
+            self.deferred += 1;
+        }
+        holds
+    }
+}
+
 /// The particles grouped into cubes of side `size` by where they were at the last broad phase.
 /// Two particles that were closer than `size` then lie in the same or neighbouring cubes, and the
 /// displacements since then, compared cube by cube, bound how much closer any two elements can
@@ -1887,7 +2000,8 @@ mod tests {
             inv_mass: w,
             touches: None,
         };
-        contacts.resolve(1.0 / 1200.0, &mut state);
+        contacts.resolve((1.0 / 1200.0, true), &mut state);
+        contacts.end_substep(&state);
     }
 
     /// `Regions::closing` for particles found at `found` and now at `x` (started at `found`).
@@ -2008,6 +2122,79 @@ mod tests {
         end[3].y = -dip;
         let contacts = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
         (contacts, start, end)
+    }
+
+    /// A square sheet of `n` × `n` particles 0.1 m apart from `corner` in the xz-plane, its
+    /// triangles numbering the particles from `first`.
+    fn sheet(n: u32, corner: Vec3, first: u32) -> (Vec<Vec3>, Vec<u32>) {
+        let x = (0..n * n)
+            .map(|k| corner + 0.1 * Vec3::new((k % n) as f32, 0.0, (k / n) as f32))
+            .collect();
+        let mut tris = Vec::new();
+        for (i, j) in (0..n - 1).flat_map(|j| (0..n - 1).map(move |i| (i, j))) {
+            let k = first + j * n + i;
+            tris.extend([k, k + 1, k + n, k + 1, k + n + 1, k + n]);
+        }
+        (x, tris)
+    }
+
+    #[test]
+    fn a_resting_layer_is_resolved_every_few_substeps_and_sinks_at_most_the_slack() {
+        // A free sheet lying the thickness above a fixed one, pulled down by gravity: between
+        // resolutions it falls, and each resolution puts it back.
+        let thickness = 0.005;
+        let (bottom, mut tris) = sheet(4, Vec3::ZERO, 0);
+        let (top, top_tris) = sheet(3, Vec3::new(0.05, 0.0, 0.05), 16);
+        tris.extend(top_tris);
+        let rest: Vec<Vec3> = bottom.iter().chain(&top).copied().collect();
+        let mut rest_apart = rest.clone();
+        rest_apart[16..].iter_mut().for_each(|p| p.y = 1.0);
+        let mut contacts = SelfContacts::new(&tris, &rest_apart, thickness, 0.0);
+        let mut x = rest.clone();
+        x[16..].iter_mut().for_each(|p| p.y = thickness);
+        let w: Vec<f32> = (0..x.len())
+            .map(|i| if i < 16 { 0.0 } else { 1.0 })
+            .collect();
+        let mut v = vec![Vec3::ZERO; x.len()];
+        // Three times gravity, as a crease's springs pull a layer down.
+        let (h, g) = (1.0 / 1200.0, Vec3::new(0.0, -30.0, 0.0));
+        let (frames, substeps) = (10, 20);
+        for _ in 0..frames {
+            contacts.begin_step(0.002);
+            for sub in 0..substeps {
+                let start = x.clone();
+                for (x, v) in x.iter_mut().zip(&mut v).skip(16) {
+                    *v += g * h;
+                    *x += *v * h;
+                }
+                let last = sub + 1 == substeps;
+                let mut state = Vectors {
+                    x: &mut x,
+                    v: &mut v,
+                    start: &start,
+                    inv_mass: &w,
+                    touches: None,
+                };
+                contacts.resolve((h, last), &mut state);
+                contacts.end_substep(&state);
+                let lowest = x[16..].iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+                assert!(
+                    lowest >= thickness * (1.0 - DEFER) - 1e-6,
+                    "sank to {lowest} m, past the slack"
+                );
+                if last {
+                    assert!(
+                        lowest >= thickness - 1e-6,
+                        "a step ended with the layer {lowest} m apart"
+                    );
+                }
+            }
+        }
+        let (resolved, all) = (contacts.resolutions(), frames * substeps);
+        assert!(
+            resolved > frames as u64 && 4 * resolved <= all as u64,
+            "{resolved} resolutions in {all} substeps"
+        );
     }
 
     #[test]
@@ -2281,7 +2468,7 @@ mod tests {
             },
             slot: vec![0, 1, 2, 4, 3, 5, 6],
         };
-        c.resolve(1.0 / 1200.0, &mut state);
+        c.resolve((1.0 / 1200.0, true), &mut state);
         // Back above the triangle by the thickness (its edges' pairs may lift it a little more).
         assert!(x[4].y > 0.005 - 1e-6, "particle 3 at {}", x[4]);
     }
@@ -2642,7 +2829,7 @@ mod tests {
                     inv_mass: &w,
                     touches: None,
                 };
-                c.resolve(1.0 / 1200.0, &mut state);
+                c.resolve((1.0 / 1200.0, true), &mut state);
                 assert!(c.full(), "the crushed ball fills a list");
             }
             assert_eq!(c.searches(), step, "one search in step {step}");
