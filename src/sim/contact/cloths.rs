@@ -21,18 +21,23 @@
 //!    plus twice a reach, found with spatial hashes. They hold every pair that can come within
 //!    the thickness while no particle on either side has moved farther than the reach, relative
 //!    to this cloth's mean motion, since they were found; past that they are found again, within
-//!    a step if need be. Cloths falling or swinging together keep their candidates.
-//! 3. **Narrow phase and response, every substep**: as for self-contacts (sides taken from the
-//!    start of the substep, pushes to the thickness, two edges a little less, the approaching
-//!    velocity removed, friction), on the candidates whose distance when found, less how far
-//!    their particles have moved since, may have closed to the thickness.
+//!    a step if need be. Cloths falling or swinging together keep their candidates, and so does a
+//!    cloth lying on another from step to step while the same cloths are copied in.
+//! 3. **Narrow phase and response, where the cloths may have come closer**: at the step's last
+//!    substep, and at others once a pair can have come [`DEFER`] of its kept distance closer
+//!    since the last resolution (this cloth's particles measured as for self-contacts, the
+//!    others' by how far they move along their paths), so a cloth resting on another is resolved
+//!    every few substeps. As for self-contacts (sides taken from the start of the substep, pushes
+//!    to the thickness, two edges a little less, the approaching velocity removed, friction), on
+//!    the candidates whose distance when found, less how far their particles have moved since,
+//!    may have closed to the thickness.
 
 use glam::Vec3;
 
 use super::narrow::ContactState;
 use super::self_contact::{
-    Bands, Gathered, Hash, Spacing, closest_on_segments, edge_table, four, later_passes,
-    max_or_infinite, point_triangle_distance, reorder,
+    Bands, DEFER, Gathered, Hash, Settled, Spacing, closest_on_segments, edge_table, four,
+    later_passes, max_or_infinite, point_triangle_distance, reorder,
 };
 use super::{Near, Vectors};
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
@@ -136,6 +141,19 @@ pub(crate) struct ClothContacts {
     found_other: Vec<Vec3>,
     /// Whether the candidates must be found again before the next resolution.
     stale: bool,
+    /// Whether the next resolution is a step's first (whose stepper may store this cloth's
+    /// particles in another order than the last step's).
+    new_step: bool,
+    /// The last step's copies of the others' positions at its end (scratch, to tell whether
+    /// this step's start is where they were).
+    last_end: Vec<Vec3>,
+    /// The farthest any copied particle moves over the step, m.
+    motion: f32,
+    /// When the pairs were last resolved in this step (a fraction of it; 0 at its start).
+    resolved_at: f32,
+    /// Where this cloth was then, which lets substeps defer the next resolution (see
+    /// [`Settled`]).
+    settled: Settled,
     /// Searches run so far.
     searches: u64,
     /// Spatial hashes of the others' triangles and of this cloth's.
@@ -168,12 +186,13 @@ impl ClothContacts {
         dt: f32,
     ) {
         self.start.clear();
+        std::mem::swap(&mut self.end, &mut self.last_end);
         self.end.clear();
         std::mem::swap(&mut self.tris, &mut self.last_tris);
         self.tris.clear();
         self.spacing.clear();
         self.owner.clear();
-        self.stale = true;
+        self.new_step = true;
         self.inv_dt = if dt > 0.0 { 1.0 / dt } else { 0.0 };
         let reach = if reach.is_finite() { reach } else { f32::MAX };
         for other in others {
@@ -204,7 +223,19 @@ impl ClothContacts {
                     .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
             );
         }
+        // A resolution can be deferred past the step's start only if the others start it where
+        // the last step's ended.
+        if self.tris != self.last_tris || self.start != self.last_end {
+            self.settled.forget();
+        }
+        self.resolved_at = 0.0;
+        self.motion = (self.start.iter().zip(&self.end))
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, max_or_infinite);
+        // Candidates found in an earlier step hold while the same cloths are copied in the same
+        // order (the joined indices they name are the same) and their particles stay within reach.
         if self.tris != self.last_tris {
+            self.stale = true;
             edge_table(
                 &self.tris,
                 &mut self.keyed,
@@ -232,8 +263,10 @@ impl ClothContacts {
     }
 
     /// The narrow phase and response at the end of the substep `[t0, t1]` (fractions of the
-    /// step) of length `h`, for a cloth of `triangles` whose particles are in `state`. Returns
-    /// whether any particle moved.
+    /// step) of length `h`, for a cloth of `triangles` whose particles are in `state`, or nothing
+    /// while no pair can have come [`DEFER`] of its kept distance closer since the last
+    /// resolution, unless the substep is the step's last (`t1 = 1`). Returns whether any particle
+    /// moved.
     pub fn resolve<S: ContactState>(
         &mut self,
         (t0, t1, h): (f32, f32, f32),
@@ -256,6 +289,32 @@ impl ClothContacts {
             );
         }
         let n = state.len();
+        // A stepper may store this cloth's particles in another order from one step to the next.
+        if std::mem::take(&mut self.new_step)
+            && (self.slot.len() != n
+                || (0..n).any(|p| state.slot(p as u32) != self.slot[p] as usize))
+        {
+            self.stale = true;
+            self.settled.forget();
+        }
+        // Between this cloth and a copied particle: this cloth's bound plus how far the copy
+        // moved since (along its straight path over the step).
+        let others = self.motion * (t1 - self.resolved_at);
+        let slack = DEFER
+            * self
+                .spacing
+                .iter()
+                .map(|s| s.thickness)
+                .fold(f32::MAX, f32::min);
+        if t1 < 1.0
+            && !self.stale
+            && (self.settled).holds(state, |r, c| r + c.length() + others <= slack)
+        {
+            return false;
+        }
+        let h = h * (self.settled.deferred + 1) as f32;
+        self.settled.forget();
+        self.resolved_at = t1;
         let mut drift = std::mem::take(&mut self.drift);
         let mut acting = std::mem::take(&mut self.acting);
         let within = !self.stale && self.measure_drift(state, (t0, t1), &mut drift) <= self.reach;
@@ -297,8 +356,17 @@ impl ClothContacts {
         self.gathered = gathered;
         self.local_drift = local;
         self.drift = drift;
+        self.settled.due = !self.prepared.is_empty();
         self.acting = acting;
         any
+    }
+
+    /// Ends a substep's contacts: after a resolution, once the colliders have had their last
+    /// word, keeps the positions that the next substeps' motion is measured from.
+    pub fn end_substep<S: ContactState>(&mut self, state: &S) {
+        if std::mem::take(&mut self.settled.due) {
+            self.settled.take(state);
+        }
     }
 
     /// Fills `drift` (by joined slot) with each particle's largest distance, at the start or the
@@ -665,7 +733,111 @@ mod tests {
             inv_mass: &inv_mass,
             touches: None,
         };
-        contacts.resolve(t, tris, &mut state)
+        let moved = contacts.resolve(t, tris, &mut state);
+        contacts.end_substep(&state);
+        moved
+    }
+
+    /// Ten steps of 20 substeps of the free 8×8 grid `x` (velocities `v`) pulled down at 30 m/s²
+    /// above a fixed copy of it at `other`, 5 mm thick; the copy moves by `jump` before step 5
+    /// (or, with `glide`, along a straight line during it). Calls `check(step, substep, lowest
+    /// height over the copy)` after each substep.
+    fn rest_on_a_copy(
+        other: Vec<Vec3>,
+        (jump, glide): (Vec3, bool),
+        x: &mut [Vec3],
+        mut check: impl FnMut(u32, u32, f32),
+    ) -> ClothContacts {
+        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let tris = &model.triangles;
+        let mut v = vec![Vec3::ZERO; x.len()];
+        let (h, g) = (1.0 / 1200.0, Vec3::new(0.0, -30.0, 0.0));
+        let mut contacts = ClothContacts::default();
+        let moved: Vec<Vec3> = other.iter().map(|p| *p + jump).collect();
+        for step in 0..10 {
+            let (start, end) = match step {
+                0..5 => (&other, &other),
+                5 if glide => (&other, &moved),
+                _ => (&moved, &moved),
+            };
+            let copy = OtherCloth {
+                triangles: tris,
+                start,
+                end,
+                thickness: 0.005,
+                friction: 0.0,
+            };
+            contacts.begin_step(&[copy], (0.005, 0.0), (bounds(x), 0.002), 0.03, 1.0 / 60.0);
+            for sub in 0..20 {
+                let start = x.to_vec();
+                for (x, v) in x.iter_mut().zip(&mut v) {
+                    *v += g * h;
+                    *x += *v * h;
+                }
+                let t = (sub as f32 / 20.0, (sub + 1) as f32 / 20.0, h);
+                resolve(&mut contacts, t, tris, &start, x, &mut v);
+                let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+                check(step, sub, lowest - copy.start[0].lerp(copy.end[0], t.1).y);
+            }
+        }
+        contacts
+    }
+
+    #[test]
+    fn a_cloth_resting_on_another_is_resolved_every_few_substeps_and_sinks_at_most_the_slack() {
+        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let other = model.rest_positions.clone();
+        let mut x: Vec<Vec3> = other.iter().map(|p| *p + Vec3::Y * 0.005).collect();
+        let mut deepest = f32::INFINITY;
+        let contacts = rest_on_a_copy(other, (Vec3::ZERO, false), &mut x, |_, sub, above| {
+            assert!(
+                above >= 0.005 * (1.0 - DEFER) - 1e-6,
+                "sank to {above} m, past the slack"
+            );
+            if sub == 19 {
+                assert!(above >= 0.005 - 1e-6, "a step ended {above} m apart");
+            }
+            deepest = deepest.min(above);
+        });
+        // It sank between resolutions: some were deferred.
+        assert!(deepest < 0.0045, "never deferred (deepest {deepest} m)");
+        assert_eq!(
+            contacts.searches(),
+            1,
+            "the candidates kept from step to step"
+        );
+    }
+
+    #[test]
+    fn a_cloth_that_moved_between_steps_is_resolved_at_once() {
+        // The other cloth jumps 4 mm up into the resting one between two steps.
+        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let other = model.rest_positions.clone();
+        let mut x: Vec<Vec3> = other.iter().map(|p| *p + Vec3::Y * 0.005).collect();
+        rest_on_a_copy(
+            other,
+            (Vec3::Y * 0.004, false),
+            &mut x,
+            |step, sub, above| {
+                if step == 5 && sub == 0 {
+                    assert!(above >= 0.005 - 1e-6, "{above} m apart after the jump");
+                }
+            },
+        );
+    }
+
+    #[test]
+    fn a_cloth_that_rises_into_a_resting_one_is_met_within_the_slack() {
+        // The other cloth rises 4 mm into the resting one over one step.
+        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
+        let other = model.rest_positions.clone();
+        let mut x: Vec<Vec3> = other.iter().map(|p| *p + Vec3::Y * 0.005).collect();
+        rest_on_a_copy(other, (Vec3::Y * 0.004, true), &mut x, |_, _, above| {
+            assert!(
+                above >= 0.005 * (1.0 - DEFER) - 1e-6,
+                "{above} m apart, past the slack"
+            );
+        });
     }
 
     #[test]

@@ -511,6 +511,7 @@ fn resolve_all<S: ContactState>(
     if let Some(s) = self_contacts {
         s.end_substep(state);
     }
+    cloths.end_substep(state);
     work
 }
 

@@ -383,7 +383,8 @@ impl SelfContacts {
             }
         }
         let deferred = self.settled.deferred;
-        if !last && self.settled.holds(state, DEFER * self.thickness) {
+        let slack = DEFER * self.thickness;
+        if !last && self.settled.holds(state, |r, _| 2.0 * r <= slack) {
             self.regions.skip();
             return false;
         }
@@ -1249,14 +1250,14 @@ impl Watch {
     }
 }
 
-/// Where the particles were when the pairs were last resolved (each then at least its kept
-/// distance apart, or being pushed there), and the substeps deferred since. Two particles'
-/// displacements since then differ by at most twice the largest distance of one from any common
-/// vector, and no pair can have crossed or come more than that closer; while that stays within
-/// [`DEFER`] of the thickness, the substep's resolution is deferred, for one vector pass over the
-/// particles.
+/// Where a cloth's particles were when its pairs were last resolved (each then at least its kept
+/// distance apart, or being pushed there), and the substeps deferred since: while no pair can have
+/// crossed or come more than [`DEFER`] of its kept distance closer since, a substep's resolution
+/// is deferred, for one vector pass over the particles. Every displacement since lies within a
+/// distance `r` of a common vector `c`, so two of the cloth's particles have come at most `2 r`
+/// closer, and one of them and a point that moved by `e` at most `r + |c| + e`.
 #[derive(Debug, Clone, Default)]
-struct Settled {
+pub(super) struct Settled {
     /// Each stored particle's position at the last resolution.
     at: Soa,
     /// The common displacement since then expected at the next substep.
@@ -1266,14 +1267,14 @@ struct Settled {
     /// Whether this step's storage order has been compared with the last one's.
     order_checked: bool,
     /// Substeps deferred since the last resolution.
-    deferred: u32,
+    pub deferred: u32,
     /// Whether this substep resolved the pairs and its end is to be taken.
-    due: bool,
+    pub due: bool,
 }
 
 impl Settled {
     /// Keeps `state`'s positions after a resolution.
-    fn take<S: ContactState>(&mut self, state: &S) {
+    pub fn take<S: ContactState>(&mut self, state: &S) {
         state.ends(&mut self.at);
         self.guess = Vec3::ZERO;
         self.valid = true;
@@ -1281,23 +1282,29 @@ impl Settled {
     }
 
     /// No resolution to defer from.
-    fn forget(&mut self) {
+    pub fn forget(&mut self) {
         self.valid = false;
         self.deferred = 0;
     }
 
-    /// Whether no two particles of `state` can have come more than `slack` closer since the last
-    /// resolution (then the substep is counted as deferred).
-    fn holds<S: ContactState>(&mut self, state: &S, slack: f32) -> bool {
+    /// Whether `within(r, c)` holds for the particles of `state` since the last resolution (see
+    /// the type's docs); then the substep is counted as deferred. False without a snapshot, or
+    /// if a displacement is not finite.
+    pub fn holds<S: ContactState>(
+        &mut self,
+        state: &S,
+        within: impl FnOnce(f32, Vec3) -> bool,
+    ) -> bool {
         let n = state.len();
         if !self.valid || self.at.len() != n || n == 0 {
             return false;
         }
-        let since = state.since(&self.at, self.guess);
+        let c = self.guess;
+        let since = state.since(&self.at, c);
         // The next substep is expected to move like this one.
         self.guess = (since.moved + since.step) / n as f32;
-        // False for NaN (`worst` is infinite then).
-        let holds = 2.0 * since.worst.sqrt() <= slack;
+        // `worst` is infinite for a displacement that is not finite.
+        let holds = since.worst.is_finite() && within(since.worst.sqrt(), c);
         if holds {
             self.deferred += 1;
         }
