@@ -37,7 +37,7 @@ use glam::Vec3;
 use super::narrow::ContactState;
 use super::self_contact::{
     Bands, DEFER, Gathered, Hash, Settled, Spacing, closest_on_segments, edge_table, four,
-    later_passes, max_or_infinite, point_triangle_distance, reorder,
+    later_passes, max_or_infinite, order_changed, point_triangle_distance, reorder,
 };
 use super::{Near, Vectors};
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
@@ -290,10 +290,7 @@ impl ClothContacts {
         }
         let n = state.len();
         // A stepper may store this cloth's particles in another order from one step to the next.
-        if std::mem::take(&mut self.new_step)
-            && (self.slot.len() != n
-                || (0..n).any(|p| state.slot(p as u32) != self.slot[p] as usize))
-        {
+        if std::mem::take(&mut self.new_step) && order_changed(state, &self.slot) {
             self.stale = true;
             self.settled.forget();
         }

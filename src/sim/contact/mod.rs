@@ -482,7 +482,7 @@ fn reachable(c: &Collider, (lo, hi): (Vec3, Vec3)) -> bool {
 /// ended (see [`SelfContacts::end_substep`]).
 /// Returns the colliders' work (see [`Contacts::resolve_state`]).
 fn resolve_all<S: ContactState>(
-    (active, clearance, self_contacts, limits): (
+    (active, clearance, mut self_contacts, limits): (
         &mut [ActiveCollider],
         &mut Vec<f32>,
         Option<&mut SelfContacts>,
@@ -497,7 +497,6 @@ fn resolve_all<S: ContactState>(
         limits.resolve(t, state);
     }
     let mut work = resolve(active, clearance, t, triangles, state);
-    let mut self_contacts = self_contacts;
     // A step's last substep ends at t = 1 exactly (`sub + 1 == n` substeps of `n`).
     let last = t.1 >= 1.0;
     let layered = (self_contacts.as_deref_mut()).is_some_and(|s| s.resolve((t.2, last), state));

@@ -373,12 +373,11 @@ impl SelfContacts {
         if self.tris.is_empty() {
             return false;
         }
-        if self.new_step && !self.settled.order_checked && self.settled.valid {
+        if self.new_step && !self.settled.order_checked {
             // A stepper may store the particles in another order from one step to the next.
             self.settled.order_checked = true;
-            if self.slot.len() != state.len()
-                || (0..state.len()).any(|p| state.slot(p as u32) != self.slot[p] as usize)
-            {
+            if order_changed(state, &self.slot) {
+                self.stale = true;
                 self.settled.forget();
             }
         }
@@ -500,13 +499,8 @@ impl SelfContacts {
     /// since then, at the start and at the end of the substep.
     fn refresh_candidates<S: ContactState>(&mut self, state: &S) -> (Vec3, Vec3) {
         let n = state.len();
+        // The order of the stored particles was checked at this step's first resolution.
         let new_step = std::mem::take(&mut self.new_step);
-        if new_step
-            && (self.slot.len() != n
-                || (0..n).any(|p| state.slot(p as u32) != self.slot[p] as usize))
-        {
-            self.stale = true;
-        }
         if !self.stale {
             if let Some(mean) = self.watch.unchanged(state) {
                 self.regions.skip();
@@ -1248,6 +1242,12 @@ impl Watch {
             None
         }
     }
+}
+
+/// Whether `state` stores the particles in another order than `slot` (where each was stored).
+pub(super) fn order_changed<S: ContactState>(state: &S, slot: &[u32]) -> bool {
+    slot.len() != state.len()
+        || (slot.iter().enumerate()).any(|(p, &s)| state.slot(p as u32) != s as usize)
 }
 
 /// Where a cloth's particles were when its pairs were last resolved (each then at least its kept
