@@ -665,6 +665,12 @@ impl ClothSim {
         self.contacts.cloths().searches()
     }
 
+    /// Number of substeps whose contacts with other cloths were resolved so far: every substep
+    /// while the cloths approach each other, a few a step while one rests on another.
+    pub fn cloth_contact_resolutions(&self) -> u64 {
+        self.contacts.cloths().resolutions()
+    }
+
     /// Number of colliders that passed the broad phase of the last step.
     pub fn active_colliders(&self) -> usize {
         self.contacts.active_count()

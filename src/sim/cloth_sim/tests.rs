@@ -336,3 +336,120 @@ fn implicit_euler_lets_a_held_contact_go_when_the_cloth_is_lifted() {
         "the neighbour stayed {height} m above the slope"
     );
 }
+
+/// A floor at y = 0 for the contact tests below.
+fn floor() -> crate::sim::Collider {
+    use crate::sim::{Collider, ColliderShape, Friction, Pose};
+    use bevy::math::primitives::InfinitePlane3d;
+    Collider::fixed(
+        ColliderShape::HalfSpace(InfinitePlane3d::new(Vec3::Y)),
+        Pose::from_translation(Vec3::ZERO),
+        Friction::default(),
+        0.005,
+    )
+}
+
+/// Self-collision on, 5 mm thick, never asleep.
+fn colliding() -> SolverSettings {
+    SolverSettings {
+        sleep_speed: 0.0,
+        self_collision: crate::sim::SelfCollision {
+            enabled: true,
+            thickness: 0.005,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn a_cloth_folded_on_a_floor_resolves_its_layers_at_a_few_substeps() {
+    // A 1 m cloth folded once over a 1 cm radius, lying on a floor.
+    let r = 0.01;
+    let fold = |p: Vec3| {
+        let u = p.x - 0.4;
+        let q = if u <= 0.0 {
+            Vec3::new(u, 0.0, p.z)
+        } else if u < std::f32::consts::PI * r {
+            Vec3::new(r * (u / r).sin(), r - r * (u / r).cos(), p.z)
+        } else {
+            Vec3::new(std::f32::consts::PI * r - u, 2.0 * r, p.z)
+        };
+        q + Vec3::Y * 0.006
+    };
+    let model = ClothModel::grid(&GridSpec::new(24, 24, 1.0 / 23.0)).unwrap();
+    let mut sim = ClothSim::new(model, colliding(), fold).unwrap();
+    let floor = floor();
+    let env = crate::sim::Environment {
+        colliders: std::slice::from_ref(&floor),
+        ..Default::default()
+    };
+    for _ in 0..120 {
+        sim.step_in(1.0 / 60.0, &env).unwrap();
+    }
+    let before = sim.self_contact_stats();
+    assert!(before.vertex_triangle > 0, "the layers have pairs");
+    for _ in 0..30 {
+        sim.step_in(1.0 / 60.0, &env).unwrap();
+    }
+    let resolved = sim.self_contact_stats().resolutions - before.resolutions;
+    assert!(
+        resolved <= 30 * 20 / 2,
+        "{resolved} of 600 substeps resolved"
+    );
+}
+
+#[test]
+fn a_cloth_lying_on_another_keeps_its_pairs_and_resolves_them_at_a_few_substeps() {
+    use crate::sim::{Environment, OtherCloth};
+    let settings = SolverSettings {
+        sleep_speed: 0.0,
+        ..Default::default()
+    };
+    let cloth = |height: f32| {
+        let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
+        ClothSim::new(model, settings, |p| p + Vec3::Y * height).unwrap()
+    };
+    let (mut below, mut above) = (cloth(0.006), cloth(0.03));
+    let floor = floor();
+    let triangles = below.model().triangles.clone();
+    // The plugin's order: the lower cloth steps among the upper one where it is, then the upper
+    // one among the lower one's motion over the step.
+    let frame = |below: &mut ClothSim, above: &mut ClothSim| {
+        let still = above.positions().to_vec();
+        let other = |start, end| OtherCloth {
+            triangles: &triangles,
+            start,
+            end,
+            thickness: 0.005,
+            friction: 0.3,
+        };
+        let env = |others| Environment {
+            colliders: std::slice::from_ref(&floor),
+            cloths: others,
+            ..Default::default()
+        };
+        let start = below.positions().to_vec();
+        let others = [other(&still, &still)];
+        below.step_in(1.0 / 60.0, &env(&others)).unwrap();
+        let others = [other(&start, below.positions())];
+        above.step_in(1.0 / 60.0, &env(&others)).unwrap();
+    };
+    for _ in 0..60 {
+        frame(&mut below, &mut above);
+    }
+    let (searches, resolutions) = (
+        above.cloth_contact_searches(),
+        above.cloth_contact_resolutions(),
+    );
+    for _ in 0..30 {
+        frame(&mut below, &mut above);
+    }
+    let searched = above.cloth_contact_searches() - searches;
+    let resolved = above.cloth_contact_resolutions() - resolutions;
+    assert!(searched <= 1, "{searched} searches in 30 steps at rest");
+    assert!(
+        resolved <= 30 * 20 / 2,
+        "{resolved} of 600 substeps resolved"
+    );
+}

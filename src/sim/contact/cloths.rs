@@ -156,6 +156,8 @@ pub(crate) struct ClothContacts {
     settled: Settled,
     /// Searches run so far.
     searches: u64,
+    /// Substeps whose pairs were resolved so far.
+    resolutions: u64,
     /// Spatial hashes of the others' triangles and of this cloth's.
     other_hash: Hash,
     own_hash: Hash,
@@ -262,6 +264,11 @@ impl ClothContacts {
         self.searches
     }
 
+    /// Substeps whose pairs were resolved so far (the others deferred theirs).
+    pub fn resolutions(&self) -> u64 {
+        self.resolutions
+    }
+
     /// The narrow phase and response at the end of the substep `[t0, t1]` (fractions of the
     /// step) of length `h`, for a cloth of `triangles` whose particles are in `state`, or nothing
     /// while no pair can have come [`DEFER`] of its kept distance closer since the last
@@ -309,6 +316,7 @@ impl ClothContacts {
         {
             return false;
         }
+        self.resolutions += 1;
         let h = h * (self.settled.deferred + 1) as f32;
         self.settled.forget();
         self.resolved_at = t1;
