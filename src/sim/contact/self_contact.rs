@@ -389,8 +389,8 @@ impl SelfContacts {
         }
         self.resolutions += 1;
         let any = self.resolve_now(h * (deferred + 1) as f32, state);
-        // A cloth with no candidates (hanging, or flat) has nothing to defer.
         self.settled.forget();
+        // A cloth with no candidates (hanging, or flat) has nothing to defer.
         self.settled.due = !(self.vt.is_empty() && self.ee.is_empty());
         any
     }
@@ -2000,6 +2000,18 @@ mod tests {
         w: &[f32],
     ) {
         contacts.begin_step(reach);
+        substep(contacts, (1.0 / 1200.0, true), start, (x, v), w);
+    }
+
+    /// One substep of `contacts` of length `h` (the step's `last` or not) for particles of
+    /// inverse masses `w` that moved from `start` to `x` (velocities `v`).
+    fn substep(
+        contacts: &mut SelfContacts,
+        (h, last): (f32, bool),
+        start: &[Vec3],
+        (x, v): (&mut [Vec3], &mut [Vec3]),
+        w: &[f32],
+    ) {
         let mut state = Vectors {
             x,
             v,
@@ -2007,7 +2019,7 @@ mod tests {
             inv_mass: w,
             touches: None,
         };
-        contacts.resolve((1.0 / 1200.0, true), &mut state);
+        contacts.resolve((h, last), &mut state);
         contacts.end_substep(&state);
     }
 
@@ -2131,29 +2143,20 @@ mod tests {
         (contacts, start, end)
     }
 
-    /// A square sheet of `n` × `n` particles 0.1 m apart from `corner` in the xz-plane, its
-    /// triangles numbering the particles from `first`.
-    fn sheet(n: u32, corner: Vec3, first: u32) -> (Vec<Vec3>, Vec<u32>) {
-        let x = (0..n * n)
-            .map(|k| corner + 0.1 * Vec3::new((k % n) as f32, 0.0, (k / n) as f32))
-            .collect();
-        let mut tris = Vec::new();
-        for (i, j) in (0..n - 1).flat_map(|j| (0..n - 1).map(move |i| (i, j))) {
-            let k = first + j * n + i;
-            tris.extend([k, k + 1, k + n, k + 1, k + n + 1, k + n]);
-        }
-        (x, tris)
-    }
-
     #[test]
     fn a_resting_layer_is_resolved_every_few_substeps_and_sinks_at_most_the_slack() {
         // A free sheet lying the thickness above a fixed one, pulled down by gravity: between
         // resolutions it falls, and each resolution puts it back.
+        // The top sheet's vertices lie over the centres of the bottom sheet's cells.
         let thickness = 0.005;
-        let (bottom, mut tris) = sheet(4, Vec3::ZERO, 0);
-        let (top, top_tris) = sheet(3, Vec3::new(0.05, 0.0, 0.05), 16);
-        tris.extend(top_tris);
-        let rest: Vec<Vec3> = bottom.iter().chain(&top).copied().collect();
+        let bottom = ClothModel::grid(&GridSpec::new(4, 4, 0.1)).unwrap();
+        let top = ClothModel::grid(&GridSpec::new(3, 3, 0.1)).unwrap();
+        let mut tris = bottom.triangles.clone();
+        tris.extend(top.triangles.iter().map(|&i| i + 16));
+        let rest: Vec<Vec3> = (bottom.rest_positions.iter())
+            .chain(&top.rest_positions)
+            .copied()
+            .collect();
         let mut rest_apart = rest.clone();
         rest_apart[16..].iter_mut().for_each(|p| p.y = 1.0);
         let mut contacts = SelfContacts::new(&tris, &rest_apart, thickness, 0.0);
@@ -2175,15 +2178,7 @@ mod tests {
                     *x += *v * h;
                 }
                 let last = sub + 1 == substeps;
-                let mut state = Vectors {
-                    x: &mut x,
-                    v: &mut v,
-                    start: &start,
-                    inv_mass: &w,
-                    touches: None,
-                };
-                contacts.resolve((h, last), &mut state);
-                contacts.end_substep(&state);
+                substep(&mut contacts, (h, last), &start, (&mut x, &mut v), &w);
                 let lowest = x[16..].iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
                 assert!(
                     lowest >= thickness * (1.0 - DEFER) - 1e-6,
@@ -2822,21 +2817,14 @@ mod tests {
         let w = vec![1.0; n];
         let mut x = crushed(n, 0.02, 0);
         let mut v = vec![Vec3::ZERO; n];
-        let mut substep = 0;
+        let mut count = 0;
         for step in 1..=3 {
             c.begin_step(0.001);
             for _ in 0..4 {
-                substep += 1;
+                count += 1;
                 let start = x.clone();
-                x = crushed(n, 0.02, substep);
-                let mut state = Vectors {
-                    x: &mut x,
-                    v: &mut v,
-                    start: &start,
-                    inv_mass: &w,
-                    touches: None,
-                };
-                c.resolve((1.0 / 1200.0, true), &mut state);
+                x = crushed(n, 0.02, count);
+                substep(&mut c, (1.0 / 1200.0, true), &start, (&mut x, &mut v), &w);
                 assert!(c.full(), "the crushed ball fills a list");
             }
             assert_eq!(c.searches(), step, "one search in step {step}");
