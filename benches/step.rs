@@ -23,8 +23,8 @@ use bevy_cloth::harness::character::{Cape, spawn_cape, torso_pose};
 use bevy_cloth::prelude::{Cloth, ClothConfig, ClothPins, ClothState};
 use bevy_cloth::sim::{
     Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridNormals,
-    GridPlane, GridSpec, Integrator, OtherCloth, Pose, ScopedThread, SelfCollision, SolverSettings,
-    Spread, Tethers, WindField, compute_normals,
+    GridPlane, GridSpec, Gusts, Integrator, OtherCloth, Pose, ScopedThread, SelfCollision,
+    SolverSettings, Spread, Tethers, WindField, compute_normals,
 };
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
@@ -159,7 +159,13 @@ fn environment(c: &mut Criterion) {
         air_density: 1.225,
         ..Default::default()
     };
-    let cases: [(&str, Environment); 5] = [
+    // The same wind gusting (the `Wind` resource's gusts at their defaults): sampled at every
+    // triangle once a step.
+    let gusty = WindField {
+        gusts: Some(Gusts::default()),
+        ..wind.clone()
+    };
+    let cases: [(&str, Environment); 6] = [
         ("nothing", Environment::default()),
         (
             "one_sphere",
@@ -179,6 +185,13 @@ fn environment(c: &mut Criterion) {
             "wind",
             Environment {
                 wind: Some(&wind),
+                ..Default::default()
+            },
+        ),
+        (
+            "gusty_wind",
+            Environment {
+                wind: Some(&gusty),
                 ..Default::default()
             },
         ),

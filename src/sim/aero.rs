@@ -13,8 +13,8 @@
 //! triangle's winding. The wind itself is sampled per triangle (e.g. at [`triangle_centroids`]),
 //! typically from [`Gusts::sample`].
 //!
-//! SI units throughout (m, s, kg, N). Plain slices in, plain slices out; nothing here allocates and
-//! nothing holds state.
+//! SI units throughout (m, s, kg, N). Plain slices in, plain slices out; nothing here allocates,
+//! and nothing holds state but [`GustSampler`]'s note of the noise cells it last used.
 
 use crate::hash::{GOLDEN_GAMMA, mix64, unit_interval};
 use bevy::reflect::Reflect;
@@ -326,37 +326,93 @@ impl Gusts {
     /// affected by the wobble.
     ///
     /// Returns exactly `base` when `strength` and `turbulence` are zero, and `base` unchanged for
-    /// calm air (`|base| < 1e-6` m/s, including exactly zero).
+    /// calm air (`|base| < 1e-6` m/s, including exactly zero). Many points at one time are
+    /// sampled faster, to the same values, through [`GustSampler`].
     pub fn sample(&self, base: Vec3, time: f32, position: Vec3) -> Vec3 {
+        GustSampler::new(self, base, time).sample(position)
+    }
+}
+
+/// [`Gusts::sample`] at many points for one mean wind and time: what does not depend on the point
+/// (the channels' seeds, the sines' phases, the directions across the wind) is worked out once,
+/// and each noise octave keeps the lattice cell it last blended, which neighbouring points mostly
+/// share. The values are those of [`Gusts::sample`], bit for bit.
+#[derive(Debug, Clone)]
+pub struct GustSampler {
+    gusts: Gusts,
+    base: Vec3,
+    speed: f32,
+    speed_sq: f32,
+    time: f32,
+    /// Two unit vectors across the mean wind.
+    across: (Vec3, Vec3),
+    /// Phases of the two sines of the speed fluctuation.
+    sine_phases: [f32; 2],
+    /// The noise of the speed and of the two wobble components.
+    channels: [Fractal; 3],
+}
+
+impl GustSampler {
+    /// Prepares `gusts` around the mean wind `base` (m/s) at `time` (s).
+    pub fn new(gusts: &Gusts, base: Vec3, time: f32) -> Self {
         let speed_sq = base.length_squared();
-        if speed_sq < MIN_SPEED_SQ {
+        let speed = speed_sq.sqrt();
+        // Calm air has no direction (and is returned as it is).
+        let across = if speed_sq < MIN_SPEED_SQ {
+            (Vec3::X, Vec3::Y)
+        } else {
+            (base / speed).any_orthonormal_pair()
+        };
+        let phases = channel_seed(gusts.seed, CHANNEL_SINE_PHASES);
+        let channel = |c| Fractal::new(channel_seed(gusts.seed, c));
+        Self {
+            gusts: *gusts,
+            base,
+            speed,
+            speed_sq,
+            time,
+            across,
+            sine_phases: [
+                TAU * unit_interval(phases),
+                TAU * unit_interval(mix64(phases)),
+            ],
+            channels: [
+                channel(CHANNEL_SPEED),
+                channel(CHANNEL_WOBBLE_1),
+                channel(CHANNEL_WOBBLE_2),
+            ],
+        }
+    }
+
+    /// The gusty wind velocity (m/s) at `position` (m): [`Gusts::sample`].
+    pub fn sample(&mut self, position: Vec3) -> Vec3 {
+        let (base, speed) = (self.base, self.speed);
+        if self.speed_sq < MIN_SPEED_SQ {
             return base;
         }
-        let speed = speed_sq.sqrt();
         // Frozen gusts: the air now at `position` crossed the plane through the origin
         // `position·b̂ / |base|` seconds ago, carrying the gust it had then.
-        let phase = (time - position.dot(base) / speed_sq) * self.frequency;
+        let phase = (self.time - position.dot(base) / self.speed_sq) * self.gusts.frequency;
 
-        let gain = 1.0 + self.strength * self.speed_fluctuation(phase);
+        let gain = 1.0 + self.gusts.strength * self.speed_fluctuation(phase);
 
-        let (e1, e2) = (base / speed).any_orthonormal_pair();
+        let (e1, e2) = self.across;
         let wobble_phase = WOBBLE_FREQUENCY * phase;
-        let w = fractal_noise(channel_seed(self.seed, CHANNEL_WOBBLE_1), wobble_phase) * e1
-            + fractal_noise(channel_seed(self.seed, CHANNEL_WOBBLE_2), wobble_phase) * e2;
+        let [_, wobble_1, wobble_2] = &mut self.channels;
+        let w = wobble_1.at(wobble_phase) * e1 + wobble_2.at(wobble_phase) * e2;
         // Tilting `base` by the perpendicular `turbulence |base| w` and restoring its length: a
         // rotation by `atan(turbulence |w|)`. With zero turbulence this is `base` bit for bit.
-        let tilted = (base + self.turbulence * speed * w)
-            / (1.0 + self.turbulence * self.turbulence * w.length_squared()).sqrt();
+        let turbulence = self.gusts.turbulence;
+        let tilted = (base + turbulence * speed * w)
+            / (1.0 + turbulence * turbulence * w.length_squared()).sqrt();
         gain * tilted
     }
 
     /// The speed fluctuation `g ∈ [−1, 1]` at a noise phase (time × frequency).
-    fn speed_fluctuation(&self, phase: f32) -> f32 {
-        let phases = channel_seed(self.seed, CHANNEL_SINE_PHASES);
-        let phase_1 = TAU * unit_interval(phases);
-        let phase_2 = TAU * unit_interval(mix64(phases));
+    fn speed_fluctuation(&mut self, phase: f32) -> f32 {
+        let [phase_1, phase_2] = self.sine_phases;
         let [w_noise, w_sine_1, w_sine_2] = SPEED_WEIGHTS;
-        let sum = w_noise * fractal_noise(channel_seed(self.seed, CHANNEL_SPEED), phase)
+        let sum = w_noise * self.channels[0].at(phase)
             + w_sine_1 * (TAU * SINE_FREQUENCIES[0] * phase + phase_1).sin()
             + w_sine_2 * (TAU * SINE_FREQUENCIES[1] * phase + phase_2).sin();
         (sum / (w_noise + w_sine_1 + w_sine_2)).clamp(-1.0, 1.0)
@@ -371,26 +427,90 @@ impl Gusts {
 /// uncorrelated beyond one unit. `t` should be finite and well below 2²³ in magnitude, where `f32`
 /// still resolves fractions of a unit.
 pub fn value_noise(seed: u64, t: f32) -> f32 {
-    let cell = t.floor();
-    let f = t - cell;
-    let i = cell as i64;
-    let a = lattice_value(seed, i);
-    let b = lattice_value(seed, i.wrapping_add(1));
+    let (cell, i) = floor(t);
+    blend(
+        (
+            lattice_value(seed, i),
+            lattice_value(seed, i.wrapping_add(1)),
+        ),
+        t - cell,
+    )
+}
+
+/// `t.floor()`, and as an integer (saturating; 0 for NaN), without the library call that `floor`
+/// is on x86-64 below SSE4.1.
+#[inline]
+fn floor(t: f32) -> (f32, i64) {
+    // From 2²³ up every `f32` is whole (and NaN and the infinities go the library's way).
+    if t.is_nan() || t.abs() >= 8_388_608.0 {
+        return (t.floor(), t as i64);
+    }
+    let i = t as i64;
+    // `as` truncates toward zero; below zero that is one above the floor unless `t` is whole.
+    let i = if (i as f32) > t { i - 1 } else { i };
+    // The sign, for -0.
+    ((i as f32).copysign(t), i)
+}
+
+/// [`value_noise`] between the lattice values `a` and `b` at the fraction `f` of the way.
+#[inline]
+fn blend((a, b): (f32, f32), f: f32) -> f32 {
     let fade = (f * f * f * (f * (f * 6.0 - 15.0) + 10.0)).min(1.0);
     (a + (b - a) * fade).clamp(-1.0, 1.0)
 }
 
-/// Three octaves of [`value_noise`] (relative rates 1, 2.03, 4.11; amplitudes 1, ½, ¼), normalised
-/// to `[−1, 1]`. The non-integer rates keep the octaves' lattices from lining up.
-fn fractal_noise(seed: u64, t: f32) -> f32 {
-    const OCTAVES: [(f32, f32); 3] = [(1.0, 1.0), (2.03, 0.5), (4.11, 0.25)];
-    let mut sum = 0.0;
-    let mut total = 0.0;
-    for (k, &(rate, amplitude)) in (0u64..).zip(&OCTAVES) {
-        sum += amplitude * value_noise(channel_seed(seed, k), rate * t);
-        total += amplitude;
+/// Relative rates and amplitudes of [`Fractal`]'s octaves.
+const OCTAVES: [(f32, f32); 3] = [(1.0, 1.0), (2.03, 0.5), (4.11, 0.25)];
+
+/// Three octaves of [`value_noise`] of one seed (relative rates 1, 2.03, 4.11; amplitudes 1, ½,
+/// ¼), normalised to `[−1, 1]`; the non-integer rates keep the octaves' lattices from lining up.
+/// Each octave keeps the lattice cell it last blended.
+#[derive(Debug, Clone)]
+struct Fractal {
+    octaves: [Octave; 3],
+}
+
+/// One of [`Fractal`]'s octaves.
+#[derive(Debug, Clone, Copy)]
+struct Octave {
+    seed: u64,
+    /// The cell last blended, with the lattice values at its two ends.
+    last: Option<(i64, f32, f32)>,
+}
+
+impl Fractal {
+    fn new(seed: u64) -> Self {
+        Self {
+            octaves: [0, 1, 2].map(|k| Octave {
+                seed: channel_seed(seed, k),
+                last: None,
+            }),
+        }
     }
-    (sum / total).clamp(-1.0, 1.0)
+
+    /// The noise at `t`.
+    fn at(&mut self, t: f32) -> f32 {
+        let mut sum = 0.0;
+        let mut total = 0.0;
+        for (Octave { seed, last }, &(rate, amplitude)) in self.octaves.iter_mut().zip(&OCTAVES) {
+            let t = rate * t;
+            let (cell, i) = floor(t);
+            let ends = match *last {
+                Some((j, a, b)) if j == i => (a, b),
+                _ => {
+                    let ends = (
+                        lattice_value(*seed, i),
+                        lattice_value(*seed, i.wrapping_add(1)),
+                    );
+                    *last = Some((i, ends.0, ends.1));
+                    ends
+                }
+            };
+            sum += amplitude * blend(ends, t - cell);
+            total += amplitude;
+        }
+        (sum / total).clamp(-1.0, 1.0)
+    }
 }
 
 /// The value in `[−1, 1]` at lattice point `i`: entry `i` of a SplitMix64 stream keyed by `seed`.
@@ -685,6 +805,47 @@ mod tests {
             let step = (value_noise(3, t + dt) - value_noise(3, t)).abs();
             assert!(step < 1e-3, "jump {step} at {t}");
         }
+    }
+
+    #[test]
+    fn floor_is_the_library_floor() {
+        let mut values = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999_999_8, -3.000_000_2];
+        values.extend((-3000..3000).map(|k| k as f32 * 0.377));
+        values.extend([8_388_607.5, -8_388_607.5, 8_388_608.0, -1e20, 1e20, 3e38]);
+        values.extend([f32::NAN, f32::INFINITY, f32::NEG_INFINITY]);
+        for t in values {
+            let (cell, i) = floor(t);
+            assert_eq!(cell.to_bits(), t.floor().to_bits(), "floor of {t}");
+            assert_eq!(i, t.floor() as i64, "floor of {t} as an integer");
+        }
+    }
+
+    #[test]
+    fn a_sampler_kept_for_many_points_gives_each_what_a_fresh_one_gives() {
+        let gusts = Gusts {
+            seed: 11,
+            strength: 0.6,
+            frequency: 2.0,
+            turbulence: 0.4,
+        };
+        let (base, time) = (Vec3::new(3.0, -1.0, 0.5), 4.0);
+        let mut kept = GustSampler::new(&gusts, base, time);
+        // Back and forth along the wind over several lattice cells of every octave, so that the
+        // cells each octave keeps are both reused and replaced.
+        let mut reused = 0;
+        let mut last = None;
+        for k in 0..1000 {
+            let p = base * ((k as f32 * 0.05).sin() * 0.4 + (k % 4) as f32 * 0.01);
+            let w = kept.sample(p);
+            assert_eq!(w, GustSampler::new(&gusts, base, time).sample(p), "at {p}");
+            let cell = kept.channels[0].octaves[0].last;
+            reused += usize::from(last == Some(cell));
+            last = Some(cell);
+        }
+        assert!(
+            reused > 500 && reused < 1000,
+            "the first octave kept its cell {reused} times"
+        );
     }
 
     #[test]

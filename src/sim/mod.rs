@@ -44,7 +44,7 @@ mod soa;
 mod state;
 pub mod wind;
 
-pub use aero::{AeroParams, Gusts};
+pub use aero::{AeroParams, GustSampler, Gusts};
 pub use cloth_sim::{AccuracyReport, ClothSim, Environment, SelfContactStats};
 pub use contact::{
     Collider, ColliderShape, Friction, OtherCloth, Pose, Reaction, Shape, Surface, Target,

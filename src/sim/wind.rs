@@ -10,7 +10,9 @@
 
 use glam::Vec3;
 
-use super::aero::{AeroParams, Gusts, add_aero_forces, add_aero_forces_in, triangle_centroids};
+use super::aero::{
+    AeroParams, GustSampler, Gusts, add_aero_forces, add_aero_forces_in, triangle_centroids,
+};
 use crate::error::{ClothError, finite_vec3, non_negative, unit_interval};
 
 /// A region of extra wind: inside `shape` (in the zone's frame, placed by `to_local`), `velocity` is
@@ -96,20 +98,36 @@ impl WindField {
 
     /// The wind velocity at world point `p`.
     pub fn sample(&self, p: Vec3) -> Vec3 {
-        let gust = |gusts: &Option<Gusts>, base: Vec3| match gusts {
-            Some(g) => g.sample(base, self.time, p),
+        let mut wind = [Vec3::ZERO];
+        self.sample_many(&[p], &mut wind);
+        wind[0]
+    }
+
+    /// The wind velocity at each of `points` into `out` (as many as both hold): [`Self::sample`]
+    /// at each, with each gusty field prepared once for all of them ([`GustSampler`]).
+    pub fn sample_many(&self, points: &[Vec3], out: &mut [Vec3]) {
+        let sampler = |gusts: &Option<Gusts>, base: Vec3| {
+            gusts.as_ref().map(|g| GustSampler::new(g, base, self.time))
+        };
+        let gust = |sampler: &mut Option<GustSampler>, base: Vec3, p: Vec3| match sampler {
+            Some(g) => g.sample(p),
             None => base,
         };
-        let mut wind = gust(&self.gusts, self.velocity);
+        let mut global = sampler(&self.gusts, self.velocity);
+        for (w, &p) in out.iter_mut().zip(points) {
+            *w = gust(&mut global, self.velocity, p);
+        }
         for zone in &self.zones {
-            let w = zone
-                .shape
-                .weight(zone.to_local.transform_point3(p), zone.falloff);
-            if w > 0.0 {
-                wind += gust(&zone.gusts, zone.velocity) * w;
+            let mut gusts = sampler(&zone.gusts, zone.velocity);
+            for (w, &p) in out.iter_mut().zip(points) {
+                let weight = zone
+                    .shape
+                    .weight(zone.to_local.transform_point3(p), zone.falloff);
+                if weight > 0.0 {
+                    *w += gust(&mut gusts, zone.velocity, p) * weight;
+                }
             }
         }
-        wind
     }
 
     /// Checks the density, the velocity, the gusts and the zones (shape, velocity, gusts, falloff
@@ -214,9 +232,7 @@ impl WindScratch {
             );
         } else {
             triangle_centroids(positions, triangles, &mut self.centroids);
-            for (w, c) in self.triangle_wind.iter_mut().zip(&self.centroids) {
-                *w = field.sample(*c);
-            }
+            field.sample_many(&self.centroids, &mut self.triangle_wind);
             add_aero_forces(
                 positions,
                 velocities,
@@ -289,6 +305,51 @@ impl WindScratch {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn many_points_sampled_at_once_get_what_each_gets_alone() {
+        let gusts = |seed| {
+            Some(Gusts {
+                seed,
+                strength: 0.5,
+                frequency: 3.0,
+                turbulence: 0.3,
+            })
+        };
+        let zone = |at: Vec3, gusts| PlacedWindZone {
+            shape: WindZoneShape::Sphere(1.5),
+            to_local: glam::Affine3A::from_translation(-at),
+            velocity: Vec3::new(0.0, 1.0, 4.0),
+            gusts,
+            falloff: 0.5,
+        };
+        let field = WindField {
+            velocity: Vec3::new(6.0, 0.0, -2.0),
+            gusts: gusts(7),
+            zones: vec![zone(Vec3::ZERO, gusts(8)), zone(Vec3::X, None)],
+            time: 2.5,
+            ..Default::default()
+        };
+        // Points back and forth along the wind across many of the noise's lattice cells, inside
+        // and outside the zones.
+        let points: Vec<Vec3> = (0..400)
+            .map(|k| {
+                let s = (k as f32 * 0.37).sin() * 3.0;
+                Vec3::new(s, (k % 7) as f32 * 0.2, (k % 3) as f32 * 0.5)
+            })
+            .collect();
+        let mut winds = vec![Vec3::ZERO; points.len()];
+        field.sample_many(&points, &mut winds);
+        let mut inside = 0;
+        for (p, w) in points.iter().zip(&winds) {
+            assert_eq!(*w, field.sample(*p), "at {p}");
+            inside += usize::from(p.length() < 1.5);
+        }
+        assert!(
+            inside > 50 && inside < 350,
+            "{inside} points in the first zone"
+        );
+    }
 
     #[test]
     fn zones_add_wind_inside_and_fade_at_the_edge() {
