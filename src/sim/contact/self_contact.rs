@@ -644,10 +644,12 @@ impl SelfContacts {
 
     /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
     /// right angle (beyond which a surface can fold onto itself) less the most a triangle can turn
-    /// while the candidates are kept (its vertices' relative displacements stay within twice
-    /// the reach, over its shortest altitude) and a tenth of a radian to spare.
+    /// while the candidates are kept, and a tenth of a radian to spare. Its vertices' relative
+    /// displacements stay within twice the reach, `d`; a vertex moved by `d` turns a triangle of
+    /// altitude `h` by at most `asin(d / h)` (the tangent from the opposite side to the ball the
+    /// vertex stays in), and at `d ≥ h` the triangle can fold flat.
     fn cull_angle(&self) -> f32 {
-        let turn = (2.0 * self.reach / self.altitude).atan();
+        let turn = (2.0 * self.reach / self.altitude).min(1.0).asin();
         // NaN (no triangles, or a degenerate one at rest) culls nothing.
         let flat = std::f32::consts::FRAC_PI_2 - turn - 0.1;
         if flat.is_nan() { -1.0 } else { flat }
@@ -2124,6 +2126,40 @@ mod tests {
         resolve(&mut c, &start, &mut x, &mut v, &vec![1.0; start.len()]);
         assert_eq!(c.candidate_count(), (0, 0));
         assert_eq!(x, start);
+    }
+
+    #[test]
+    fn a_culled_patch_cannot_fold_while_its_vertices_stay_within_the_reach() {
+        // A thin cloth, so that the reach is most of a triangle's altitude.
+        let grid = ClothModel::grid(&GridSpec::new(8, 8, 1.0 / 63.0)).unwrap();
+        let mut c = SelfContacts::new(&grid.triangles, &grid.rest_positions, 0.001, 0.0);
+        c.reach = c.reach_cap;
+        let flat = c.cull_angle();
+        assert!(flat > 0.0, "the thin cloth culls at {flat} rad");
+        // A triangle of the grid whose right-angle vertex moves by twice the reach relative to
+        // the other two, every way: its normal may not turn past the right angle that the
+        // culled patches' cones leave.
+        let e = 1.0 / 63.0;
+        let [a, b, apex] = [Vec3::new(e, 0.0, 0.0), Vec3::new(0.0, 0.0, e), Vec3::ZERO];
+        let normal = |p: Vec3| (b - a).cross(p - a).normalize();
+        let d = 2.0 * c.reach;
+        let mut most = 0.0f32;
+        for i in 0..=200 {
+            let polar = std::f32::consts::PI * i as f32 / 200.0;
+            for j in 0..40 {
+                let azimuth = std::f32::consts::TAU * j as f32 / 40.0;
+                let dir = Vec3::new(
+                    polar.sin() * azimuth.cos(),
+                    polar.cos(),
+                    polar.sin() * azimuth.sin(),
+                );
+                most = most.max(normal(apex).angle_between(normal(apex + d * dir)));
+            }
+        }
+        assert!(
+            flat + most < std::f32::consts::FRAC_PI_2,
+            "cones of {flat} rad culled, a triangle turned {most} rad"
+        );
     }
 
     /// Two triangles: a fixed one in y = 0 and a free one above it, whose first vertex dips to
