@@ -101,6 +101,9 @@ pub(super) const DEFER: f32 = 0.25;
 /// candidate. A pile of cloth needs far fewer.
 pub(super) const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
 
+/// [`SelfContacts::find_candidates`] without culling.
+const NO_CULL: Option<fn(f32) -> f32> = None;
+
 /// Bands of distance a search's candidates are ordered into (see [`Bands`]).
 const BANDS: usize = 32;
 
@@ -287,7 +290,7 @@ impl SelfContacts {
         };
         // The pairs within the thickness at rest are exactly the candidates of a broad phase on
         // the rest positions with no motion.
-        contacts.find_candidates(rest, thickness, usize::MAX, None);
+        contacts.find_candidates(rest, thickness, usize::MAX, NO_CULL);
         contacts.exempt_vt = contacts.vt.iter().map(|&(p, t)| pair_key(p, t)).collect();
         contacts.exempt_ee = contacts.ee.iter().map(|&(e, f)| pair_key(e, f)).collect();
         contacts.exempt_vt.sort_unstable();
@@ -547,12 +550,11 @@ impl SelfContacts {
         let positions = std::mem::take(&mut self.found_at);
         let cap = self.cap();
         self.searches += 1;
-        let cull = self.cull_angle();
         self.find_candidates(
             &positions,
             self.thickness + 2.0 * self.reach,
             cap,
-            Some(cull),
+            Some(self.cull()),
         );
         self.regions.assign(&positions, &self.slot);
         let longest = self
@@ -642,42 +644,44 @@ impl SelfContacts {
         self.order = order;
     }
 
-    /// The widest normal cone (half-angle, radians) of patches whose elements are not paired: a
-    /// right angle (beyond which a surface can fold onto itself) less the most a triangle can turn
-    /// while the candidates are kept, and a tenth of a radian to spare. Its vertices' relative
-    /// displacements stay within twice the reach, `d`; a vertex moved by `d` turns a triangle of
-    /// altitude `h` by at most `asin(d / h)` (the tangent from the opposite side to the ball the
-    /// vertex stays in), and at `d ≥ h` the triangle can fold flat.
-    fn cull_angle(&self) -> f32 {
-        let turn = (2.0 * self.reach / self.altitude).min(1.0).asin();
-        // NaN (no triangles, or a degenerate one at rest) culls nothing.
-        let flat = std::f32::consts::FRAC_PI_2 - turn - 0.1;
-        if flat.is_nan() { -1.0 } else { flat }
+    /// This search's cull: for a patch whose shortest triangle altitude is `h`, [`cull_angle`]
+    /// of `h` or the shortest at rest, whichever is less (a compressed patch's triangles are
+    /// thinner).
+    fn cull(&self) -> impl Fn(f32) -> f32 + use<> {
+        let (reach, rest) = (self.reach, self.altitude);
+        move |h| cull_angle(reach, rest.min(h))
     }
 
     /// The broad phase on `x` (by model particle): every vertex–triangle and edge–edge pair that
     /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind;
-    /// with `cull`, none between patches within that angle of one direction (see [`patches`]).
-    fn find_candidates(&mut self, x: &[Vec3], margin: f32, cap: usize, cull: Option<f32>) {
+    /// with `cull`, none between patches within one direction by the angle it gives for their
+    /// shortest triangle altitude at `x` (see [`patches`]).
+    fn find_candidates(
+        &mut self,
+        x: &[Vec3],
+        margin: f32,
+        cap: usize,
+        cull: Option<impl Fn(f32) -> f32>,
+    ) {
         self.vt.clear();
         self.ee.clear();
         self.gap.clear();
         let grow = Vec3::splat(margin);
         self.hash.triangle_boxes(&self.tris, x, grow);
+        let culls = cull.is_some();
         if let Some(flat) = cull {
             self.patches
                 .update(x, &self.tris, &self.hash.boxes, (flat, margin));
         }
-        if cull.is_some() && !self.loose {
+        if culls && !self.loose {
             if self.hash.finite() {
                 self.pair_patches(x, margin, cap);
             }
             return;
         }
         let patches = &self.patches;
-        let cull = cull.is_some();
-        let live = |patch: u32| !cull || patches.live(patch);
-        let culled = |a: u32, b: u32| cull && patches.culled(a, b);
+        let live = |patch: u32| !culls || patches.live(patch);
+        let culled = |a: u32, b: u32| culls && patches.culled(a, b);
         if !self.hash.build(|t| live(patches.of_triangle(t))) {
             return;
         }
@@ -1533,6 +1537,20 @@ fn spread(n: usize, d: impl Fn(usize) -> Vec3) -> f32 {
     worst.sqrt()
 }
 
+/// The widest normal cone (half-angle, radians) of patches whose elements are not paired in a
+/// search of this `reach`, for triangles whose shortest altitude is `altitude`: a right angle
+/// (beyond which a surface can fold onto itself) less the most a triangle can turn while the
+/// candidates are kept, and a tenth of a radian to spare. Its vertices' relative displacements
+/// stay within twice the reach, `d`; a vertex moved by `d` turns a triangle of altitude `h` by at
+/// most `asin(d / h)` (the tangent from the opposite side to the ball the vertex stays in), and at
+/// `d ≥ h` the triangle can fold flat.
+fn cull_angle(reach: f32, altitude: f32) -> f32 {
+    let turn = (2.0 * reach / altitude).min(1.0).asin();
+    // NaN (no triangles, or a degenerate one at rest) culls nothing.
+    let flat = std::f32::consts::FRAC_PI_2 - turn - 0.1;
+    if flat.is_nan() { -1.0 } else { flat }
+}
+
 /// The most reach a broad phase is given for a cloth whose shortest edge is `edge` long and which
 /// is `thickness` thick: small enough that a flat grid's non-neighbouring elements (at least
 /// `edge/√2` apart) stay out of the margin `thickness + 2 reach`, so a cloth that cannot touch
@@ -2128,21 +2146,11 @@ mod tests {
         assert_eq!(x, start);
     }
 
-    #[test]
-    fn a_culled_patch_cannot_fold_while_its_vertices_stay_within_the_reach() {
-        // A thin cloth, so that the reach is most of a triangle's altitude.
-        let grid = ClothModel::grid(&GridSpec::new(8, 8, 1.0 / 63.0)).unwrap();
-        let mut c = SelfContacts::new(&grid.triangles, &grid.rest_positions, 0.001, 0.0);
-        c.reach = c.reach_cap;
-        let flat = c.cull_angle();
-        assert!(flat > 0.0, "the thin cloth culls at {flat} rad");
-        // A triangle of the grid whose right-angle vertex moves by twice the reach relative to
-        // the other two, every way: its normal may not turn past the right angle that the
-        // culled patches' cones leave.
-        let e = 1.0 / 63.0;
-        let [a, b, apex] = [Vec3::new(e, 0.0, 0.0), Vec3::new(0.0, 0.0, e), Vec3::ZERO];
+    /// The most the normal of the triangle with a right angle at the origin and legs `(u, 0, 0)`
+    /// and `(0, 0, w)` turns as its right-angle vertex moves by `d` any way.
+    fn most_turn(u: f32, w: f32, d: f32) -> f32 {
+        let [a, b] = [Vec3::new(u, 0.0, 0.0), Vec3::new(0.0, 0.0, w)];
         let normal = |p: Vec3| (b - a).cross(p - a).normalize();
-        let d = 2.0 * c.reach;
         let mut most = 0.0f32;
         for i in 0..=200 {
             let polar = std::f32::consts::PI * i as f32 / 200.0;
@@ -2153,12 +2161,43 @@ mod tests {
                     polar.cos(),
                     polar.sin() * azimuth.sin(),
                 );
-                most = most.max(normal(apex).angle_between(normal(apex + d * dir)));
+                most = most.max(normal(Vec3::ZERO).angle_between(normal(d * dir)));
             }
         }
+        most
+    }
+
+    #[test]
+    fn a_culled_patch_cannot_fold_while_its_vertices_stay_within_the_reach() {
+        // A thin cloth, so that the reach is most of a triangle's altitude.
+        let e = 1.0 / 63.0;
+        let grid = ClothModel::grid(&GridSpec::new(8, 8, e)).unwrap();
+        let mut c = SelfContacts::new(&grid.triangles, &grid.rest_positions, 0.001, 0.0);
+        c.reach = c.reach_cap;
+        let flat = cull_angle(c.reach, c.altitude);
+        assert!(flat > 0.0, "the thin cloth culls at {flat} rad");
+        // A triangle of the grid whose right-angle vertex moves by twice the reach relative to
+        // the other two, every way: its normal may not turn past the right angle that the
+        // culled patches' cones leave.
+        let most = most_turn(e, e, 2.0 * c.reach);
         assert!(
             flat + most < std::f32::consts::FRAC_PI_2,
             "cones of {flat} rad culled, a triangle turned {most} rad"
+        );
+        // The same cloth compressed to 0.8 of its width at the search: thinner triangles turn
+        // further, and the search culls less.
+        let x: Vec<Vec3> = grid
+            .rest_positions
+            .iter()
+            .map(|p| p * Vec3::new(0.8, 1.0, 1.0))
+            .collect();
+        let margin = c.thickness + 2.0 * c.reach;
+        c.find_candidates(&x, margin, usize::MAX, Some(c.cull()));
+        let flat = c.patches.flat();
+        let most = most_turn(0.8 * e, e, 2.0 * c.reach);
+        assert!(
+            flat + most < std::f32::consts::FRAC_PI_2,
+            "compressed: cones of {flat} rad culled, a triangle turned {most} rad"
         );
     }
 
@@ -2667,7 +2706,7 @@ mod tests {
             })
             .collect();
         let margin = 0.02;
-        c.find_candidates(&x, margin, usize::MAX, None);
+        c.find_candidates(&x, margin, usize::MAX, NO_CULL);
         let mut vt = c.vt.clone();
         let mut ee = c.ee.clone();
         vt.sort_unstable();
@@ -2692,7 +2731,7 @@ mod tests {
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
         for loose in [false, true] {
             c.loose = loose;
-            c.find_candidates(&x, 0.015, usize::MAX, Some(1.0));
+            c.find_candidates(&x, 0.015, usize::MAX, Some(move |_| 1.0));
             assert_eq!(c.candidate_count(), (0, 0), "loose {loose}");
         }
     }
@@ -2754,7 +2793,7 @@ mod tests {
         assert!(!c.loose);
         let search = |c: &mut SelfContacts, x: &[Vec3], flat: f32, loose: bool| {
             c.loose = loose;
-            c.find_candidates(x, 0.015, usize::MAX, Some(flat));
+            c.find_candidates(x, 0.015, usize::MAX, Some(move |_| flat));
             let (mut vt, mut ee) = (c.vt.clone(), c.ee.clone());
             vt.sort_unstable();
             ee.sort_unstable();
@@ -2820,7 +2859,7 @@ mod tests {
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
         let x = crushed(model.rest_positions.len(), 0.004, 0);
         let (margin, flat) = (0.02, 0.5);
-        c.find_candidates(&x, margin, usize::MAX, Some(flat));
+        c.find_candidates(&x, margin, usize::MAX, Some(move |_| flat));
         assert!(
             !c.patches.pairs().is_empty(),
             "the ball is searched patch by patch"
@@ -2832,12 +2871,12 @@ mod tests {
             cap < ee.len() / 2 && ee.len() > vt.len(),
             "the cap binds both kinds"
         );
-        c.find_candidates(&x, margin, cap, Some(flat));
+        c.find_candidates(&x, margin, cap, Some(move |_| flat));
         assert_eq!(c.vt, vt[..cap]);
         assert_eq!(c.ee, ee[..cap]);
         assert_eq!(c.gap[..cap], vt_gaps[..cap]);
         // A cap only the edge pairs reach leaves the vertex–triangle pairs whole.
-        c.find_candidates(&x, margin, vt.len(), Some(flat));
+        c.find_candidates(&x, margin, vt.len(), Some(move |_| flat));
         assert_eq!((c.vt.len(), c.ee.len()), (vt.len(), vt.len()));
         assert_eq!(c.ee, ee[..vt.len()]);
     }
@@ -2876,7 +2915,12 @@ mod tests {
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
         let margin = 0.025;
         let flat = 1.0;
-        c.find_candidates(&model.rest_positions, margin, usize::MAX, Some(flat));
+        c.find_candidates(
+            &model.rest_positions,
+            margin,
+            usize::MAX,
+            Some(move |_| flat),
+        );
         assert!(c.patches.pairs().is_empty(), "a flat cloth is not searched");
         assert_eq!(c.candidate_count(), (0, 0));
 
@@ -2898,7 +2942,7 @@ mod tests {
                 }
             })
             .collect();
-        c.find_candidates(&x, margin, usize::MAX, Some(flat));
+        c.find_candidates(&x, margin, usize::MAX, Some(move |_| flat));
         let (vt, ee) = (c.vt.clone(), c.ee.clone());
         let [all_vt, all_ee] = pairs_within(&c, &x, margin);
         let rest = &model.rest_positions;

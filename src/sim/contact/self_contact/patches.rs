@@ -6,9 +6,10 @@
 //! field over the plane across that direction: it has no fold and cannot pass through itself
 //! (Volino and Magnenat-Thalmann's normal-cone test). Its elements are then not paired with each
 //! other, nor with those of a nearby patch (one sharing a vertex, or both sharing one with a
-//! third) when the patches together (with the third) are that flat. `flat` leaves room for the
-//! normals to turn as far as the motion that the kept candidates allow (see
-//! `SelfContacts::cull_angle`), so a culled patch stays unfolded until the next search.
+//! third) when the patches together (with the third) are within the narrowest of their `flat`.
+//! A patch's `flat` leaves room for its normals to turn as far as the motion that the kept
+//! candidates allow, which is further for thinner triangles (see `self_contact::cull_angle`), so a
+//! culled patch stays unfolded until the next search.
 //! A patch takes part in the search at all only while it is folded or its box meets a patch it is
 //! not culled with, so a hanging or flat cloth's search is one pass over its triangles.
 //! Culled pairs are kept from crossing, not held the thickness apart: a smooth patch's elements
@@ -60,8 +61,11 @@ pub(super) struct Patches {
     extent: Vec<Option<(f32, f32)>>,
     /// Per patch: whether its elements take part in the search.
     live: Vec<bool>,
-    /// The widest normal cone (half-angle, radians) of patches not searched this time.
-    flat: f32,
+    /// Per patch: the widest normal cone (half-angle, radians) culled this time, which depends
+    /// on how thin its triangles are.
+    flat: Vec<f32>,
+    /// Per triangle: its shortest altitude (scratch).
+    altitude: Vec<f32>,
     /// Patches by the low x of their boxes (scratch of the sweep).
     order: Vec<u32>,
     /// Per patch: its entry in the list of nearby patches of the patch being swept (`u32::MAX`
@@ -185,7 +189,8 @@ impl Patches {
             angle: vec![0.0; patches],
             extent: vec![None; patches],
             live: vec![false; patches],
-            flat: -1.0,
+            flat: Vec::new(),
+            altitude: Vec::new(),
             order: (0..patches as u32).collect(),
             pairs: Vec::new(),
             near: Vec::new(),
@@ -229,7 +234,7 @@ impl Patches {
             return false;
         }
         if a == b {
-            return self.angle[a as usize] <= self.flat;
+            return self.angle[a as usize] <= self.flat[a as usize];
         }
         // The sweep marks one of the pair's two entries.
         let marked = |a: u32, b: u32| {
@@ -239,29 +244,52 @@ impl Patches {
         marked(a, b) || marked(b, a)
     }
 
+    /// The widest normal cone culled in any patch at the last [`Self::update`].
+    #[cfg(test)]
+    pub fn flat(&self) -> f32 {
+        self.flat.iter().copied().fold(f32::NEG_INFINITY, f32::max)
+    }
+
     /// Takes the patches' boxes (the union of their triangles' `boxes`) and normal cones from the
     /// triangles `tris` at positions `x`, and decides which patches take part in the search and
-    /// which nearby pairs are culled: those within `flat` (radians) of one direction. Two patches
-    /// whose boxes meet but which lie farther than `margin` apart along one of their axes (the
-    /// two sides of a curve, seen across it) need not be searched for each other's sake.
+    /// which nearby pairs are culled: a patch within `flat(h)` (radians) of one direction, where
+    /// `h` is its shortest triangle altitude at `x` (thinner triangles turn further for the same
+    /// motion), and two within the narrower of theirs. Two patches whose boxes meet but which lie
+    /// farther than `margin` apart along one of their axes (the two sides of a curve, seen across
+    /// it) need not be searched for each other's sake.
     pub fn update(
         &mut self,
         x: &[Vec3],
         tris: &[[u32; 3]],
         boxes: &[(Vec3, Vec3)],
-        (flat, margin): (f32, f32),
+        (flat, margin): (impl Fn(f32) -> f32, f32),
     ) {
-        self.flat = flat;
         self.normal.clear();
-        self.normal.extend(tris.iter().map(|t| {
+        self.altitude.clear();
+        for t in tris {
             let [a, b, c] = t.map(|i| x[i as usize]);
-            (b - a).cross(c - a).normalize_or_zero()
-        }));
+            let n = (b - a).cross(c - a);
+            let length = n.length();
+            let longest = (b - a)
+                .length_squared()
+                .max((c - b).length_squared())
+                .max((a - c).length_squared());
+            self.altitude.push(length / longest.sqrt());
+            // `normalize_or_zero`, with the length kept.
+            let rcp = length.recip();
+            self.normal.push(if rcp.is_finite() && rcp > 0.0 {
+                n * rcp
+            } else {
+                Vec3::ZERO
+            });
+        }
+        self.flat.resize(self.len(), -1.0);
         for p in 0..self.len() {
             let members = &self.members[self.start[p] as usize..self.start[p + 1] as usize];
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
             let mut sum = Vec3::ZERO;
             let mut degenerate = false;
+            let mut thinnest = f32::INFINITY;
             for &t in members {
                 let (blo, bhi) = boxes[t as usize];
                 lo = lo.min(blo);
@@ -269,7 +297,9 @@ impl Patches {
                 let n = self.normal[t as usize];
                 degenerate |= n == Vec3::ZERO;
                 sum += n;
+                thinnest = thinnest.min(self.altitude[t as usize]);
             }
+            self.flat[p] = flat(thinnest);
             self.bounds[p] = (lo, hi);
             let axis = sum.normalize_or_zero();
             self.axis[p] = axis;
@@ -288,7 +318,7 @@ impl Patches {
                 }
             };
             self.extent[p] = None;
-            self.live[p] = self.angle[p] > flat;
+            self.live[p] = self.angle[p] > self.flat[p];
         }
         self.pairs.clear();
         self.pairs.extend(
@@ -384,15 +414,17 @@ impl Patches {
     }
 
     /// Whether nearby patches `a` and `b` (`adjacent` if they are) make a connected surface
-    /// within `flat` of one direction: the two, if adjacent, or with a patch adjacent to both.
+    /// within the narrowest of their `flat` of one direction: the two, if adjacent, or with a
+    /// patch adjacent to both.
     fn flat_together(&self, a: usize, b: usize, adjacent: bool) -> bool {
         let cone = |p: usize| (self.axis[p], self.angle[p]);
         if adjacent {
-            return within(cone(a), cone(b), self.flat);
+            return within(cone(a), cone(b), self.flat[a].min(self.flat[b]));
         }
         self.adjacent(a).iter().any(|&c| {
+            let flat = self.flat[a].min(self.flat[b]).min(self.flat[c as usize]);
             self.adjacent(c as usize).binary_search(&(b as u32)).is_ok()
-                && within(merge(cone(c as usize), cone(a)), cone(b), self.flat)
+                && within(merge(cone(c as usize), cone(a)), cone(b), flat)
         })
     }
 }
