@@ -427,14 +427,7 @@ impl GustSampler {
 /// uncorrelated beyond one unit. `t` should be finite and well below 2²³ in magnitude, where `f32`
 /// still resolves fractions of a unit.
 pub fn value_noise(seed: u64, t: f32) -> f32 {
-    let (cell, i) = floor(t);
-    blend(
-        (
-            lattice_value(seed, i),
-            lattice_value(seed, i.wrapping_add(1)),
-        ),
-        t - cell,
-    )
+    Octave::new(seed).at(t)
 }
 
 /// `t.floor()`, and as an integer (saturating; 0 for NaN), without the library call that `floor`
@@ -452,13 +445,6 @@ fn floor(t: f32) -> (f32, i64) {
     ((i as f32).copysign(t), i)
 }
 
-/// [`value_noise`] between the lattice values `a` and `b` at the fraction `f` of the way.
-#[inline]
-fn blend((a, b): (f32, f32), f: f32) -> f32 {
-    let fade = (f * f * f * (f * (f * 6.0 - 15.0) + 10.0)).min(1.0);
-    (a + (b - a) * fade).clamp(-1.0, 1.0)
-}
-
 /// Relative rates and amplitudes of [`Fractal`]'s octaves.
 const OCTAVES: [(f32, f32); 3] = [(1.0, 1.0), (2.03, 0.5), (4.11, 0.25)];
 
@@ -470,21 +456,10 @@ struct Fractal {
     octaves: [Octave; 3],
 }
 
-/// One of [`Fractal`]'s octaves.
-#[derive(Debug, Clone, Copy)]
-struct Octave {
-    seed: u64,
-    /// The cell last blended, with the lattice values at its two ends.
-    last: Option<(i64, f32, f32)>,
-}
-
 impl Fractal {
     fn new(seed: u64) -> Self {
         Self {
-            octaves: [0, 1, 2].map(|k| Octave {
-                seed: channel_seed(seed, k),
-                last: None,
-            }),
+            octaves: [0, 1, 2].map(|k| Octave::new(channel_seed(seed, k))),
         }
     }
 
@@ -492,24 +467,44 @@ impl Fractal {
     fn at(&mut self, t: f32) -> f32 {
         let mut sum = 0.0;
         let mut total = 0.0;
-        for (Octave { seed, last }, &(rate, amplitude)) in self.octaves.iter_mut().zip(&OCTAVES) {
-            let t = rate * t;
-            let (cell, i) = floor(t);
-            let ends = match *last {
-                Some((j, a, b)) if j == i => (a, b),
-                _ => {
-                    let ends = (
-                        lattice_value(*seed, i),
-                        lattice_value(*seed, i.wrapping_add(1)),
-                    );
-                    *last = Some((i, ends.0, ends.1));
-                    ends
-                }
-            };
-            sum += amplitude * blend(ends, t - cell);
+        for (octave, &(rate, amplitude)) in self.octaves.iter_mut().zip(&OCTAVES) {
+            sum += amplitude * octave.at(rate * t);
             total += amplitude;
         }
         (sum / total).clamp(-1.0, 1.0)
+    }
+}
+
+/// [`value_noise`] of one seed, keeping the lattice cell it last blended.
+#[derive(Debug, Clone, Copy)]
+struct Octave {
+    seed: u64,
+    /// The cell last blended, with the lattice values at its two ends.
+    last: Option<(i64, f32, f32)>,
+}
+
+impl Octave {
+    fn new(seed: u64) -> Self {
+        Self { seed, last: None }
+    }
+
+    /// The noise at `t`.
+    fn at(&mut self, t: f32) -> f32 {
+        let (cell, i) = floor(t);
+        let (a, b) = match self.last {
+            Some((j, a, b)) if j == i => (a, b),
+            _ => {
+                let (a, b) = (
+                    lattice_value(self.seed, i),
+                    lattice_value(self.seed, i.wrapping_add(1)),
+                );
+                self.last = Some((i, a, b));
+                (a, b)
+            }
+        };
+        let f = t - cell;
+        let fade = (f * f * f * (f * (f * 6.0 - 15.0) + 10.0)).min(1.0);
+        (a + (b - a) * fade).clamp(-1.0, 1.0)
     }
 }
 

@@ -189,7 +189,7 @@ impl Patches {
             angle: vec![0.0; patches],
             extent: vec![None; patches],
             live: vec![false; patches],
-            flat: Vec::new(),
+            flat: vec![-1.0; patches],
             altitude: Vec::new(),
             order: (0..patches as u32).collect(),
             pairs: Vec::new(),
@@ -283,7 +283,6 @@ impl Patches {
                 Vec3::ZERO
             });
         }
-        self.flat.resize(self.len(), -1.0);
         for p in 0..self.len() {
             let members = &self.members[self.start[p] as usize..self.start[p + 1] as usize];
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
