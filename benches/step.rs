@@ -159,8 +159,7 @@ fn environment(c: &mut Criterion) {
         air_density: 1.225,
         ..Default::default()
     };
-    // The same wind gusting (the `Wind` resource's gusts at their defaults): sampled at every
-    // triangle once a step.
+    // The same wind gusting (`Gusts::default()`): sampled at every triangle once a step.
     let gusty = WindField {
         gusts: Some(Gusts::default()),
         ..wind.clone()
