@@ -1545,10 +1545,10 @@ fn spread(n: usize, d: impl Fn(usize) -> Vec3) -> f32 {
 /// most `asin(d / h)` (the tangent from the opposite side to the ball the vertex stays in), and at
 /// `d ≥ h` the triangle can fold flat.
 fn cull_angle(reach: f32, altitude: f32) -> f32 {
+    // A ratio that is NaN (no triangles, or a degenerate one) counts as 1 (`min` drops NaN): a
+    // negative angle, which culls nothing.
     let turn = (2.0 * reach / altitude).min(1.0).asin();
-    // NaN (no triangles, or a degenerate one at rest) culls nothing.
-    let flat = std::f32::consts::FRAC_PI_2 - turn - 0.1;
-    if flat.is_nan() { -1.0 } else { flat }
+    std::f32::consts::FRAC_PI_2 - turn - 0.1
 }
 
 /// The most reach a broad phase is given for a cloth whose shortest edge is `edge` long and which
@@ -2176,6 +2176,10 @@ mod tests {
         c.reach = c.reach_cap;
         let flat = cull_angle(c.reach, c.altitude);
         assert!(flat > 0.0, "the thin cloth culls at {flat} rad");
+        // A degenerate triangle (no altitude, with or without a reach) culls nothing.
+        for reach in [0.0, c.reach] {
+            assert!(cull_angle(reach, 0.0) < 0.0, "degenerate, reach {reach}");
+        }
         // A triangle of the grid whose right-angle vertex moves by twice the reach relative to
         // the other two, every way: its normal may not turn past the right angle that the
         // culled patches' cones leave.
