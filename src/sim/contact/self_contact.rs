@@ -13,10 +13,13 @@
 //!    `MAX_CANDIDATES_PER_TRIANGLE` per triangle). So a hanging or gently curved cloth's search
 //!    is one pass over its triangles. (A mesh with a vertex in no triangle is searched through a
 //!    spatial hash of the boxes instead.) Two elements farther apart than that cannot come
-//!    within the thickness until their displacements since differ by twice the reach. Each
-//!    substep bounds that from the particles' displacements, cube by cube (`Regions`): a cloth
-//!    moving as a whole keeps its candidates; one whose parts move relative to each other
-//!    searches again, within a step if need be. A cloth at rest searches once, and while its
+//!    within the thickness until their displacements since differ by twice the reach, and those
+//!    farther apart still (left uncovered by the patches, see `Patches::clear`) until they differ
+//!    by that distance less the thickness; a culled patch keeps its cone while each of its
+//!    triangles' edges' ends move within twice the reach of each other. Each substep bounds the
+//!    displacements, cube by cube (`Regions`), and edge by edge where the cubes' bound exceeds
+//!    twice the reach: a cloth moving as a whole keeps its candidates; one whose parts move
+//!    relative to each other searches again, within a step if need be. A cloth at rest searches once, and while its
 //!    particles stay within the slack the last check left, it is not checked either: one vector
 //!    pass over the particles (`Watch`) shows they did.
 //! 3. **Narrow phase and response, at every substep where the layers may have come closer** (at the
@@ -101,8 +104,15 @@ pub(super) const DEFER: f32 = 0.25;
 /// candidate. A pile of cloth needs far fewer.
 pub(super) const MAX_CANDIDATES_PER_TRIANGLE: usize = 16;
 
+/// A search's cull: the widest culled cone for a shortest triangle altitude, and how far beyond
+/// twice the margin to look for uncovered elements (see [`SelfContacts::find_candidates`]).
+type Cull = (fn(f32) -> f32, f32);
+
 /// [`SelfContacts::find_candidates`] without culling.
-const NO_CULL: Option<fn(f32) -> f32> = None;
+const NO_CULL: Option<Cull> = None;
+
+/// Cubes along each side of a block of `Regions`.
+const BLOCK: i32 = 3;
 
 /// Bands of distance a search's candidates are ordered into (see [`Bands`]).
 const BANDS: usize = 32;
@@ -195,6 +205,14 @@ pub(crate) struct SelfContacts {
     reach: f32,
     /// The reach the step was begun with.
     step_reach: f32,
+    /// How much closer particles in neighbouring cubes of `regions` may come before a search is
+    /// due: twice the reach, or the distance of the elements the search left uncovered (see
+    /// `Patches::clear`) less the thickness, whichever is more. Beyond twice the reach, each edge's
+    /// ends are checked to stay within it (the culled patches' triangles turn no further than
+    /// the cull allowed for).
+    near_limit: f32,
+    /// The edges by stored particle, as stored at the last broad phase.
+    edge_slots: Vec<[u32; 2]>,
     /// The most reach a broad phase is given (see `reach_cap`).
     reach_cap: f32,
     /// Whether the candidates must be found again before the next resolution.
@@ -208,6 +226,9 @@ pub(crate) struct SelfContacts {
     /// were at least that less twice the longest edge apart (less one edge for a vertex and a
     /// triangle).
     far_limit: f32,
+    /// How much closer particles in blocks of `regions` that are not neighbours may come: as
+    /// `far_limit`, for particles at least the blocks' size apart.
+    wide_limit: f32,
     /// The particles' patches at the last broad phase, whose motion since tells when to search
     /// again.
     regions: Regions,
@@ -509,12 +530,27 @@ impl SelfContacts {
                 self.regions.skip();
                 return mean;
             }
-            let near_limit = 2.0 * self.reach;
-            let closing = self.regions.closing(state, &self.found, near_limit);
-            if closing.near <= near_limit && closing.far <= self.far_limit {
-                let slack = (near_limit - closing.near).min(self.far_limit - closing.far);
-                self.watch.take(state, slack, closing.mean);
-                return closing.mean;
+            let (near_limit, turn_limit) = (self.near_limit, 2.0 * self.reach);
+            let limits = (near_limit, self.far_limit);
+            let closing = self.regions.closing(state, &self.found, limits);
+            if closing.near <= near_limit
+                && closing.mid <= self.far_limit
+                && closing.far <= self.wide_limit
+            {
+                // An edge's ends lie in the same or neighbouring cubes: within the near bound.
+                let turning = if closing.near <= turn_limit {
+                    closing.near
+                } else {
+                    self.regions.edges_closing(&self.edge_slots)
+                };
+                if turning <= turn_limit {
+                    let slack = (near_limit - closing.near)
+                        .min(self.far_limit - closing.mid)
+                        .min(self.wide_limit - closing.far)
+                        .min(turn_limit - turning);
+                    self.watch.take(state, slack, closing.mean);
+                    return closing.mean;
+                }
             }
             // A full list holds an arbitrary share of the close pairs (a cloth crushed into a
             // ball): searching again within the step would only pick another share, at the
@@ -550,13 +586,6 @@ impl SelfContacts {
         let positions = std::mem::take(&mut self.found_at);
         let cap = self.cap();
         self.searches += 1;
-        self.find_candidates(
-            &positions,
-            self.thickness + 2.0 * self.reach,
-            cap,
-            Some(self.cull()),
-        );
-        self.regions.assign(&positions, &self.slot);
         let longest = self
             .edges
             .iter()
@@ -566,6 +595,22 @@ impl SelfContacts {
         // that were not in neighbouring cubes (at least the cubes' size apart) belong to
         // elements that were at least that less two sides apart.
         self.far_limit = self.regions.size - 2.0 * longest - self.thickness;
+        self.wide_limit = BLOCK as f32 * self.regions.size - 2.0 * longest - self.thickness;
+        let margin = self.thickness + 2.0 * self.reach;
+        // Uncovered elements farther apart than the far limit allows are of no use to the near
+        // limit: the far bound, which is at least the near one, would ask for a search first.
+        let out = self.far_limit + self.thickness - 2.0 * margin;
+        self.find_candidates(&positions, margin, cap, Some((self.cull(), out)));
+        let clear = if self.loose {
+            margin
+        } else {
+            self.patches.clear()
+        };
+        self.near_limit = (2.0 * self.reach).max(clear - self.thickness);
+        self.edge_slots.clear();
+        self.edge_slots
+            .extend(self.edges.iter().map(|e| e.map(|p| self.slot[p as usize])));
+        self.regions.assign(&positions, &self.slot);
         self.found.clear();
         self.found.resize(n, Vec3::ZERO);
         for (&s, x) in self.slot.iter().zip(&positions) {
@@ -654,14 +699,15 @@ impl SelfContacts {
 
     /// The broad phase on `x` (by model particle): every vertex–triangle and edge–edge pair that
     /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind;
-    /// with `cull`, none between patches within one direction by the angle it gives for their
-    /// shortest triangle altitude at `x` (see [`patches`]).
+    /// with `cull` (`flat`, `out`), none between patches within one direction by the angle `flat`
+    /// gives for their shortest triangle altitude at `x` (see [`patches`]), the patches' uncovered
+    /// distance being looked for up to `out` beyond twice the margin (`Patches::clear`).
     fn find_candidates(
         &mut self,
         x: &[Vec3],
         margin: f32,
         cap: usize,
-        cull: Option<impl Fn(f32) -> f32>,
+        cull: Option<(impl Fn(f32) -> f32, f32)>,
     ) {
         self.vt.clear();
         self.ee.clear();
@@ -669,9 +715,9 @@ impl SelfContacts {
         let grow = Vec3::splat(margin);
         self.hash.triangle_boxes(&self.tris, x, grow);
         let culls = cull.is_some();
-        if let Some(flat) = cull {
+        if let Some((flat, out)) = cull {
             self.patches
-                .update(x, &self.tris, &self.hash.boxes, (flat, margin));
+                .update(x, &self.tris, &self.hash.boxes, (flat, margin, out));
         }
         if culls && !self.loose {
             if self.hash.finite() {
@@ -1318,11 +1364,12 @@ impl Settled {
     }
 }
 
-/// The particles grouped into cubes of side `size` by where they were at the last broad phase.
-/// Two particles that were closer than `size` then lie in the same or neighbouring cubes, and the
-/// displacements since then, compared cube by cube, bound how much closer any two elements can
-/// have come: a cloth that swings or falls as a whole, however fast, moves little within and
-/// between neighbouring cubes and need not search again.
+/// The particles grouped into cubes of side `size` by where they were at the last broad phase, and
+/// the cubes into blocks of [`BLOCK`]³ cubes. Two particles that were closer than `size` then lie
+/// in the same or neighbouring cubes, and two closer than `BLOCK` times that in the same or
+/// neighbouring blocks; the displacements since then, compared cube by cube and block by block,
+/// bound how much closer any two elements can have come: a cloth that swings or falls as a whole,
+/// however fast, moves little within and between neighbouring cubes and need not search again.
 #[derive(Debug, Clone, Default)]
 struct Regions {
     /// Side of the cubes, m (at least the broad phase's margin).
@@ -1335,6 +1382,16 @@ struct Regions {
     pairs: Vec<(u32, u32)>,
     /// Cube index of each occupied cell.
     index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    /// Each cube's block.
+    block: Vec<u32>,
+    /// Pairs of neighbouring blocks (a block with itself too), `a <= b`.
+    block_pairs: Vec<(u32, u32)>,
+    /// Block index of each occupied block cell (scratch of [`Self::assign`]).
+    block_index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    /// Per block: a displacement (the mean of its cubes' references) and the largest distance
+    /// of one of its particles' displacements from it (scratch).
+    block_reference: Vec<(Vec3, u32)>,
+    block_deviation: Vec<f32>,
     /// Per cube: the displacement its particles' displacements are measured from (any point
     /// would do; the cube's mean displacement extrapolated from the last two
     /// [`Self::closing`]s keeps the deviations small).
@@ -1349,12 +1406,18 @@ struct Regions {
     sum: Vec<Vec3>,
     /// Per cube: largest distance of a displacement from the cube's reference (scratch).
     deviation: Vec<f32>,
+    /// Per stored particle: its displacement since [`Self::assign`] at the last
+    /// [`Self::closing`].
+    moved: Vec<Vec3>,
 }
 
 /// What [`Regions::closing`] found.
 struct Closing {
     /// How much closer two particles that were within the cubes' size can have come.
     near: f32,
+    /// How much closer two particles that were within [`BLOCK`] times the cubes' size can have
+    /// come.
+    mid: f32,
     /// How much closer any two particles can have come.
     far: f32,
     /// The particles' mean displacement at the start and at the end of the substep.
@@ -1388,21 +1451,20 @@ impl Regions {
             self.count[r as usize] += 1;
             self.of[s as usize] = r;
         }
-        self.pairs.clear();
-        for (cell, &a) in &self.index {
-            let (lo, hi) = (
-                cell.map(|c| c.saturating_sub(1)),
-                cell.map(|c| c.saturating_add(1)),
-            );
-            for_cells(lo, hi, |c| {
-                if let Some(&b) = self.index.get(&c)
-                    && a <= b
-                {
-                    self.pairs.push((a, b));
-                }
-            });
-        }
+        neighbours(&self.index, &mut self.pairs);
         let cubes = self.count.len();
+        self.block_index.clear();
+        self.block.clear();
+        self.block.resize(cubes, 0);
+        for (cell, &a) in &self.index {
+            let next = self.block_index.len() as u32;
+            let block = cell.map(|c| c.div_euclid(BLOCK));
+            self.block[a as usize] = *self.block_index.entry(block).or_insert(next);
+        }
+        neighbours(&self.block_index, &mut self.block_pairs);
+        self.block_reference
+            .resize(self.block_index.len(), (Vec3::ZERO, 0));
+        self.block_deviation.resize(self.block_index.len(), 0.0);
         self.reference.resize(cubes, Vec3::ZERO);
         self.last_mean.resize(cubes, Vec3::ZERO);
         self.fresh = true;
@@ -1419,13 +1481,20 @@ impl Regions {
 
     /// How much closer particles of `state` can have come since [`Self::assign`], when they were
     /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
-    /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring cubes
-    /// are looked at only if the far bound exceeds `near_limit`.
-    fn closing<S: ContactState>(&mut self, state: &S, found: &[Vec3], near_limit: f32) -> Closing {
+    /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring blocks
+    /// are looked at only if the far bound exceeds both limits, and pairs of neighbouring cubes
+    /// only if the blocks' bound exceeds `near_limit`.
+    fn closing<S: ContactState>(
+        &mut self,
+        state: &S,
+        found: &[Vec3],
+        (near_limit, mid_limit): (f32, f32),
+    ) -> Closing {
         let n = self.of.len();
         if n == 0 {
             return Closing {
                 near: 0.0,
+                mid: 0.0,
                 far: 0.0,
                 mean: (Vec3::ZERO, Vec3::ZERO),
             };
@@ -1457,17 +1526,20 @@ impl Regions {
         }
         self.sum.fill(Vec3::ZERO);
         self.deviation.fill(0.0);
+        self.moved.resize(n, Vec3::ZERO);
         let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
-        let (of, reference, sum, deviation) = (
+        let (of, reference, sum, deviation, moved) = (
             &self.of,
             &self.reference,
             &mut self.sum,
             &mut self.deviation,
+            &mut self.moved,
         );
         // Squared deviations, rooted per cube below. A NaN displacement is lost to `max` but
         // not to the mean `m1`, which makes the far bound infinite.
         state.paths(|i, start, end| {
             let d = end - found[i];
+            moved[i] = d;
             m0 += start - found[i];
             m1 += d;
             let r = of[i] as usize;
@@ -1486,11 +1558,41 @@ impl Regions {
                 .zip(&self.deviation)
                 .map(|(r, dev)| r.distance(m1) + dev)
                 .fold(0.0, max_or_infinite);
-        // Two particles of cubes a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| + dev_b, which is
-        // at most `far`: the pairs need looking at only where the cloth's parts moved apart more
-        // than the reach allows.
-        let near = if far <= near_limit {
+        // Two particles of blocks (or cubes) a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| +
+        // dev_b, which is at most `far`, and for cubes at most the blocks' bound: the pairs need
+        // looking at only where the cloth's parts moved apart more than the limits allow.
+        let mid = if far <= near_limit.max(mid_limit) {
             far
+        } else {
+            self.block_reference.fill((Vec3::ZERO, 0));
+            self.block_deviation.fill(0.0);
+            for (&b, r) in self.block.iter().zip(&self.reference) {
+                let (sum, count) = &mut self.block_reference[b as usize];
+                *sum += *r;
+                *count += 1;
+            }
+            for (sum, count) in &mut self.block_reference {
+                *sum /= *count as f32;
+            }
+            for ((&b, r), dev) in self.block.iter().zip(&self.reference).zip(&self.deviation) {
+                let d = &mut self.block_deviation[b as usize];
+                *d = max_or_infinite(*d, r.distance(self.block_reference[b as usize].0) + dev);
+            }
+            self.block_pairs
+                .iter()
+                .map(|&(a, b)| {
+                    let (a, b) = (a as usize, b as usize);
+                    self.block_deviation[a]
+                        + self.block_deviation[b]
+                        + self.block_reference[a]
+                            .0
+                            .distance(self.block_reference[b].0)
+                })
+                .fold(0.0, max_or_infinite)
+                .min(far)
+        };
+        let near = if mid <= near_limit {
+            mid
         } else {
             self.pairs
                 .iter()
@@ -1501,6 +1603,7 @@ impl Regions {
                         + self.reference[a].distance(self.reference[b])
                 })
                 .fold(0.0, max_or_infinite)
+                .min(mid)
         };
         for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
             .zip(&self.sum)
@@ -1516,9 +1619,45 @@ impl Regions {
         }
         Closing {
             near,
+            mid,
             far,
             mean: (m0, m1),
         }
+    }
+}
+
+impl Regions {
+    /// How much closer the ends of `edges` (by stored particle) came, at most, by the last
+    /// [`Self::closing`] (infinite if a displacement is not finite).
+    fn edges_closing(&self, edges: &[[u32; 2]]) -> f32 {
+        let moved = &self.moved;
+        edges
+            .iter()
+            .map(|&[a, b]| moved[a as usize].distance_squared(moved[b as usize]))
+            .fold(0.0, max_or_infinite)
+            .sqrt()
+    }
+}
+
+/// Fills `pairs` with the pairs `(a, b)`, `a <= b`, of the cells of `index` (each to its index)
+/// that are the same or neighbours.
+fn neighbours(
+    index: &HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    pairs: &mut Vec<(u32, u32)>,
+) {
+    pairs.clear();
+    for (cell, &a) in index {
+        let (lo, hi) = (
+            cell.map(|c| c.saturating_sub(1)),
+            cell.map(|c| c.saturating_add(1)),
+        );
+        for_cells(lo, hi, |c| {
+            if let Some(&b) = index.get(&c)
+                && a <= b
+            {
+                pairs.push((a, b));
+            }
+        });
     }
 }
 
@@ -2064,7 +2203,133 @@ mod tests {
             inv_mass: &w,
             touches: None,
         };
-        regions.closing(&state, found, limit)
+        regions.closing(&state, found, (limit, limit))
+    }
+
+    #[test]
+    fn cubes_and_blocks_bound_every_pair_that_was_within_their_reach() {
+        // Particles strewn over a cube of 1.5 m, a few in each cube of 20 cm and across more than
+        // two blocks; one in fifty displaced by up to 9 cm, more than its cube's mean.
+        let h = |k: usize| unit_interval(mix64(k as u64));
+        let n = 1500;
+        let found: Vec<Vec3> = (0..n)
+            .map(|i| 1.5 * Vec3::new(h(3 * i), h(3 * i + 1), h(3 * i + 2)))
+            .collect();
+        let slot: Vec<u32> = (0..n as u32).collect();
+        let mut regions = Regions {
+            size: 0.2,
+            ..Regions::default()
+        };
+        regions.assign(&found, &slot);
+        let mut x: Vec<Vec3> = (found.iter().enumerate())
+            .map(|(i, p)| {
+                let k = 10_000 + 3 * i;
+                let d = 0.1 * (Vec3::new(h(k), h(k + 1), h(k + 2)) - 0.5);
+                if i % 50 == 0 { *p + d } else { *p }
+            })
+            .collect();
+        // No limit: every bound is worked out.
+        let c = closing_of(&mut regions, &found, &mut x, 0.0);
+        assert!(
+            c.near <= c.mid && c.mid <= c.far,
+            "{} {} {}",
+            c.near,
+            c.mid,
+            c.far
+        );
+        let cell = |p: Vec3| cell_of(p, 1.0 / regions.size);
+        let neighbours = |a: [i32; 3], b: [i32; 3]| (0..3).all(|k| (a[k] - b[k]).abs() <= 1);
+        let block = |c: [i32; 3]| c.map(|c| c.div_euclid(BLOCK));
+        let mut counted = [0; 3];
+        for p in 0..n {
+            for q in p + 1..n {
+                let closer = (x[p] - found[p]).distance(x[q] - found[q]);
+                let (a, b) = (cell(found[p]), cell(found[q]));
+                let (bound, kind) = if neighbours(a, b) {
+                    (c.near, 0)
+                } else if neighbours(block(a), block(b)) {
+                    (c.mid, 1)
+                } else {
+                    (c.far, 2)
+                };
+                assert!(closer <= bound + 1e-6, "{p}, {q}: {closer} > {bound}");
+                counted[kind] += 1;
+            }
+        }
+        assert!(counted.iter().all(|&k| k > 0), "{counted:?}");
+    }
+
+    #[test]
+    fn a_triangle_turning_beyond_the_cull_is_searched_again_though_the_cubes_allow_it() {
+        // A flat 12×12 grid (3 cm): its patches are culled, and elements it leaves uncovered are
+        // far apart, so the cubes allow more than twice the reach; a vertex lifted by more than
+        // that turns its triangles further than the cull allowed for.
+        let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
+        let rest = &model.rest_positions;
+        let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+        let w = vec![1.0; rest.len()];
+        let mut x = rest.clone();
+        let mut v = vec![Vec3::ZERO; x.len()];
+        resolve_within(&mut c, 1.0, rest, &mut x, &mut v, &w);
+        assert_eq!(c.searches(), 1);
+        let lift = 1.4 * c.reach;
+        assert!(
+            c.near_limit > 2.0 * lift,
+            "near limit {}, reach {}",
+            c.near_limit,
+            c.reach
+        );
+        let [a, b, d] = [0, 1, 12].map(|i| rest[i]);
+        let normal = (b - a).cross(d - a).normalize();
+        let start = x.clone();
+        x[5 * 12 + 5] += normal * 2.0 * lift;
+        resolve_within(&mut c, 1.0, &start, &mut x, &mut v, &w);
+        assert_eq!(c.searches(), 2, "the turned triangles are searched again");
+    }
+
+    #[test]
+    fn elements_left_uncovered_are_at_least_the_clear_distance_apart() {
+        // A 14×14 grid (3 cm) rippled along x: its patches' cones are within a wide cull, but
+        // patches farther along the mesh are neither culled nor searched together.
+        let model = ClothModel::grid(&GridSpec::new(14, 14, 0.03)).unwrap();
+        let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        let x: Vec<Vec3> = (model.rest_positions.iter())
+            .map(|p| *p + Vec3::new(0.0, 0.0, 0.03 * (p.x / 0.06).sin()))
+            .collect();
+        let margin = 0.012;
+        c.find_candidates(&x, margin, usize::MAX, Some((move |_| 1.2, 0.2)));
+        let patches = &c.patches;
+        let clear = patches.clear();
+        assert!(clear > margin, "{clear}");
+        let covered = |a: u32, b: u32| {
+            patches.culled(a, b) || patches.pairs().contains(&(a.min(b), a.max(b)))
+        };
+        let mut uncovered = 0;
+        for (p, &at) in x.iter().enumerate() {
+            for (t, tri) in c.tris.iter().enumerate() {
+                let (a, b) = (patches.of_vertex(p as u32), patches.of_triangle(t as u32));
+                if tri.contains(&(p as u32)) || covered(a, b) {
+                    continue;
+                }
+                let [ta, tb, tc] = tri.map(|i| x[i as usize]);
+                let gap = point_triangle_distance(at, ta, tb, tc);
+                assert!(gap >= clear - 1e-6, "{p} and {t}: {gap} < {clear}");
+                uncovered += 1;
+            }
+        }
+        for (e, &[a, b]) in c.edges.iter().enumerate() {
+            for (f, &[p, q]) in c.edges.iter().enumerate() {
+                let (ea, fb) = (c.edge_patch[e], c.edge_patch[f]);
+                if [a, b].iter().any(|i| [p, q].contains(i)) || covered(ea, fb) {
+                    continue;
+                }
+                let [a, b, p, q] = [a, b, p, q].map(|i| x[i as usize]);
+                let (s, t) = closest_on_segments(a, b, p, q);
+                let gap = a.lerp(b, s).distance(p.lerp(q, t));
+                assert!(gap >= clear - 1e-6, "edges {e} and {f}: {gap} < {clear}");
+            }
+        }
+        assert!(uncovered > 0);
     }
 
     #[test]
@@ -2196,7 +2461,7 @@ mod tests {
             .map(|p| p * Vec3::new(0.8, 1.0, 1.0))
             .collect();
         let margin = c.thickness + 2.0 * c.reach;
-        c.find_candidates(&x, margin, usize::MAX, Some(c.cull()));
+        c.find_candidates(&x, margin, usize::MAX, Some((c.cull(), 0.0)));
         let flat = c.patches.flat();
         let most = most_turn(0.8 * e, e, 2.0 * c.reach);
         assert!(
@@ -2358,23 +2623,31 @@ mod tests {
                 continue;
             }
             skipped += usize::from(c.regions.skipped > 0);
-            // Kept candidates hold every pair that came within twice the reach of each other
-            // (neighbours) or the far limit (any two), relative to where they were found.
+            // Kept candidates hold every pair that came within the near limit of each other
+            // (neighbours), the far limit (within a block's size) or the wide limit (any two),
+            // relative to where they were found, and each edge's ends within twice the reach.
             let x = at(k);
             let moved: Vec<Vec3> = x.iter().zip(&c.found).map(|(x, f)| *x - *f).collect();
             for p in 0..x.len() {
                 for q in p + 1..x.len() {
                     let closer = moved[p].distance(moved[q]);
-                    let limit = if c.found[p].distance(c.found[q]) < c.regions.size {
-                        2.0 * c.reach
-                    } else {
+                    let apart = c.found[p].distance(c.found[q]) / c.regions.size;
+                    let limit = if apart < 1.0 {
+                        c.near_limit
+                    } else if apart < BLOCK as f32 {
                         c.far_limit
+                    } else {
+                        c.wide_limit
                     };
                     assert!(
                         closer <= limit,
                         "substep {k}: {p}, {q} came {closer} closer"
                     );
                 }
+            }
+            for &[a, b] in &c.edges {
+                let closer = moved[a as usize].distance(moved[b as usize]);
+                assert!(closer <= 2.0 * c.reach, "substep {k}: edge {a}, {b}");
             }
         }
         assert!(
@@ -2735,7 +3008,7 @@ mod tests {
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
         for loose in [false, true] {
             c.loose = loose;
-            c.find_candidates(&x, 0.015, usize::MAX, Some(move |_| 1.0));
+            c.find_candidates(&x, 0.015, usize::MAX, Some((move |_| 1.0, 0.0)));
             assert_eq!(c.candidate_count(), (0, 0), "loose {loose}");
         }
     }
@@ -2797,7 +3070,7 @@ mod tests {
         assert!(!c.loose);
         let search = |c: &mut SelfContacts, x: &[Vec3], flat: f32, loose: bool| {
             c.loose = loose;
-            c.find_candidates(x, 0.015, usize::MAX, Some(move |_| flat));
+            c.find_candidates(x, 0.015, usize::MAX, Some((move |_| flat, 0.0)));
             let (mut vt, mut ee) = (c.vt.clone(), c.ee.clone());
             vt.sort_unstable();
             ee.sort_unstable();
@@ -2863,7 +3136,7 @@ mod tests {
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
         let x = crushed(model.rest_positions.len(), 0.004, 0);
         let (margin, flat) = (0.02, 0.5);
-        c.find_candidates(&x, margin, usize::MAX, Some(move |_| flat));
+        c.find_candidates(&x, margin, usize::MAX, Some((move |_| flat, 0.0)));
         assert!(
             !c.patches.pairs().is_empty(),
             "the ball is searched patch by patch"
@@ -2875,12 +3148,12 @@ mod tests {
             cap < ee.len() / 2 && ee.len() > vt.len(),
             "the cap binds both kinds"
         );
-        c.find_candidates(&x, margin, cap, Some(move |_| flat));
+        c.find_candidates(&x, margin, cap, Some((move |_| flat, 0.0)));
         assert_eq!(c.vt, vt[..cap]);
         assert_eq!(c.ee, ee[..cap]);
         assert_eq!(c.gap[..cap], vt_gaps[..cap]);
         // A cap only the edge pairs reach leaves the vertex–triangle pairs whole.
-        c.find_candidates(&x, margin, vt.len(), Some(move |_| flat));
+        c.find_candidates(&x, margin, vt.len(), Some((move |_| flat, 0.0)));
         assert_eq!((c.vt.len(), c.ee.len()), (vt.len(), vt.len()));
         assert_eq!(c.ee, ee[..vt.len()]);
     }
@@ -2923,7 +3196,7 @@ mod tests {
             &model.rest_positions,
             margin,
             usize::MAX,
-            Some(move |_| flat),
+            Some((move |_| flat, 0.0)),
         );
         assert!(c.patches.pairs().is_empty(), "a flat cloth is not searched");
         assert_eq!(c.candidate_count(), (0, 0));
@@ -2946,7 +3219,7 @@ mod tests {
                 }
             })
             .collect();
-        c.find_candidates(&x, margin, usize::MAX, Some(move |_| flat));
+        c.find_candidates(&x, margin, usize::MAX, Some((move |_| flat, 0.0)));
         let (vt, ee) = (c.vt.clone(), c.ee.clone());
         let [all_vt, all_ee] = pairs_within(&c, &x, margin);
         let rest = &model.rest_positions;

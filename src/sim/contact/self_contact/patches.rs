@@ -57,7 +57,7 @@ pub(super) struct Patches {
     /// Per patch: the half-angle of its normal cone (π if it has no axis).
     angle: Vec<f32>,
     /// Per patch: the lowest and highest of its vertices along its axis, once a test of
-    /// [`Self::apart`] has needed them in this update (most patches take none).
+    /// [`Self::separation`] has needed them in this update (most patches take none).
     extent: Vec<Option<(f32, f32)>>,
     /// Per patch: whether its elements take part in the search.
     live: Vec<bool>,
@@ -74,6 +74,9 @@ pub(super) struct Patches {
     /// The pairs of patches whose elements this search pairs, `a <= b`: each folded patch with
     /// itself, and nearby or overlapping patches neither culled with each other nor apart.
     pairs: Vec<(u32, u32)>,
+    /// How far apart, at least, any two elements were at the last [`Self::update`] that are
+    /// neither in a culled pair of patches nor in a searched one (see [`Self::clear`]).
+    clear: f32,
 }
 
 impl Patches {
@@ -193,6 +196,7 @@ impl Patches {
             altitude: Vec::new(),
             order: (0..patches as u32).collect(),
             pairs: Vec::new(),
+            clear: 0.0,
             near: Vec::new(),
         }
     }
@@ -244,6 +248,14 @@ impl Patches {
         marked(a, b) || marked(b, a)
     }
 
+    /// How far apart, at least, two elements were at the last [`Self::update`] that it left
+    /// unpaired and uncovered: their patches neither culled together nor searched together (the
+    /// search's `margin` once a pair of patches is searched, whose elements it does not pair are
+    /// that far apart), as far as the update looked (its `margin` doubled and its `out`).
+    pub fn clear(&self) -> f32 {
+        self.clear
+    }
+
     /// The widest normal cone culled in any patch at the last [`Self::update`].
     #[cfg(test)]
     pub fn flat(&self) -> f32 {
@@ -256,13 +268,14 @@ impl Patches {
     /// `h` is its shortest triangle altitude at `x` (thinner triangles turn further for the same
     /// motion), and two within the narrower of theirs. Two patches whose boxes meet but which lie
     /// farther than `margin` apart along one of their axes (the two sides of a curve, seen across
-    /// it) need not be searched for each other's sake.
+    /// it) need not be searched for each other's sake. `boxes` are the triangles' boxes grown by
+    /// `margin`; pairs of patches up to `out` farther apart are looked at for [`Self::clear`].
     pub fn update(
         &mut self,
         x: &[Vec3],
         tris: &[[u32; 3]],
         boxes: &[(Vec3, Vec3)],
-        (flat, margin): (impl Fn(f32) -> f32, f32),
+        (flat, margin, out): (impl Fn(f32) -> f32, f32, f32),
     ) {
         self.normal.clear();
         self.altitude.clear();
@@ -334,6 +347,10 @@ impl Patches {
         let mut near = std::mem::take(&mut self.near);
         near.clear();
         near.resize(self.len(), (u32::MAX, false));
+        // The boxes are grown by `margin` on every side: two that do not meet hold elements at
+        // least their gap and twice that apart.
+        let out = out.max(0.0);
+        let mut clear = 2.0 * margin + out;
         for i in 0..self.order.len() {
             let a = self.order[i] as usize;
             let (alo, ahi) = self.bounds[a];
@@ -347,16 +364,29 @@ impl Patches {
             for j in i + 1..self.order.len() {
                 let b = self.order[j] as usize;
                 let (blo, bhi) = self.bounds[b];
-                if blo.x > ahi.x {
+                if blo.x > ahi.x + out {
                     break;
                 }
+                let (entry, adjacent) = near[b];
                 if !super::boxes_meet((blo, bhi), (alo, ahi)) {
+                    let gap = (blo - ahi).max(alo - bhi).max_element() + 2.0 * margin;
+                    if gap < clear {
+                        if entry != u32::MAX && self.flat_together(a, b, adjacent) {
+                            self.culled_with[entry as usize] = true;
+                        } else {
+                            clear = gap;
+                        }
+                    }
                     continue;
                 }
-                let (entry, adjacent) = near[b];
                 if entry != u32::MAX && self.flat_together(a, b, adjacent) {
                     self.culled_with[entry as usize] = true;
-                } else if !self.apart(a, b, (tris, x), margin) {
+                    continue;
+                }
+                let apart = self.separation(a, b, (tris, x));
+                if apart > margin {
+                    clear = clear.min(apart);
+                } else {
                     self.live[a] = true;
                     self.live[b] = true;
                     self.pairs.push((a.min(b) as u32, a.max(b) as u32));
@@ -370,11 +400,17 @@ impl Patches {
             }
         }
         self.near = near;
+        // A searched pair's elements that it does not pair are `margin` apart.
+        if !self.pairs.is_empty() {
+            clear = clear.min(margin);
+        }
+        self.clear = clear;
     }
 
-    /// Whether patches `a` and `b` (of triangles `tris` at `x`) lie farther than `margin` apart
-    /// along the axis of either.
-    fn apart(&mut self, a: usize, b: usize, mesh: (&[[u32; 3]], &[Vec3]), margin: f32) -> bool {
+    /// How far apart patches `a` and `b` (of triangles `tris` at `x`) lie along the axis of
+    /// either, whichever is farther (negative where they overlap along both, NaN for a position
+    /// that is not finite).
+    fn separation(&mut self, a: usize, b: usize, mesh: (&[[u32; 3]], &[Vec3])) -> f32 {
         let mut beyond = |p: usize, q: usize| {
             let axis = self.axis[p];
             let (lo, hi) = match self.extent[p] {
@@ -386,10 +422,15 @@ impl Patches {
                 }
             };
             let (qlo, qhi) = along(axis, self.members(q), mesh.0, mesh.1);
-            // NaN compares false: not apart.
-            qlo > hi + margin || qhi < lo - margin
+            (qlo - hi).max(lo - qhi)
         };
-        beyond(a, b) || beyond(b, a)
+        // `max` would drop a NaN: kept, so that the pair is searched.
+        let (ab, ba) = (beyond(a, b), beyond(b, a));
+        if ab.is_nan() || ba.is_nan() {
+            f32::NAN
+        } else {
+            ab.max(ba)
+        }
     }
 
     /// The triangles of patch `p`.
