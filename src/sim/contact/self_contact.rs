@@ -1631,11 +1631,18 @@ impl Regions {
     /// [`Self::closing`] (infinite if a displacement is not finite).
     fn edges_closing(&self, edges: &[[u32; 2]]) -> f32 {
         let moved = &self.moved;
-        edges
-            .iter()
-            .map(|&[a, b]| moved[a as usize].distance_squared(moved[b as usize]))
-            .fold(0.0, max_or_infinite)
-            .sqrt()
+        let (mut worst, mut total) = (0.0f32, 0.0f32);
+        for &[a, b] in edges {
+            let d = moved[a as usize].distance_squared(moved[b as usize]);
+            worst = if d > worst { d } else { worst };
+            total += d;
+        }
+        // The comparison drops a NaN, which the sum keeps (a sum too large counts as one).
+        if total.is_finite() {
+            worst.sqrt()
+        } else {
+            f32::INFINITY
+        }
     }
 }
 
@@ -2257,6 +2264,21 @@ mod tests {
             }
         }
         assert!(counted.iter().all(|&k| k > 0), "{counted:?}");
+    }
+
+    #[test]
+    fn edges_close_by_their_ends_relative_displacement_and_infinitely_when_not_finite() {
+        let mut regions = Regions {
+            moved: vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO],
+            ..Regions::default()
+        };
+        let edges = [[0, 1], [1, 2], [2, 3]];
+        let closing = regions.edges_closing(&edges);
+        assert!((closing - 1.25f32.sqrt()).abs() < 1e-6, "{closing}");
+        for bad in [f32::NAN, f32::INFINITY, 1e30] {
+            regions.moved[3] = Vec3::splat(bad);
+            assert_eq!(regions.edges_closing(&edges), f32::INFINITY, "{bad}");
+        }
     }
 
     #[test]
