@@ -209,7 +209,8 @@ pub(crate) struct SelfContacts {
     /// due: twice the reach, or the distance of the elements the search left uncovered (see
     /// `Patches::clear`) less the thickness, whichever is more. Beyond twice the reach, each edge's
     /// ends are checked to stay within it (the culled patches' triangles turn no further than
-    /// the cull allowed for).
+    /// the cull allowed for), and so are the particles of neighbouring tight cubes (see
+    /// `Regions::tight`).
     near_limit: f32,
     /// The edges by stored particle, as stored at the last broad phase.
     edge_slots: Vec<[u32; 2]>,
@@ -531,9 +532,10 @@ impl SelfContacts {
                 return mean;
             }
             let (near_limit, turn_limit) = (self.near_limit, 2.0 * self.reach);
-            let limits = (near_limit, self.far_limit);
+            let limits = (turn_limit, near_limit, self.far_limit);
             let closing = self.regions.closing(state, &self.found, limits);
             if closing.near <= near_limit
+                && closing.tight <= turn_limit
                 && closing.mid <= self.far_limit
                 && closing.far <= self.wide_limit
             {
@@ -545,6 +547,7 @@ impl SelfContacts {
                 };
                 if turning <= turn_limit {
                     let slack = (near_limit - closing.near)
+                        .min(turn_limit - closing.tight)
                         .min(self.far_limit - closing.mid)
                         .min(self.wide_limit - closing.far)
                         .min(turn_limit - turning);
@@ -611,6 +614,18 @@ impl SelfContacts {
         self.edge_slots
             .extend(self.edges.iter().map(|e| e.map(|p| self.slot[p as usize])));
         self.regions.assign(&positions, &self.slot);
+        // The elements of patches searched together lie in tight cubes: those holding a vertex
+        // of a patch that takes part in the search (every cube, with a vertex in no triangle).
+        let regions = &mut self.regions;
+        regions.tight.clear();
+        regions.tight.resize(regions.count.len(), self.loose);
+        for patch in (0..self.patches.len() as u32).filter(|&p| self.patches.live(p)) {
+            for &t in self.patch_triangles.of(patch) {
+                for &v in &self.tris[t as usize] {
+                    regions.tight[regions.of[self.slot[v as usize] as usize] as usize] = true;
+                }
+            }
+        }
         self.found.clear();
         self.found.resize(n, Vec3::ZERO);
         for (&s, x) in self.slot.iter().zip(&positions) {
@@ -1380,6 +1395,10 @@ struct Regions {
     count: Vec<u32>,
     /// Pairs of neighbouring cubes (a cube with itself too), `a <= b`.
     pairs: Vec<(u32, u32)>,
+    /// Per cube: whether it holds a particle of an element that the search looked at for pairs
+    /// (set after [`Self::assign`]). Particles of two such cubes that were not paired are held
+    /// to twice the reach, the others to the near limit.
+    tight: Vec<bool>,
     /// Cube index of each occupied cell.
     index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
     /// Each cube's block.
@@ -1415,6 +1434,8 @@ struct Regions {
 struct Closing {
     /// How much closer two particles that were within the cubes' size can have come.
     near: f32,
+    /// The same for two particles of tight cubes (see [`Regions::tight`]).
+    tight: f32,
     /// How much closer two particles that were within [`BLOCK`] times the cubes' size can have
     /// come.
     mid: f32,
@@ -1453,6 +1474,8 @@ impl Regions {
         }
         neighbours(&self.index, &mut self.pairs);
         let cubes = self.count.len();
+        self.tight.clear();
+        self.tight.resize(cubes, true);
         self.block_index.clear();
         self.block.clear();
         self.block.resize(cubes, 0);
@@ -1482,18 +1505,19 @@ impl Regions {
     /// How much closer particles of `state` can have come since [`Self::assign`], when they were
     /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
     /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring blocks
-    /// are looked at only if the far bound exceeds both limits, and pairs of neighbouring cubes
-    /// only if the blocks' bound exceeds `near_limit`.
+    /// are looked at only if the far bound exceeds every limit, and pairs of neighbouring cubes
+    /// only if the blocks' bound exceeds `tight_limit` or `near_limit`.
     fn closing<S: ContactState>(
         &mut self,
         state: &S,
         found: &[Vec3],
-        (near_limit, mid_limit): (f32, f32),
+        (tight_limit, near_limit, mid_limit): (f32, f32, f32),
     ) -> Closing {
         let n = self.of.len();
         if n == 0 {
             return Closing {
                 near: 0.0,
+                tight: 0.0,
                 mid: 0.0,
                 far: 0.0,
                 mean: (Vec3::ZERO, Vec3::ZERO),
@@ -1561,7 +1585,7 @@ impl Regions {
         // Two particles of blocks (or cubes) a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| +
         // dev_b, which is at most `far`, and for cubes at most the blocks' bound: the pairs need
         // looking at only where the cloth's parts moved apart more than the limits allow.
-        let mid = if far <= near_limit.max(mid_limit) {
+        let mid = if far <= tight_limit.max(near_limit).max(mid_limit) {
             far
         } else {
             self.block_reference.fill((Vec3::ZERO, 0));
@@ -1591,19 +1615,21 @@ impl Regions {
                 .fold(0.0, max_or_infinite)
                 .min(far)
         };
-        let near = if mid <= near_limit {
-            mid
+        let (near, tight) = if mid <= near_limit.min(tight_limit) {
+            (mid, mid)
         } else {
-            self.pairs
-                .iter()
-                .map(|&(a, b)| {
-                    let (a, b) = (a as usize, b as usize);
-                    self.deviation[a]
-                        + self.deviation[b]
-                        + self.reference[a].distance(self.reference[b])
-                })
-                .fold(0.0, max_or_infinite)
-                .min(mid)
+            let (mut near, mut tight) = (0.0, 0.0);
+            for &(a, b) in &self.pairs {
+                let (a, b) = (a as usize, b as usize);
+                let bound = self.deviation[a]
+                    + self.deviation[b]
+                    + self.reference[a].distance(self.reference[b]);
+                near = max_or_infinite(near, bound);
+                if self.tight[a] && self.tight[b] {
+                    tight = max_or_infinite(tight, bound);
+                }
+            }
+            (near.min(mid), tight.min(mid))
         };
         for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
             .zip(&self.sum)
@@ -1619,6 +1645,7 @@ impl Regions {
         }
         Closing {
             near,
+            tight,
             mid,
             far,
             mean: (m0, m1),
@@ -2210,7 +2237,7 @@ mod tests {
             inv_mass: &w,
             touches: None,
         };
-        regions.closing(&state, found, (limit, limit))
+        regions.closing(&state, found, (limit, limit, limit))
     }
 
     #[test]
@@ -2307,6 +2334,44 @@ mod tests {
         x[5 * 12 + 5] += normal * 2.0 * lift;
         resolve_within(&mut c, 1.0, &start, &mut x, &mut v, &w);
         assert_eq!(c.searches(), 2, "the turned triangles are searched again");
+    }
+
+    #[test]
+    fn the_elements_of_patches_searched_together_lie_in_tight_cubes() {
+        // A 16×16 grid (3 cm) with its last 9 cm folded back over a 1 cm radius: the layers are
+        // searched together, the flat part beyond them is not.
+        let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
+        let rest = &model.rest_positions;
+        let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+        let (r, bend) = (0.01, 0.12);
+        let arc = std::f32::consts::PI * r;
+        let mut x: Vec<Vec3> = (rest.iter())
+            .map(|p| {
+                let s = p.x;
+                if s < bend {
+                    Vec3::new(s, 0.0, p.z)
+                } else if s < bend + arc {
+                    let a = (s - bend) / r;
+                    Vec3::new(bend + r * a.sin(), r - r * a.cos(), p.z)
+                } else {
+                    Vec3::new(bend - (s - bend - arc), 2.0 * r, p.z)
+                }
+            })
+            .collect();
+        let (start, w) = (x.clone(), vec![1.0; x.len()]);
+        let mut v = vec![Vec3::ZERO; x.len()];
+        resolve_within(&mut c, 0.01, &start, &mut x, &mut v, &w);
+        assert!(!c.patches.pairs().is_empty());
+        let tight = |p: u32| c.regions.tight[c.regions.of[c.slot[p as usize] as usize] as usize];
+        for &patch in c.patches.pairs().iter().flat_map(|(a, b)| [a, b]) {
+            for &t in c.patch_triangles.of(patch) {
+                assert!(c.tris[t as usize].iter().all(|&p| tight(p)), "{t}");
+            }
+        }
+        assert!(
+            (0..x.len() as u32).any(|p| !tight(p)),
+            "the flat part is not tight"
+        );
     }
 
     #[test]

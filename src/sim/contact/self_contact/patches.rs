@@ -249,9 +249,9 @@ impl Patches {
     }
 
     /// How far apart, at least, two elements were at the last [`Self::update`] that it left
-    /// unpaired and uncovered: their patches neither culled together nor searched together (the
-    /// search's `margin` once a pair of patches is searched, whose elements it does not pair are
-    /// that far apart), as far as the update looked (its `margin` doubled and its `out`).
+    /// unpaired and uncovered: their patches neither culled together nor searched together, as
+    /// far as the update looked (its `margin` doubled and its `out`). (The elements of patches
+    /// searched together that the search does not pair are its `margin` apart.)
     pub fn clear(&self) -> f32 {
         self.clear
     }
@@ -400,10 +400,6 @@ impl Patches {
             }
         }
         self.near = near;
-        // A searched pair's elements that it does not pair are `margin` apart.
-        if !self.pairs.is_empty() {
-            clear = clear.min(margin);
-        }
         self.clear = clear;
     }
 
