@@ -14,14 +14,15 @@
 //!    is one pass over its triangles. (A mesh with a vertex in no triangle is searched through a
 //!    spatial hash of the boxes instead.) Two elements farther apart than that cannot come
 //!    within the thickness until their displacements since differ by twice the reach, and those
-//!    farther apart still (left uncovered by the patches, see `Patches::clear`) until they differ
-//!    by that distance less the thickness; a culled patch keeps its cone while each of its
-//!    triangles' edges' ends move within twice the reach of each other. Each substep bounds the
-//!    displacements, cube by cube (`Regions`), and edge by edge where the cubes' bound exceeds
-//!    twice the reach: a cloth moving as a whole keeps its candidates; one whose parts move
-//!    relative to each other searches again, within a step if need be. A cloth at rest searches once, and while its
-//!    particles stay within the slack the last check left, it is not checked either: one vector
-//!    pass over the particles (`Watch`) shows they did.
+//!    of patches neither culled nor searched together (farther apart still, see
+//!    `Patches::clear`) until they differ by that distance less the thickness; a culled patch
+//!    keeps its cone while each of its triangles' edges' ends move within twice the reach of each
+//!    other. Each substep bounds the displacements cube by cube and block by block of cubes
+//!    (`Regions`), and edge by edge where the cubes' bound exceeds twice the reach: a cloth moving
+//!    as a whole keeps its candidates; one whose parts move relative to each other searches
+//!    again, within a step if need be. A cloth at rest searches once, and while its particles
+//!    stay within the slack the last check left, it is not checked either: one vector pass over
+//!    the particles (`Watch`) shows they did.
 //! 3. **Narrow phase and response, at every substep where the layers may have come closer** (at the
 //!    step's last substep always; at others only once any two particles can have come [`DEFER`] of
 //!    the thickness closer since the last one, so a resting fold or pile is resolved every few
@@ -222,10 +223,10 @@ pub(crate) struct SelfContacts {
     searches: u64,
     /// Substeps whose pairs were resolved so far (the others deferred theirs).
     resolutions: u64,
-    /// How much closer particles in cubes of `regions` that are not neighbours may come before a
-    /// search is due: they were at least the cubes' size apart, so the elements they belong to
-    /// were at least that less twice the longest edge apart (less one edge for a vertex and a
-    /// triangle).
+    /// How much closer particles in cubes of `regions` that are not neighbours (in the same or
+    /// neighbouring blocks) may come before a search is due: they were at least the cubes' size
+    /// apart, so the elements they belong to were at least that less twice the longest edge apart
+    /// (less one edge for a vertex and a triangle).
     far_limit: f32,
     /// How much closer particles in blocks of `regions` that are not neighbours may come: as
     /// `far_limit`, for particles at least the blocks' size apart.
@@ -3273,8 +3274,9 @@ mod tests {
     #[test]
     fn flat_patches_are_not_searched_and_a_fold_is() {
         // A 16×16 grid (3 cm spacing) folded in half over a 1 cm radius: two flat layers 2 cm
-        // apart (x is the arc length across the grid, centred on 0). With the normal-cone cull, the flat layers are not searched against themselves,
-        // but every pair between the layers within the margin is found.
+        // apart (x is the arc length across the grid, centred on 0). With the normal-cone cull,
+        // the flat layers are not searched against themselves, but every pair between the layers
+        // within the margin is found.
         let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
         let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
         let margin = 0.025;
