@@ -2337,16 +2337,11 @@ mod tests {
         assert_eq!(c.searches(), 2, "the turned triangles are searched again");
     }
 
-    #[test]
-    fn the_elements_of_patches_searched_together_lie_in_tight_cubes() {
-        // A 16×16 grid (3 cm) with its last 9 cm folded back over a 1 cm radius: the layers are
-        // searched together, the flat part beyond them is not.
-        let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
-        let rest = &model.rest_positions;
-        let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
-        let (r, bend) = (0.01, 0.12);
+    /// A flat grid at `rest` (in the plane y = 0) folded back over itself along the line x =
+    /// `bend`, over a radius `r` (x being the arc length).
+    fn folded(rest: &[Vec3], bend: f32, r: f32) -> Vec<Vec3> {
         let arc = std::f32::consts::PI * r;
-        let mut x: Vec<Vec3> = (rest.iter())
+        (rest.iter())
             .map(|p| {
                 let s = p.x;
                 if s < bend {
@@ -2358,7 +2353,17 @@ mod tests {
                     Vec3::new(bend - (s - bend - arc), 2.0 * r, p.z)
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn the_elements_of_patches_searched_together_lie_in_tight_cubes() {
+        // A 16×16 grid (3 cm) with its last 9 cm folded back over a 1 cm radius: the layers are
+        // searched together, the flat part beyond them is not.
+        let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
+        let rest = &model.rest_positions;
+        let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+        let mut x = folded(rest, 0.12, 0.01);
         let (start, w) = (x.clone(), vec![1.0; x.len()]);
         let mut v = vec![Vec3::ZERO; x.len()];
         resolve_within(&mut c, 0.01, &start, &mut x, &mut v, &w);
@@ -3290,24 +3295,9 @@ mod tests {
         assert!(c.patches.pairs().is_empty(), "a flat cloth is not searched");
         assert_eq!(c.candidate_count(), (0, 0));
 
-        let (r, bend) = (0.01, 0.0);
-        let arc = std::f32::consts::PI * r;
-        let layer = |p: Vec3| (p.x > bend + arc / 2.0) as u8;
-        let x: Vec<Vec3> = model
-            .rest_positions
-            .iter()
-            .map(|p| {
-                let s = p.x;
-                if s < bend {
-                    Vec3::new(s, 0.0, p.z)
-                } else if s < bend + arc {
-                    let a = (s - bend) / r;
-                    Vec3::new(bend + r * a.sin(), r - r * a.cos(), p.z)
-                } else {
-                    Vec3::new(bend - (s - bend - arc), 2.0 * r, p.z)
-                }
-            })
-            .collect();
+        let r = 0.01;
+        let layer = |p: Vec3| (p.x > std::f32::consts::FRAC_PI_2 * r) as u8;
+        let x = folded(&model.rest_positions, 0.0, r);
         c.find_candidates(&x, margin, usize::MAX, Some((move |_| flat, 0.0)));
         let (vt, ee) = (c.vt.clone(), c.ee.clone());
         let [all_vt, all_ee] = pairs_within(&c, &x, margin);
