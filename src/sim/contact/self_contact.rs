@@ -2813,6 +2813,46 @@ mod tests {
     }
 
     #[test]
+    fn particles_in_blocks_not_neighbouring_search_again_past_the_wide_limit() {
+        // Two triangles (1 cm sides) ten cubes apart along x, in blocks that are not neighbours:
+        // the second slides toward the first, rigidly, so only the bound over any two particles
+        // sees it.
+        let triangle = |at: f32| {
+            let a = Vec3::new(at, 0.0, 0.0);
+            [
+                a,
+                a + Vec3::new(0.01, 0.0, 0.0),
+                a + Vec3::new(0.0, 0.0, 0.01),
+            ]
+        };
+        let size = SelfContacts::new(&[0, 1, 2], &triangle(0.0), 0.001, 0.0)
+            .regions
+            .size;
+        let place = |shift: f32| -> Vec<Vec3> {
+            triangle(0.0)
+                .into_iter()
+                .chain(triangle(10.0 * size - shift))
+                .collect()
+        };
+        let w = vec![1.0; 6];
+        // Searched where it starts, then slid over one substep (the first check after a search
+        // takes the cubes' references from that substep, so only the slide counts).
+        let slid = |by: f32| {
+            let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &place(0.0), 0.001, 0.0);
+            let (start, mut x, mut v) = (place(0.0), place(0.0), vec![Vec3::ZERO; 6]);
+            resolve(&mut c, &start, &mut x, &mut v, &w);
+            assert_eq!(c.searches(), 1);
+            let wide = c.wide_limit;
+            assert!(wide > 0.0 && wide < 9.0 * size, "{wide}");
+            let mut moved = place(by * wide);
+            resolve(&mut c, &start, &mut moved, &mut v, &w);
+            c.searches()
+        };
+        assert_eq!(slid(0.9), 1, "within the wide limit");
+        assert_eq!(slid(1.1), 2, "past the wide limit");
+    }
+
+    #[test]
     fn a_mesh_of_uneven_edges_at_rest_searches_once() {
         // An eight-sector disc: its hem edges are 0.39 of its spokes and its longest edges (the
         // quads' diagonals) 2.7 times its shortest, so cubes sized by the shortest edge alone

@@ -269,7 +269,9 @@ impl Patches {
     /// motion), and two within the narrower of theirs. Two patches whose boxes meet but which lie
     /// farther than `margin` apart along one of their axes (the two sides of a curve, seen across
     /// it) need not be searched for each other's sake. `boxes` are the triangles' boxes grown by
-    /// `margin`; pairs of patches up to `out` farther apart are looked at for [`Self::clear`].
+    /// `margin`; pairs of patches up to `out` farther apart are looked at for [`Self::clear`], and
+    /// nearby ones among them are culled when flat together (their elements are farther apart
+    /// than the margin anyway), so that they leave `clear` as it is.
     pub fn update(
         &mut self,
         x: &[Vec3],
