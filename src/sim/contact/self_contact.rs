@@ -54,7 +54,7 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::Vectors;
 use super::narrow::ContactState;
@@ -111,6 +111,11 @@ type Cull = (fn(f32) -> f32, f32);
 
 /// [`SelfContacts::find_candidates`] without culling.
 const NO_CULL: Option<Cull> = None;
+
+/// Share of the limit on the edges' turn up to which the near bound stands in for the edges'
+/// own bound (see [`Regions::edges_closing`]): the slack that a check leaves the next ones is
+/// then at least the rest.
+const EDGES_SPARED: f32 = 0.25;
 
 /// Cubes along each side of a block of `Regions`.
 const BLOCK: i32 = 3;
@@ -541,7 +546,9 @@ impl SelfContacts {
                 && closing.far <= self.wide_limit
             {
                 // An edge's ends lie in the same or neighbouring cubes: within the near bound.
-                let turning = if closing.near <= turn_limit {
+                // The edges' own bound is much smaller where the cloth bends: worked out unless
+                // the near bound leaves most of the limit to spare for the next checks.
+                let turning = if closing.near <= EDGES_SPARED * turn_limit {
                     closing.near
                 } else {
                     self.regions.edges_closing(&self.edge_slots)
@@ -1402,8 +1409,12 @@ struct Regions {
     tight: Vec<bool>,
     /// Cube index of each occupied cell.
     index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    /// Each cube's cell.
+    cell: Vec<[i32; 3]>,
     /// Each cube's block.
     block: Vec<u32>,
+    /// The cubes of each block.
+    block_cubes: Grouped,
     /// Pairs of neighbouring blocks (a block with itself too), `a <= b`.
     block_pairs: Vec<(u32, u32)>,
     /// Block index of each occupied block cell (scratch of [`Self::assign`]).
@@ -1423,22 +1434,22 @@ struct Regions {
     /// Substeps skipped since the last [`Self::closing`] (see [`Self::skip`]).
     skipped: u32,
     /// Per cube: sum of displacements (scratch).
-    sum: Vec<Vec3>,
+    sum: Vec<Vec3A>,
     /// Per cube: largest distance of a displacement from the cube's reference (scratch).
     deviation: Vec<f32>,
     /// Per stored particle: its displacement since [`Self::assign`] at the last
     /// [`Self::closing`].
-    moved: Vec<Vec3>,
+    moved: Vec<Vec3A>,
 }
 
 /// What [`Regions::closing`] found.
 struct Closing {
-    /// How much closer two particles that were within the cubes' size can have come.
+    /// How much closer two particles of the same or neighbouring cubes can have come.
     near: f32,
     /// The same for two particles of tight cubes (see [`Regions::tight`]).
     tight: f32,
-    /// How much closer two particles that were within [`BLOCK`] times the cubes' size can have
-    /// come.
+    /// How much closer two particles of cubes that are not neighbours, in the same or
+    /// neighbouring blocks, can have come.
     mid: f32,
     /// How much closer any two particles can have come.
     far: f32,
@@ -1480,11 +1491,14 @@ impl Regions {
         self.block_index.clear();
         self.block.clear();
         self.block.resize(cubes, 0);
+        self.cell.resize(cubes, [0; 3]);
         for (cell, &a) in &self.index {
             let next = self.block_index.len() as u32;
             let block = cell.map(|c| c.div_euclid(BLOCK));
             self.block[a as usize] = *self.block_index.entry(block).or_insert(next);
+            self.cell[a as usize] = *cell;
         }
+        self.block_cubes = Grouped::new(self.block_index.len(), self.block.iter().copied());
         neighbours(&self.block_index, &mut self.block_pairs);
         self.block_reference
             .resize(self.block_index.len(), (Vec3::ZERO, 0));
@@ -1493,8 +1507,51 @@ impl Regions {
         self.last_mean.resize(cubes, Vec3::ZERO);
         self.fresh = true;
         self.skipped = 0;
-        self.sum.resize(cubes, Vec3::ZERO);
+        self.sum.resize(cubes, Vec3A::ZERO);
         self.deviation.resize(cubes, 0.0);
+    }
+
+    /// The bound of [`Closing::mid`] from each pair of cubes in the same or neighbouring blocks
+    /// that are not neighbours.
+    fn cubes_apart(&self) -> f32 {
+        let (cubes, cell) = (&self.block_cubes, &self.cell);
+        let mut worst = 0.0;
+        for &(ba, bb) in &self.block_pairs {
+            for &a in cubes.of(ba) {
+                let (ra, da, ca) = (
+                    self.reference[a as usize],
+                    self.deviation[a as usize],
+                    cell[a as usize],
+                );
+                for &b in cubes.of(bb).iter().filter(|&&b| ba != bb || b > a) {
+                    let cb = cell[b as usize];
+                    if (0..3).all(|k| (ca[k] - cb[k]).abs() <= 1) {
+                        continue;
+                    }
+                    let bound =
+                        da + self.deviation[b as usize] + ra.distance(self.reference[b as usize]);
+                    worst = max_or_infinite(worst, bound);
+                }
+            }
+        }
+        worst
+    }
+
+    /// Each cube's sum of [`Self::moved`] and the largest distance of one from its reference (a
+    /// NaN is lost to the maximum but kept by the sum).
+    fn scatter(&mut self) {
+        self.sum.fill(Vec3A::ZERO);
+        self.deviation.fill(0.0);
+        let (sum, deviation, reference) = (&mut self.sum, &mut self.deviation, &self.reference);
+        for (d, &r) in self.moved.iter().zip(&self.of) {
+            let r = r as usize;
+            sum[r] += *d;
+            let w = d.distance_squared(reference[r].into());
+            deviation[r] = if w > deviation[r] { w } else { deviation[r] };
+        }
+        for dev in deviation {
+            *dev = dev.sqrt();
+        }
     }
 
     /// Notes a substep without [`Self::closing`], so that the next one extrapolates the
@@ -1506,8 +1563,9 @@ impl Regions {
     /// How much closer particles of `state` can have come since [`Self::assign`], when they were
     /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
     /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring blocks
-    /// are looked at only if the far bound exceeds every limit, and pairs of neighbouring cubes
-    /// only if the blocks' bound exceeds `tight_limit` or `near_limit`.
+    /// are looked at only if the far bound exceeds every limit, pairs of neighbouring cubes only
+    /// if the blocks' bound exceeds `tight_limit` or `near_limit`, and pairs of cubes that are
+    /// not neighbours, within neighbouring blocks, only if it exceeds `mid_limit`.
     fn closing<S: ContactState>(
         &mut self,
         state: &S,
@@ -1527,18 +1585,18 @@ impl Regions {
         if std::mem::take(&mut self.fresh) {
             // The first time, an extra pass for the cubes' mean displacements and their mean
             // motion over this substep, so that the next reference is extrapolated too.
-            self.sum.fill(Vec3::ZERO);
+            self.sum.fill(Vec3A::ZERO);
             self.last_mean.fill(Vec3::ZERO);
             let (of, sum, step) = (&self.of, &mut self.sum, &mut self.last_mean);
             state.paths(|i, start, end| {
-                sum[of[i] as usize] += end - found[i];
+                sum[of[i] as usize] += Vec3A::from(end - found[i]);
                 step[of[i] as usize] += end - start;
             });
             for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
                 .zip(&self.sum)
                 .zip(&self.count)
             {
-                *r = *s / c as f32;
+                *r = Vec3::from(*s) / c as f32;
                 *last = *r - *last / c as f32;
             }
         }
@@ -1549,32 +1607,18 @@ impl Regions {
                 *r = *last + (*r - *last) * steps;
             }
         }
-        self.sum.fill(Vec3::ZERO);
-        self.deviation.fill(0.0);
-        self.moved.resize(n, Vec3::ZERO);
-        let (mut m0, mut m1) = (Vec3::ZERO, Vec3::ZERO);
-        let (of, reference, sum, deviation, moved) = (
-            &self.of,
-            &self.reference,
-            &mut self.sum,
-            &mut self.deviation,
-            &mut self.moved,
-        );
-        // Squared deviations, rooted per cube below. A NaN displacement is lost to `max` but
-        // not to the mean `m1`, which makes the far bound infinite.
+        self.moved.resize(n, Vec3A::ZERO);
+        let (mut m0, mut m1) = (Vec3A::ZERO, Vec3A::ZERO);
+        let (moved, found) = (&mut self.moved[..n], &found[..n]);
         state.paths(|i, start, end| {
-            let d = end - found[i];
+            let (start, end, at) = (Vec3A::from(start), Vec3A::from(end), Vec3A::from(found[i]));
+            let d = end - at;
             moved[i] = d;
-            m0 += start - found[i];
+            m0 += start - at;
             m1 += d;
-            let r = of[i] as usize;
-            sum[r] += d;
-            deviation[r] = deviation[r].max(d.distance_squared(reference[r]));
         });
-        for dev in &mut self.deviation {
-            *dev = dev.sqrt();
-        }
-        let (m0, m1) = (m0 / n as f32, m1 / n as f32);
+        self.scatter();
+        let (m0, m1) = (Vec3::from(m0) / n as f32, Vec3::from(m1) / n as f32);
         // Any two particles: |d_p − d_q| ≤ |d_p − m1| + |d_q − m1|.
         let far = 2.0
             * self
@@ -1586,7 +1630,7 @@ impl Regions {
         // Two particles of blocks (or cubes) a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| +
         // dev_b, which is at most `far`, and for cubes at most the blocks' bound: the pairs need
         // looking at only where the cloth's parts moved apart more than the limits allow.
-        let mid = if far <= tight_limit.max(near_limit).max(mid_limit) {
+        let blocks = if far <= tight_limit.max(near_limit).max(mid_limit) {
             far
         } else {
             self.block_reference.fill((Vec3::ZERO, 0));
@@ -1616,8 +1660,13 @@ impl Regions {
                 .fold(0.0, max_or_infinite)
                 .min(far)
         };
-        let (near, tight) = if mid <= near_limit.min(tight_limit) {
-            (mid, mid)
+        let mid = if blocks <= mid_limit {
+            blocks
+        } else {
+            self.cubes_apart().min(blocks)
+        };
+        let (near, tight) = if blocks <= near_limit.min(tight_limit) {
+            (blocks, blocks)
         } else {
             let (mut near, mut tight) = (0.0, 0.0);
             for &(a, b) in &self.pairs {
@@ -1630,13 +1679,13 @@ impl Regions {
                     tight = max_or_infinite(tight, bound);
                 }
             }
-            (near.min(mid), tight.min(mid))
+            (near.min(blocks), tight.min(blocks))
         };
         for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
             .zip(&self.sum)
             .zip(&self.count)
         {
-            let mean = *s / c as f32;
+            let mean = Vec3::from(*s) / c as f32;
             *r = if steps > 1.0 {
                 mean + (mean - *last) / steps
             } else {
@@ -2266,7 +2315,7 @@ mod tests {
         // No limit: every bound is worked out.
         let c = closing_of(&mut regions, &found, &mut x, 0.0);
         assert!(
-            c.near <= c.mid && c.mid <= c.far,
+            c.near <= c.far && c.mid <= c.far,
             "{} {} {}",
             c.near,
             c.mid,
@@ -2295,16 +2344,49 @@ mod tests {
     }
 
     #[test]
+    fn cubes_that_are_not_neighbours_bound_their_particles_in_one_block_or_in_two() {
+        // Cubes of 0.2 m along x: cells 0, 1 and 2 make block 0, cell 3 begins block 1. The
+        // particle in cell 2 moves 5 cm toward the one in cell 0 (same block), then the one in
+        // cell 3 toward it (neighbouring blocks); nothing else moves.
+        let found: Vec<Vec3> = [0.1, 0.3, 0.5, 0.7]
+            .map(|x| Vec3::new(x, 0.1, 0.1))
+            .to_vec();
+        let slot: Vec<u32> = (0..4).collect();
+        for (moved, by) in [(2, -0.05), (3, -0.05), (0, 0.05)] {
+            let mut regions = Regions {
+                size: 0.2,
+                ..Regions::default()
+            };
+            regions.assign(&found, &slot);
+            let mut x = found.clone();
+            x[moved].x += by;
+            let c = closing_of(&mut regions, &found, &mut x, 0.0);
+            assert!(c.mid >= 0.05 - 1e-6, "particle {moved}: mid {}", c.mid);
+            assert!(
+                c.mid <= c.far + 1e-6,
+                "particle {moved}: {} {}",
+                c.mid,
+                c.far
+            );
+        }
+    }
+
+    #[test]
     fn edges_close_by_their_ends_relative_displacement_and_infinitely_when_not_finite() {
         let mut regions = Regions {
-            moved: vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO],
+            moved: vec![
+                Vec3A::ZERO,
+                Vec3A::X,
+                Vec3A::new(0.0, 0.5, 0.0),
+                Vec3A::ZERO,
+            ],
             ..Regions::default()
         };
         let edges = [[0, 1], [1, 2], [2, 3]];
         let closing = regions.edges_closing(&edges);
         assert!((closing - 1.25f32.sqrt()).abs() < 1e-6, "{closing}");
         for bad in [f32::NAN, f32::INFINITY, 1e30] {
-            regions.moved[3] = Vec3::splat(bad);
+            regions.moved[3] = Vec3A::splat(bad);
             assert_eq!(regions.edges_closing(&edges), f32::INFINITY, "{bad}");
         }
     }
@@ -2446,14 +2528,15 @@ mod tests {
         assert!(c.near < 1e-5 && c.far < 1e-5, "{} {}", c.near, c.far);
         assert!((c.mean.1 - Vec3::splat(3.0)).length() < 1e-5);
         // One particle moved 5 cm toward its neighbour: neighbouring cubes see it, whether or not
-        // the pairs are looked at.
-        for limit in [0.0, 1.0] {
+        // the pairs are looked at, and wherever it is stored among its cube's particles (5, 6 and
+        // 7 share one).
+        for (limit, p) in [0.0, 1.0].into_iter().flat_map(|l| [(l, 5), (l, 7)]) {
             let mut x = found.clone();
-            x[7].x -= 0.05;
+            x[p].x -= 0.05;
             let c = closing_of(&mut fresh(), &found, &mut x, limit);
             assert!(
                 c.near >= 0.05 - 1e-6 && c.far >= c.near,
-                "{} {}",
+                "{p}: {} {}",
                 c.near,
                 c.far
             );
