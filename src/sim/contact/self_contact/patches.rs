@@ -68,6 +68,8 @@ pub(super) struct Patches {
     altitude: Vec<f32>,
     /// Patches by the low x of their boxes (scratch of the sweep).
     order: Vec<u32>,
+    /// The patches' boxes in that order (scratch of the sweep).
+    sorted: Vec<(Vec3, Vec3)>,
     /// Per patch: its entry in the list of nearby patches of the patch being swept (`u32::MAX`
     /// for none), and whether it is adjacent to that patch (scratch of the sweep).
     near: Vec<(u32, bool)>,
@@ -195,6 +197,7 @@ impl Patches {
             flat: vec![-1.0; patches],
             altitude: Vec::new(),
             order: (0..patches as u32).collect(),
+            sorted: Vec::new(),
             pairs: Vec::new(),
             clear: 0.0,
             near: Vec::new(),
@@ -344,6 +347,9 @@ impl Patches {
         let bounds = &self.bounds;
         self.order
             .sort_unstable_by(|&a, &b| bounds[a as usize].0.x.total_cmp(&bounds[b as usize].0.x));
+        let mut sorted = std::mem::take(&mut self.sorted);
+        sorted.clear();
+        sorted.extend(self.order.iter().map(|&p| bounds[p as usize]));
         // Patch `a`'s nearby patches, marked with their entries in its list, and its adjacent
         // ones (scratch, unmarked again after each `a`).
         let mut near = std::mem::take(&mut self.near);
@@ -363,21 +369,24 @@ impl Patches {
             for &c in self.adjacent(a) {
                 near[c as usize].1 = true;
             }
-            for j in i + 1..self.order.len() {
-                let b = self.order[j] as usize;
-                let (blo, bhi) = self.bounds[b];
+            for (j, &(blo, bhi)) in sorted.iter().enumerate().skip(i + 1) {
                 if blo.x > ahi.x + out {
                     break;
                 }
+                // Most pairs of the sweep lie too far apart along another axis to matter, which
+                // the sorted boxes tell.
+                let meet = super::boxes_meet((blo, bhi), (alo, ahi));
+                let gap = (blo - ahi).max(alo - bhi).max_element() + 2.0 * margin;
+                if !meet && !(gap < clear) {
+                    continue;
+                }
+                let b = self.order[j] as usize;
                 let (entry, adjacent) = near[b];
-                if !super::boxes_meet((blo, bhi), (alo, ahi)) {
-                    let gap = (blo - ahi).max(alo - bhi).max_element() + 2.0 * margin;
-                    if gap < clear {
-                        if entry != u32::MAX && self.flat_together(a, b, adjacent) {
-                            self.culled_with[entry as usize] = true;
-                        } else {
-                            clear = gap;
-                        }
+                if !meet {
+                    if entry != u32::MAX && self.flat_together(a, b, adjacent) {
+                        self.culled_with[entry as usize] = true;
+                    } else {
+                        clear = gap;
                     }
                     continue;
                 }
@@ -402,6 +411,7 @@ impl Patches {
             }
         }
         self.near = near;
+        self.sorted = sorted;
         self.clear = clear;
     }
 
