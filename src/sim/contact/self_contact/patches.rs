@@ -377,7 +377,8 @@ impl Patches {
                 // the sorted boxes tell.
                 let meet = super::boxes_meet((blo, bhi), (alo, ahi));
                 let gap = (blo - ahi).max(alo - bhi).max_element() + 2.0 * margin;
-                if !meet && !(gap < clear) {
+                // A NaN gap is not below `clear`: nothing to do, as for a pair far apart.
+                if !(meet || gap < clear) {
                     continue;
                 }
                 let b = self.order[j] as usize;
