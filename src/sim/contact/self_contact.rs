@@ -1610,6 +1610,8 @@ impl Regions {
         self.moved.resize(n, Vec3A::ZERO);
         let (mut m0, mut m1) = (Vec3A::ZERO, Vec3A::ZERO);
         let (moved, found) = (&mut self.moved[..n], &found[..n]);
+        // A NaN displacement is lost to the cubes' maxima but not to the mean `m1`, which makes
+        // the far bound infinite.
         state.paths(|i, start, end| {
             let (start, end, at) = (Vec3A::from(start), Vec3A::from(end), Vec3A::from(found[i]));
             let d = end - at;

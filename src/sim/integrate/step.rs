@@ -313,6 +313,7 @@ impl ContactState for SoaContacts<'_> {
     fn clearances(&self, near: Near, out: &mut [f32]) {
         soa_clearances::<false>(&self.state.x, &self.state.d, near, out);
     }
+    // Inlined, so that the caller's running sums stay in registers.
     #[inline(always)]
     fn paths(&self, mut f: impl FnMut(usize, Vec3, Vec3)) {
         for (i, (x, d)) in self.state.x.iter().zip(self.state.d.iter()).enumerate() {

@@ -375,6 +375,7 @@ impl ContactState for AheadOfEnd<'_> {
     fn clearances(&self, near: Near, out: &mut [f32]) {
         soa_clearances::<true>(self.x, self.d, near, out);
     }
+    // Inlined, so that the caller's running sums stay in registers.
     #[inline(always)]
     fn paths(&self, mut f: impl FnMut(usize, Vec3, Vec3)) {
         for (i, (x, d)) in self.x.iter().zip(self.d.iter()).enumerate() {
