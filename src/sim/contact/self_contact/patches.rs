@@ -1,7 +1,7 @@
 //! Patches of a cloth's triangles and their normal cones: what lets the self-contact broad phase
 //! skip the parts of a cloth that cannot touch themselves.
 //!
-//! A patch is a dozen or two edge-connected triangles, close together at rest. When all its
+//! A patch is about two dozen edge-connected triangles, close together at rest. When all its
 //! triangle normals lie within an angle `flat` below 90° of one direction, the patch is a height
 //! field over the plane across that direction: it has no fold and cannot pass through itself
 //! (Volino and Magnenat-Thalmann's normal-cone test). Its elements are then not paired with each
@@ -22,7 +22,7 @@ use glam::Vec3;
 const LOOSE: u32 = u32::MAX;
 
 /// Triangles per patch, about (the patches are cubes of the rest shape).
-const SIZE: usize = 16;
+const SIZE: usize = 24;
 
 /// A cloth's triangles grouped into patches, with each patch's box and normal cone as of the last
 /// [`Patches::update`].
