@@ -1732,18 +1732,55 @@ fn neighbours(
     pairs: &mut Vec<(u32, u32)>,
 ) {
     pairs.clear();
-    for (cell, &a) in index {
-        let (lo, hi) = (
-            cell.map(|c| c.saturating_sub(1)),
-            cell.map(|c| c.saturating_add(1)),
-        );
-        for_cells(lo, hi, |c| {
-            if let Some(&b) = index.get(&c)
-                && a <= b
-            {
-                pairs.push((a, b));
+    let mut each = |lookup: &dyn Fn([i32; 3]) -> Option<u32>| {
+        for (cell, &a) in index {
+            let (lo, hi) = (
+                cell.map(|c| c.saturating_sub(1)),
+                cell.map(|c| c.saturating_add(1)),
+            );
+            for_cells(lo, hi, |c| {
+                if let Some(b) = lookup(c)
+                    && a <= b
+                {
+                    pairs.push((a, b));
+                }
+            });
+        }
+    };
+    // Where the occupied cells fill a good share of their bounding box (a cloth's cubes do), a
+    // dense array of it answers the lookups instead of the hash map; the pairs are the same and
+    // in the same order.
+    let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
+    for cell in index.keys() {
+        for k in 0..3 {
+            lo[k] = lo[k].min(cell[k] as i64);
+            hi[k] = hi[k].max(cell[k] as i64);
+        }
+    }
+    let size = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1).max(0));
+    let volume = size.iter().try_fold(1i64, |v, &s| v.checked_mul(s));
+    match volume {
+        Some(volume) if !index.is_empty() && volume <= 8 * index.len() as i64 + 4096 => {
+            let place = |c: [i32; 3]| -> Option<usize> {
+                let mut at = 0;
+                for k in 0..3 {
+                    let i = c[k] as i64 - lo[k];
+                    if !(0..size[k]).contains(&i) {
+                        return None;
+                    }
+                    at = at * size[k] + i;
+                }
+                Some(at as usize)
+            };
+            let mut dense = vec![u32::MAX; volume as usize];
+            for (cell, &a) in index {
+                if let Some(i) = place(*cell) {
+                    dense[i] = a;
+                }
             }
-        });
+            each(&|c| place(c).map(|i| dense[i]).filter(|&b| b != u32::MAX));
+        }
+        _ => each(&|c| index.get(&c).copied()),
     }
 }
 
@@ -2370,6 +2407,37 @@ mod tests {
                 c.mid,
                 c.far
             );
+        }
+    }
+
+    #[test]
+    fn neighbouring_cells_are_paired_once_whether_looked_up_densely_or_hashed() {
+        // A compact cluster (looked up in a dense array) and the same cells with one far away
+        // (the hash map), against every pair of cells tried.
+        let h = |k: usize| unit_interval(mix64(k as u64));
+        let cluster: Vec<[i32; 3]> = (0..300)
+            .map(|i| [0, 1, 2].map(|k| (8.0 * h(3 * i + k)) as i32 - 3))
+            .collect();
+        for far in [None, Some([1 << 20, -(1 << 20), 7])] {
+            let mut index = HashMap::default();
+            for c in cluster.iter().chain(&far) {
+                let next = index.len() as u32;
+                index.entry(*c).or_insert(next);
+            }
+            let mut pairs = Vec::new();
+            neighbours(&index, &mut pairs);
+            let mut expected = Vec::new();
+            for (a, &i) in &index {
+                for (b, &j) in &index {
+                    if i <= j && (0..3).all(|k| (a[k] - b[k]).abs() <= 1) {
+                        expected.push((i, j));
+                    }
+                }
+            }
+            let mut found = pairs.clone();
+            found.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(found, expected, "far: {far:?}");
         }
     }
 
