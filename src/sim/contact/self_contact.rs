@@ -1757,7 +1757,8 @@ fn neighbours(
             hi[k] = hi[k].max(cell[k] as i64);
         }
     }
-    let size = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1).max(0));
+    // Saturating: no cells leave the bounds inverted (`lo` above `hi`).
+    let size = [0, 1, 2].map(|k| hi[k].saturating_sub(lo[k]).saturating_add(1).max(0));
     let volume = size.iter().try_fold(1i64, |v, &s| v.checked_mul(s));
     match volume {
         Some(volume) if !index.is_empty() && volume <= 8 * index.len() as i64 + 4096 => {
@@ -2439,6 +2440,9 @@ mod tests {
             expected.sort_unstable();
             assert_eq!(found, expected, "far: {far:?}");
         }
+        let mut pairs = vec![(0, 0)];
+        neighbours(&HashMap::default(), &mut pairs);
+        assert!(pairs.is_empty());
     }
 
     #[test]
