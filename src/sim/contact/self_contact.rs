@@ -949,20 +949,32 @@ struct Grouped {
 impl Grouped {
     /// Items `0..` grouped by `group` (of each item in order; one not below `groups` in none).
     fn new(groups: usize, group: impl Iterator<Item = u32> + Clone) -> Self {
-        let mut start = vec![0u32; groups + 1];
+        let mut grouped = Self::default();
+        grouped.regroup(groups, group);
+        grouped
+    }
+
+    /// [`Self::new`] in place, keeping the allocations.
+    fn regroup(&mut self, groups: usize, group: impl Iterator<Item = u32> + Clone) {
+        let (start, items) = (&mut self.start, &mut self.items);
+        start.clear();
+        start.resize(groups + 1, 0);
         for g in group.clone().filter(|&g| (g as usize) < groups) {
             start[g as usize + 1] += 1;
         }
         for g in 0..groups {
             start[g + 1] += start[g];
         }
-        let mut items = vec![0; start[groups] as usize];
-        let mut next = start.clone();
+        items.clear();
+        items.resize(start[groups] as usize, 0);
+        // Each group's start moves on as its items are placed, ending where the next begins;
+        // then every start goes back one group.
         for (i, g) in group.enumerate().filter(|&(_, g)| (g as usize) < groups) {
-            items[next[g as usize] as usize] = i as u32;
-            next[g as usize] += 1;
+            items[start[g as usize] as usize] = i as u32;
+            start[g as usize] += 1;
         }
-        Self { start, items }
+        start.copy_within(0..groups, 1);
+        start[0] = 0;
     }
 
     /// The items of group `g`.
@@ -1415,6 +1427,8 @@ struct Regions {
     block: Vec<u32>,
     /// The cubes of each block.
     block_cubes: Grouped,
+    /// Scratch of [`neighbours`].
+    dense: Vec<u32>,
     /// Pairs of neighbouring blocks (a block with itself too), `a <= b`.
     block_pairs: Vec<(u32, u32)>,
     /// Block index of each occupied block cell (scratch of [`Self::assign`]).
@@ -1484,7 +1498,7 @@ impl Regions {
             self.count[r as usize] += 1;
             self.of[s as usize] = r;
         }
-        neighbours(&self.index, &mut self.pairs);
+        neighbours(&self.index, &mut self.pairs, &mut self.dense);
         let cubes = self.count.len();
         self.tight.clear();
         self.tight.resize(cubes, true);
@@ -1498,8 +1512,9 @@ impl Regions {
             self.block[a as usize] = *self.block_index.entry(block).or_insert(next);
             self.cell[a as usize] = *cell;
         }
-        self.block_cubes = Grouped::new(self.block_index.len(), self.block.iter().copied());
-        neighbours(&self.block_index, &mut self.block_pairs);
+        self.block_cubes
+            .regroup(self.block_index.len(), self.block.iter().copied());
+        neighbours(&self.block_index, &mut self.block_pairs, &mut self.dense);
         self.block_reference
             .resize(self.block_index.len(), (Vec3::ZERO, 0));
         self.block_deviation.resize(self.block_index.len(), 0.0);
@@ -1726,10 +1741,11 @@ impl Regions {
 }
 
 /// Fills `pairs` with the pairs `(a, b)`, `a <= b`, of the cells of `index` (each to its index)
-/// that are the same or neighbours.
+/// that are the same or neighbours (`dense` is scratch).
 fn neighbours(
     index: &HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
     pairs: &mut Vec<(u32, u32)>,
+    dense: &mut Vec<u32>,
 ) {
     pairs.clear();
     let mut each = |lookup: &dyn Fn([i32; 3]) -> Option<u32>| {
@@ -1773,7 +1789,8 @@ fn neighbours(
                 }
                 Some(at as usize)
             };
-            let mut dense = vec![u32::MAX; volume as usize];
+            dense.clear();
+            dense.resize(volume as usize, u32::MAX);
             for (cell, &a) in index {
                 if let Some(i) = place(*cell) {
                     dense[i] = a;
@@ -2419,14 +2436,18 @@ mod tests {
         let cluster: Vec<[i32; 3]> = (0..300)
             .map(|i| [0, 1, 2].map(|k| (8.0 * h(3 * i + k)) as i32 - 3))
             .collect();
-        for far in [None, Some([1 << 20, -(1 << 20), 7])] {
+        // One scratch for all: a dense lookup after another, larger one finds no stale cells.
+        let mut scratch = Vec::new();
+        let far = Some([1 << 20, -(1 << 20), 7]);
+        for (shift, far) in [(0, None), (2, None), (0, far), (-1, None)] {
             let mut index = HashMap::default();
-            for c in cluster.iter().chain(&far) {
+            let shifted = (cluster.iter()).map(|c| [(c[0] + shift).min(3), c[1] + shift, c[2]]);
+            for c in shifted.chain(far) {
                 let next = index.len() as u32;
-                index.entry(*c).or_insert(next);
+                index.entry(c).or_insert(next);
             }
             let mut pairs = Vec::new();
-            neighbours(&index, &mut pairs);
+            neighbours(&index, &mut pairs, &mut scratch);
             let mut expected = Vec::new();
             for (a, &i) in &index {
                 for (b, &j) in &index {
@@ -2441,7 +2462,7 @@ mod tests {
             assert_eq!(found, expected, "far: {far:?}");
         }
         let mut pairs = vec![(0, 0)];
-        neighbours(&HashMap::default(), &mut pairs);
+        neighbours(&HashMap::default(), &mut pairs, &mut Vec::new());
         assert!(pairs.is_empty());
     }
 
