@@ -15,7 +15,8 @@
 //!    spatial hash of the boxes instead.) Two elements farther apart than that cannot come
 //!    within the thickness until their displacements since differ by twice the reach, and those
 //!    of patches neither culled nor searched together (farther apart still, see
-//!    `Patches::clear`) until they differ by that distance less the thickness; a culled patch
+//!    `Patches::clear_of`) until they differ by that distance less the thickness, which each cube
+//!    of the cloth keeps for the patches it holds (`Regions::limit`); a culled patch
 //!    keeps its cone while each of its triangles' edges' ends move within twice the reach of each
 //!    other. Each substep bounds the displacements cube by cube and block by block of cubes
 //!    (`Regions`), and edge by edge where the cubes' bound exceeds twice the reach: a cloth moving
@@ -211,13 +212,6 @@ pub(crate) struct SelfContacts {
     reach: f32,
     /// The reach the step was begun with.
     step_reach: f32,
-    /// How much closer particles in neighbouring cubes of `regions` may come before a search is
-    /// due: twice the reach, or the distance of the elements the search left uncovered (see
-    /// `Patches::clear`) less the thickness, whichever is more. Beyond twice the reach, each edge's
-    /// ends are checked to stay within it (the culled patches' triangles turn no further than
-    /// the cull allowed for), and so are the particles of neighbouring tight cubes (see
-    /// `Regions::tight`).
-    near_limit: f32,
     /// The edges by stored particle, as stored at the last broad phase.
     edge_slots: Vec<[u32; 2]>,
     /// The most reach a broad phase is given (see `reach_cap`).
@@ -537,11 +531,9 @@ impl SelfContacts {
                 self.regions.skip();
                 return mean;
             }
-            let (near_limit, turn_limit) = (self.near_limit, 2.0 * self.reach);
-            let limits = (turn_limit, near_limit, self.far_limit);
-            let closing = self.regions.closing(state, &self.found, limits);
-            if closing.near <= near_limit
-                && closing.tight <= turn_limit
+            let turn_limit = 2.0 * self.reach;
+            let closing = self.regions.closing(state, &self.found, self.far_limit);
+            if closing.slack >= 0.0
                 && closing.mid <= self.far_limit
                 && closing.far <= self.wide_limit
             {
@@ -554,8 +546,7 @@ impl SelfContacts {
                     self.regions.edges_closing(&self.edge_slots)
                 };
                 if turning <= turn_limit {
-                    let slack = (near_limit - closing.near)
-                        .min(turn_limit - closing.tight)
+                    let slack = (closing.slack)
                         .min(self.far_limit - closing.mid)
                         .min(self.wide_limit - closing.far)
                         .min(turn_limit - turning);
@@ -612,28 +603,34 @@ impl SelfContacts {
         // limit: the far bound, which is at least the near one, would ask for a search first.
         let out = self.far_limit + self.thickness - 2.0 * margin;
         self.find_candidates(&positions, margin, cap, Some((self.cull(), out)));
-        let clear = if self.loose {
-            margin
-        } else {
-            self.patches.clear()
-        };
-        self.near_limit = (2.0 * self.reach).max(clear - self.thickness);
         self.edge_slots.clear();
         self.edge_slots
             .extend(self.edges.iter().map(|e| e.map(|p| self.slot[p as usize])));
         self.regions.assign(&positions, &self.slot);
-        // The elements of patches searched together lie in tight cubes: those holding a vertex
-        // of a patch that takes part in the search (every cube, with a vertex in no triangle).
-        let regions = &mut self.regions;
-        regions.tight.clear();
-        regions.tight.resize(regions.count.len(), self.loose);
-        for patch in (0..self.patches.len() as u32).filter(|&p| self.patches.live(p)) {
-            for &t in self.patch_triangles.of(patch) {
-                for &v in &self.tris[t as usize] {
-                    regions.tight[regions.of[self.slot[v as usize] as usize] as usize] = true;
-                }
+        // Two elements the search did not pair may come closer by twice the reach where they
+        // are in patches searched together (every cube holding a corner of a patch that takes
+        // part in the search is held to that), and by their distance less the thickness where
+        // they are in patches left uncovered: at least either patch's clear distance (which is
+        // at least the margin, so more than twice the reach). With a vertex in no triangle,
+        // every patch takes part.
+        let turn_limit = 2.0 * self.reach;
+        let (patches, thickness) = (&self.patches, self.thickness);
+        let (empty, loose) = (
+            if self.loose {
+                turn_limit
+            } else {
+                self.far_limit
+            },
+            self.loose,
+        );
+        self.regions.limit(&self.tris, &self.slot, empty, |t| {
+            let patch = patches.of_triangle(t as u32);
+            if loose || patches.live(patch) {
+                turn_limit
+            } else {
+                (patches.clear_of(patch) - thickness).max(turn_limit)
             }
-        }
+        });
         self.found.clear();
         self.found.resize(n, Vec3::ZERO);
         for (&s, x) in self.slot.iter().zip(&positions) {
@@ -724,7 +721,7 @@ impl SelfContacts {
     /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind;
     /// with `cull` (`flat`, `out`), none between patches within one direction by the angle `flat`
     /// gives for their shortest triangle altitude at `x` (see [`patches`]), the patches' uncovered
-    /// distance being looked for up to `out` beyond twice the margin (`Patches::clear`).
+    /// distance being looked for up to `out` beyond twice the margin (`Patches::clear_of`).
     fn find_candidates(
         &mut self,
         x: &[Vec3],
@@ -1415,10 +1412,13 @@ struct Regions {
     count: Vec<u32>,
     /// Pairs of neighbouring cubes (a cube with itself too), `a <= b`.
     pairs: Vec<(u32, u32)>,
-    /// Per cube: whether it holds a particle of an element that the search looked at for pairs
-    /// (set after [`Self::assign`]). Particles of two such cubes that were not paired are held
-    /// to twice the reach, the others to the near limit.
-    tight: Vec<bool>,
+    /// Per cube: how much closer one of its particles and one of a neighbouring cube may come
+    /// before a search is due (a pair of cubes takes the larger of their two limits; set after
+    /// [`Self::assign`], see [`Self::limit`]).
+    limit: Vec<f32>,
+    /// The least and the largest of `limit`.
+    least: f32,
+    most: f32,
     /// Cube index of each occupied cell.
     index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
     /// Each cube's cell.
@@ -1460,10 +1460,12 @@ struct Regions {
 struct Closing {
     /// How much closer two particles of the same or neighbouring cubes can have come.
     near: f32,
-    /// The same for two particles of tight cubes (see [`Regions::tight`]).
-    tight: f32,
+    /// How much closer still two such particles may come before their cubes' limit (see
+    /// [`Regions::limit`]); negative once one pair has passed it.
+    slack: f32,
     /// How much closer two particles of cubes that are not neighbours, in the same or
-    /// neighbouring blocks, can have come.
+    /// neighbouring blocks, can have come, less a cube's side for each cube between them beyond
+    /// the first (they were farther apart by as much).
     mid: f32,
     /// How much closer any two particles can have come.
     far: f32,
@@ -1500,8 +1502,9 @@ impl Regions {
         }
         neighbours(&self.index, &mut self.pairs, &mut self.dense);
         let cubes = self.count.len();
-        self.tight.clear();
-        self.tight.resize(cubes, true);
+        self.limit.clear();
+        self.limit.resize(cubes, 0.0);
+        (self.least, self.most) = (0.0, 0.0);
         self.block_index.clear();
         self.block.clear();
         self.block.resize(cubes, 0);
@@ -1526,6 +1529,33 @@ impl Regions {
         self.deviation.resize(cubes, 0.0);
     }
 
+    /// Sets each cube's limit to the least `of_triangle(t)` of the triangles `tris` (by model
+    /// particle, stored at `slot`) with a corner in it, `empty` in a cube with none. An element
+    /// has a particle in a cube only if a triangle of its patch has a corner there, so a
+    /// triangle's limit can be what its patch's pairs allow (see
+    /// [`SelfContacts::refresh_candidates`]), and two particles of neighbouring cubes may come
+    /// closer by the larger of their cubes' limits: their elements' pair is within both.
+    fn limit(
+        &mut self,
+        tris: &[[u32; 3]],
+        slot: &[u32],
+        empty: f32,
+        of_triangle: impl Fn(usize) -> f32,
+    ) {
+        self.limit.clear();
+        self.limit.resize(self.count.len(), empty);
+        for (t, tri) in tris.iter().enumerate() {
+            let limit = of_triangle(t);
+            for &v in tri {
+                let cube = &mut self.limit[self.of[slot[v as usize] as usize] as usize];
+                *cube = cube.min(limit);
+            }
+        }
+        let (least, most) =
+            (self.limit.iter()).fold((f32::INFINITY, 0.0f32), |(l, m), &c| (l.min(c), m.max(c)));
+        (self.least, self.most) = (least, most);
+    }
+
     /// The bound of [`Closing::mid`] from each pair of cubes in the same or neighbouring blocks
     /// that are not neighbours.
     fn cubes_apart(&self) -> f32 {
@@ -1540,11 +1570,17 @@ impl Regions {
                 );
                 for &b in cubes.of(bb).iter().filter(|&&b| ba != bb || b > a) {
                     let cb = cell[b as usize];
-                    if (0..3).all(|k| (ca[k] - cb[k]).abs() <= 1) {
+                    let cells = (0..3).map(|k| (ca[k] - cb[k]).abs()).max().unwrap_or(0);
+                    if cells <= 1 {
                         continue;
                     }
+                    // Particles `cells` cubes apart were more than `cells - 1` sides apart: the
+                    // limit for two cubes apart is exceeded where the bound less the sides
+                    // beyond those exceeds it.
+                    let beyond = (cells - 2) as f32 * self.size;
                     let bound =
-                        da + self.deviation[b as usize] + ra.distance(self.reference[b as usize]);
+                        da + self.deviation[b as usize] + ra.distance(self.reference[b as usize])
+                            - beyond;
                     worst = max_or_infinite(worst, bound);
                 }
             }
@@ -1579,19 +1615,14 @@ impl Regions {
     /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
     /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring blocks
     /// are looked at only if the far bound exceeds every limit, pairs of neighbouring cubes only
-    /// if the blocks' bound exceeds `tight_limit` or `near_limit`, and pairs of cubes that are
+    /// if the blocks' bound exceeds the least of the cubes' limits, and pairs of cubes that are
     /// not neighbours, within neighbouring blocks, only if it exceeds `mid_limit`.
-    fn closing<S: ContactState>(
-        &mut self,
-        state: &S,
-        found: &[Vec3],
-        (tight_limit, near_limit, mid_limit): (f32, f32, f32),
-    ) -> Closing {
+    fn closing<S: ContactState>(&mut self, state: &S, found: &[Vec3], mid_limit: f32) -> Closing {
         let n = self.of.len();
         if n == 0 {
             return Closing {
                 near: 0.0,
-                tight: 0.0,
+                slack: self.least,
                 mid: 0.0,
                 far: 0.0,
                 mean: (Vec3::ZERO, Vec3::ZERO),
@@ -1647,7 +1678,7 @@ impl Regions {
         // Two particles of blocks (or cubes) a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| +
         // dev_b, which is at most `far`, and for cubes at most the blocks' bound: the pairs need
         // looking at only where the cloth's parts moved apart more than the limits allow.
-        let blocks = if far <= tight_limit.max(near_limit).max(mid_limit) {
+        let blocks = if far <= self.most.max(mid_limit) {
             far
         } else {
             self.block_reference.fill((Vec3::ZERO, 0));
@@ -1682,21 +1713,21 @@ impl Regions {
         } else {
             self.cubes_apart().min(blocks)
         };
-        let (near, tight) = if blocks <= near_limit.min(tight_limit) {
-            (blocks, blocks)
+        let (near, slack) = if blocks <= self.least {
+            (blocks, self.least - blocks)
         } else {
-            let (mut near, mut tight) = (0.0, 0.0);
+            // (A NaN displacement has made `far` infinite: the check fails whatever the slack.)
+            let (mut near, mut slack) = (0.0, f32::INFINITY);
             for &(a, b) in &self.pairs {
                 let (a, b) = (a as usize, b as usize);
-                let bound = self.deviation[a]
+                let bound = (self.deviation[a]
                     + self.deviation[b]
-                    + self.reference[a].distance(self.reference[b]);
+                    + self.reference[a].distance(self.reference[b]))
+                .min(blocks);
                 near = max_or_infinite(near, bound);
-                if self.tight[a] && self.tight[b] {
-                    tight = max_or_infinite(tight, bound);
-                }
+                slack = slack.min(self.limit[a].max(self.limit[b]) - bound);
             }
-            (near.min(blocks), tight.min(blocks))
+            (near, slack)
         };
         for (((r, last), s), &c) in (self.reference.iter_mut().zip(&mut self.last_mean))
             .zip(&self.sum)
@@ -1712,7 +1743,7 @@ impl Regions {
         }
         Closing {
             near,
-            tight,
+            slack,
             mid,
             far,
             mean: (m0, m1),
@@ -2344,7 +2375,29 @@ mod tests {
             inv_mass: &w,
             touches: None,
         };
-        regions.closing(&state, found, (limit, limit, limit))
+        // Every cube's limit, and the far one, at `limit`.
+        regions.limit.fill(limit);
+        (regions.least, regions.most) = (limit, limit);
+        regions.closing(&state, found, limit)
+    }
+
+    /// `Regions::closing` for particles found at `found` and now at `x`, with the cubes' limits
+    /// as they are and the far limit at `mid_limit`.
+    fn closing_within(
+        regions: &mut Regions,
+        found: &[Vec3],
+        x: &mut [Vec3],
+        mid_limit: f32,
+    ) -> Closing {
+        let (mut v, w) = (vec![Vec3::ZERO; x.len()], vec![1.0; x.len()]);
+        let state = Vectors {
+            x,
+            v: &mut v,
+            start: found,
+            inv_mass: &w,
+            touches: None,
+        };
+        regions.closing(&state, found, mid_limit)
     }
 
     #[test]
@@ -2389,7 +2442,9 @@ mod tests {
                 let (bound, kind) = if neighbours(a, b) {
                     (c.near, 0)
                 } else if neighbours(block(a), block(b)) {
-                    (c.mid, 1)
+                    // Plus a side for each cube between them beyond the first.
+                    let cells = (0..3).map(|k| (a[k] - b[k]).abs()).max().unwrap();
+                    (c.mid + (cells - 2) as f32 * regions.size, 1)
                 } else {
                     (c.far, 2)
                 };
@@ -2424,6 +2479,49 @@ mod tests {
                 "particle {moved}: {} {}",
                 c.mid,
                 c.far
+            );
+        }
+    }
+
+    #[test]
+    fn cubes_farther_apart_may_come_closer_by_a_side_for_each_cube_between() {
+        // Cubes of 0.2 m along x: particles in cells 0 and 3 (neighbouring blocks), 0.6 m apart,
+        // the second moved 0.25 m toward the first: against the limit of cubes two apart, that
+        // counts as 0.05 m.
+        let found: Vec<Vec3> = [0.1, 0.7].map(|x| Vec3::new(x, 0.1, 0.1)).to_vec();
+        let mut regions = Regions {
+            size: 0.2,
+            ..Regions::default()
+        };
+        regions.assign(&found, &[0, 1]);
+        let mut x = found.clone();
+        x[1].x -= 0.25;
+        let c = closing_of(&mut regions, &found, &mut x, 0.0);
+        assert!((c.mid - 0.05).abs() < 1e-6, "mid {}", c.mid);
+        assert!(c.far >= 0.25 - 1e-6, "far {}", c.far);
+    }
+
+    #[test]
+    fn neighbouring_cubes_may_come_closer_by_the_larger_of_their_limits() {
+        // Cubes of 0.2 m along x, one particle in each of cells 0, 1 and 2 (one block); the
+        // middle one moves 3 cm toward the last.
+        let found: Vec<Vec3> = [0.1, 0.3, 0.5].map(|x| Vec3::new(x, 0.1, 0.1)).to_vec();
+        for (limits, slack) in [([0.01, 0.05, 0.01], 0.01), ([0.01, 0.01, 0.05], -0.02)] {
+            let mut regions = Regions {
+                size: 0.2,
+                ..Regions::default()
+            };
+            regions.assign(&found, &[0, 1, 2]);
+            regions.limit = limits.to_vec();
+            (regions.least, regions.most) = (0.01, 0.05);
+            let mut x = found.clone();
+            x[1].x += 0.03;
+            let c = closing_within(&mut regions, &found, &mut x, 1.0);
+            assert!((c.near - 0.03).abs() < 1e-6, "{limits:?}: near {}", c.near);
+            assert!(
+                (c.slack - slack).abs() < 1e-6,
+                "{limits:?}: slack {}",
+                c.slack
             );
         }
     }
@@ -2501,9 +2599,9 @@ mod tests {
         assert_eq!(c.searches(), 1);
         let lift = 1.4 * c.reach;
         assert!(
-            c.near_limit > 2.0 * lift,
-            "near limit {}, reach {}",
-            c.near_limit,
+            c.regions.least > 2.0 * lift,
+            "least limit {}, reach {}",
+            c.regions.least,
             c.reach
         );
         let [a, b, d] = [0, 1, 12].map(|i| rest[i]);
@@ -2545,7 +2643,9 @@ mod tests {
         let mut v = vec![Vec3::ZERO; x.len()];
         resolve_within(&mut c, 0.01, &start, &mut x, &mut v, &w);
         assert!(!c.patches.pairs().is_empty());
-        let tight = |p: u32| c.regions.tight[c.regions.of[c.slot[p as usize] as usize] as usize];
+        let tight = |p: u32| {
+            c.regions.limit[c.regions.of[c.slot[p as usize] as usize] as usize] <= 2.0 * c.reach
+        };
         for &patch in c.patches.pairs().iter().flat_map(|(a, b)| [a, b]) {
             for &t in c.patch_triangles.of(patch) {
                 assert!(c.tris[t as usize].iter().all(|&p| tight(p)), "{t}");
@@ -2555,6 +2655,17 @@ mod tests {
             (0..x.len() as u32).any(|p| !tight(p)),
             "the flat part is not tight"
         );
+        // Every other cube is held to what the patches with a corner in it allow.
+        for (t, tri) in c.tris.iter().enumerate() {
+            let clear = c.patches.clear_of(c.patches.of_triangle(t as u32));
+            for &p in tri {
+                let limit = c.regions.limit[c.regions.of[c.slot[p as usize] as usize] as usize];
+                assert!(
+                    limit <= (clear - c.thickness).max(2.0 * c.reach),
+                    "{t}: {limit}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -2569,11 +2680,20 @@ mod tests {
         let margin = 0.012;
         c.find_candidates(&x, margin, usize::MAX, Some((move |_| 1.2, 0.2)));
         let patches = &c.patches;
-        let clear = patches.clear();
+        let clear = (0..patches.len() as u32)
+            .map(|p| patches.clear_of(p))
+            .fold(f32::INFINITY, f32::min);
         assert!(clear > margin, "{clear}");
         let covered = |a: u32, b: u32| {
             patches.culled(a, b) || patches.pairs().contains(&(a.min(b), a.max(b)))
         };
+        // Each at least either patch's own clear distance apart, which is more than the least
+        // for some.
+        let clear_of = |a: u32, b: u32| patches.clear_of(a).max(patches.clear_of(b));
+        let widest = (0..patches.len() as u32)
+            .map(|p| patches.clear_of(p))
+            .fold(0.0, f32::max);
+        assert!(widest > clear + 0.01, "{widest} {clear}");
         let mut uncovered = 0;
         for (p, &at) in x.iter().enumerate() {
             for (t, tri) in c.tris.iter().enumerate() {
@@ -2583,6 +2703,7 @@ mod tests {
                 }
                 let [ta, tb, tc] = tri.map(|i| x[i as usize]);
                 let gap = point_triangle_distance(at, ta, tb, tc);
+                let clear = clear_of(a, b);
                 assert!(gap >= clear - 1e-6, "{p} and {t}: {gap} < {clear}");
                 uncovered += 1;
             }
@@ -2596,6 +2717,7 @@ mod tests {
                 let [a, b, p, q] = [a, b, p, q].map(|i| x[i as usize]);
                 let (s, t) = closest_on_segments(a, b, p, q);
                 let gap = a.lerp(b, s).distance(p.lerp(q, t));
+                let clear = clear_of(ea, fb);
                 assert!(gap >= clear - 1e-6, "edges {e} and {f}: {gap} < {clear}");
             }
         }
@@ -2894,21 +3016,23 @@ mod tests {
                 continue;
             }
             skipped += usize::from(c.regions.skipped > 0);
-            // Kept candidates hold every pair that came within the near limit of each other
-            // (neighbours), the far limit (within a block's size) or the wide limit (any two),
-            // relative to where they were found, and each edge's ends within twice the reach.
+            // Kept candidates hold every pair that came within the larger of their cubes' limits
+            // of each other (neighbours), the far limit (within a block's size) or the wide limit
+            // (any two), relative to where they were found, and each edge's ends within twice
+            // the reach.
             let x = at(k);
             let moved: Vec<Vec3> = x.iter().zip(&c.found).map(|(x, f)| *x - *f).collect();
+            let cube = |p: usize| c.regions.limit[c.regions.of[p] as usize];
             for p in 0..x.len() {
                 for q in p + 1..x.len() {
                     let closer = moved[p].distance(moved[q]);
                     let apart = c.found[p].distance(c.found[q]) / c.regions.size;
+                    // Particles found farther apart than a cube's side may come closer by their
+                    // distance less two edges and the thickness (the far limit at a side).
                     let limit = if apart < 1.0 {
-                        c.near_limit
-                    } else if apart < BLOCK as f32 {
-                        c.far_limit
+                        cube(p).max(cube(q))
                     } else {
-                        c.wide_limit
+                        c.far_limit + (apart - 1.0) * c.regions.size
                     };
                     assert!(
                         closer <= limit,

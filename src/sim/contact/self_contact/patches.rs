@@ -76,9 +76,10 @@ pub(super) struct Patches {
     /// The pairs of patches whose elements this search pairs, `a <= b`: each folded patch with
     /// itself, and nearby or overlapping patches neither culled with each other nor apart.
     pairs: Vec<(u32, u32)>,
-    /// How far apart, at least, any two elements were at the last [`Self::update`] that are
-    /// neither in a culled pair of patches nor in a searched one (see [`Self::clear`]).
-    clear: f32,
+    /// Per patch: how far apart, at least, its elements and another patch's were at the last
+    /// [`Self::update`] where the two patches are neither culled nor searched together (see
+    /// [`Self::clear_of`]).
+    clear_of: Vec<f32>,
 }
 
 impl Patches {
@@ -199,7 +200,7 @@ impl Patches {
             order: (0..patches as u32).collect(),
             sorted: Vec::new(),
             pairs: Vec::new(),
-            clear: 0.0,
+            clear_of: vec![0.0; patches],
             near: Vec::new(),
         }
     }
@@ -251,12 +252,14 @@ impl Patches {
         marked(a, b) || marked(b, a)
     }
 
-    /// How far apart, at least, two elements were at the last [`Self::update`] that it left
-    /// unpaired and uncovered: their patches neither culled together nor searched together, as
-    /// far as the update looked (its `margin` doubled and its `out`). (The elements of patches
-    /// searched together that the search does not pair are its `margin` apart.)
-    pub fn clear(&self) -> f32 {
-        self.clear
+    /// How far apart, at least, an element of patch `p` and another element were at the last
+    /// [`Self::update`] where it left them unpaired and uncovered: their patches neither culled
+    /// together nor searched together, as far as the update looked (its `margin` doubled and its
+    /// `out`). (The elements of patches searched together that the search does not pair are its
+    /// `margin` apart.) A part of the cloth far from any fold is left much farther from the
+    /// elements it is not searched with.
+    pub fn clear_of(&self, p: u32) -> f32 {
+        self.clear_of[p as usize]
     }
 
     /// The widest normal cone culled in any patch at the last [`Self::update`].
@@ -272,9 +275,9 @@ impl Patches {
     /// motion), and two within the narrower of theirs. Two patches whose boxes meet but which lie
     /// farther than `margin` apart along one of their axes (the two sides of a curve, seen across
     /// it) need not be searched for each other's sake. `boxes` are the triangles' boxes grown by
-    /// `margin`; pairs of patches up to `out` farther apart are looked at for [`Self::clear`], and
-    /// nearby ones among them are culled when flat together (their elements are farther apart
-    /// than the margin anyway), so that they leave `clear` as it is.
+    /// `margin`; pairs of patches up to `out` farther apart are looked at for [`Self::clear_of`],
+    /// and nearby ones among them are culled when flat together (their elements are farther
+    /// apart than the margin anyway), so that they leave it as it is.
     pub fn update(
         &mut self,
         x: &[Vec3],
@@ -358,7 +361,8 @@ impl Patches {
         // The boxes are grown by `margin` on every side: two that do not meet hold elements at
         // least their gap and twice that apart.
         let out = out.max(0.0);
-        let mut clear = 2.0 * margin + out;
+        let looked = 2.0 * margin + out;
+        self.clear_of.fill(looked);
         for i in 0..self.order.len() {
             let a = self.order[i] as usize;
             let (alo, ahi) = self.bounds[a];
@@ -377,17 +381,23 @@ impl Patches {
                 // the sorted boxes tell.
                 let meet = super::boxes_meet((blo, bhi), (alo, ahi));
                 let gap = (blo - ahi).max(alo - bhi).max_element() + 2.0 * margin;
-                // A NaN gap is not below `clear`: nothing to do, as for a pair far apart.
-                if !(meet || gap < clear) {
+                // A NaN gap is not below what was looked at: nothing to do, as for a pair far
+                // apart.
+                if !(meet || gap < looked) {
                     continue;
                 }
                 let b = self.order[j] as usize;
                 let (entry, adjacent) = near[b];
                 if !meet {
+                    // Nothing to lower: the pair's cull does not matter either, for elements
+                    // that far apart are not paired.
+                    if !(gap < self.clear_of[a] || gap < self.clear_of[b]) {
+                        continue;
+                    }
                     if entry != u32::MAX && self.flat_together(a, b, adjacent) {
                         self.culled_with[entry as usize] = true;
                     } else {
-                        clear = gap;
+                        uncovered(&mut self.clear_of, (a, b), gap);
                     }
                     continue;
                 }
@@ -397,7 +407,7 @@ impl Patches {
                 }
                 let apart = self.separation(a, b, (tris, x));
                 if apart > margin {
-                    clear = clear.min(apart);
+                    uncovered(&mut self.clear_of, (a, b), apart);
                 } else {
                     self.live[a] = true;
                     self.live[b] = true;
@@ -413,7 +423,6 @@ impl Patches {
         }
         self.near = near;
         self.sorted = sorted;
-        self.clear = clear;
     }
 
     /// How far apart patches `a` and `b` (of triangles `tris` at `x`) lie along the axis of
@@ -530,6 +539,11 @@ fn along(axis: Vec3, members: &[u32], tris: &[[u32; 3]], x: &[Vec3]) -> (f32, f3
         })
 }
 
+/// Notes that patches `a` and `b` are left uncovered with their elements at least `gap` apart.
+fn uncovered(clear_of: &mut [f32], (a, b): (usize, usize), gap: f32) {
+    clear_of[a] = clear_of[a].min(gap);
+    clear_of[b] = clear_of[b].min(gap);
+}
 #[cfg(test)]
 mod tests {
     use super::*;
