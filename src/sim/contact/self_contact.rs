@@ -230,6 +230,9 @@ pub(crate) struct SelfContacts {
     /// How much closer particles in blocks of `regions` that are not neighbours may come: as
     /// `far_limit`, for particles at least the blocks' size apart.
     wide_limit: f32,
+    /// Per patch: how much closer the particles of its elements may come to those of neighbouring
+    /// cubes (scratch of the search, see `Regions::limit`).
+    patch_limit: Vec<f32>,
     /// The particles' patches at the last broad phase, whose motion since tells when to search
     /// again.
     regions: Regions,
@@ -613,23 +616,18 @@ impl SelfContacts {
         // they are in patches left uncovered: at least either patch's clear distance (which is
         // at least the margin, so more than twice the reach). With a vertex in no triangle,
         // every patch takes part.
-        let turn_limit = 2.0 * self.reach;
-        let (patches, thickness) = (&self.patches, self.thickness);
-        let (empty, loose) = (
-            if self.loose {
+        let (turn_limit, patches) = (2.0 * self.reach, &self.patches);
+        self.patch_limit.clear();
+        self.patch_limit.extend((0..patches.len() as u32).map(|p| {
+            if self.loose || patches.live(p) {
                 turn_limit
             } else {
-                self.far_limit
-            },
-            self.loose,
-        );
-        self.regions.limit(&self.tris, &self.slot, empty, |t| {
-            let patch = patches.of_triangle(t as u32);
-            if loose || patches.live(patch) {
-                turn_limit
-            } else {
-                (patches.clear_of(patch) - thickness).max(turn_limit)
+                (patches.clear_of(p) - self.thickness).max(turn_limit)
             }
+        }));
+        let limits = &self.patch_limit;
+        self.regions.limit(&self.slot, |p| {
+            patches.least_around(p as u32, limits).unwrap_or(turn_limit)
         });
         self.found.clear();
         self.found.resize(n, Vec3::ZERO);
@@ -1529,27 +1527,30 @@ impl Regions {
         self.deviation.resize(cubes, 0.0);
     }
 
-    /// Sets each cube's limit to the least `of_triangle(t)` of the triangles `tris` (by model
-    /// particle, stored at `slot`) with a corner in it, `empty` in a cube with none. An element
-    /// has a particle in a cube only if a triangle of its patch has a corner there, so a
-    /// triangle's limit can be what its patch's pairs allow (see
-    /// [`SelfContacts::refresh_candidates`]), and two particles of neighbouring cubes may come
-    /// closer by the larger of their cubes' limits: their elements' pair is within both.
-    fn limit(
-        &mut self,
-        tris: &[[u32; 3]],
-        slot: &[u32],
-        empty: f32,
-        of_triangle: impl Fn(usize) -> f32,
-    ) {
+    /// Sets each cube's limit to the least `of_particle(p)` of the model particles `p` (stored at
+    /// `slot`) in it. Where that is the least limit of the patches with a triangle corner at `p`
+    /// (see [`SelfContacts::refresh_candidates`]), two particles of neighbouring cubes may come
+    /// closer by the larger of their cubes' limits: an element with a particle in a cube belongs
+    /// to one of those patches, and the pair of elements is within both limits.
+    fn limit(&mut self, slot: &[u32], of_particle: impl Fn(usize) -> f32) {
         self.limit.clear();
-        self.limit.resize(self.count.len(), empty);
-        for (t, tri) in tris.iter().enumerate() {
-            let limit = of_triangle(t);
-            for &v in tri {
-                let cube = &mut self.limit[self.of[slot[v as usize] as usize] as usize];
-                *cube = cube.min(limit);
-            }
+        self.limit.resize(self.count.len(), f32::INFINITY);
+        // Neighbours along the mesh mostly share a cube: its least is kept while they do.
+        let mut run: Option<(usize, f32)> = None;
+        for (p, &s) in slot.iter().enumerate() {
+            let (cube, limit) = (self.of[s as usize] as usize, of_particle(p));
+            run = match run {
+                Some((c, least)) if c == cube => Some((c, least.min(limit))),
+                _ => {
+                    if let Some((c, least)) = run {
+                        self.limit[c] = self.limit[c].min(least);
+                    }
+                    Some((cube, limit))
+                }
+            };
+        }
+        if let Some((c, least)) = run {
+            self.limit[c] = self.limit[c].min(least);
         }
         let (least, most) =
             (self.limit.iter()).fold((f32::INFINITY, 0.0f32), |(l, m), &c| (l.min(c), m.max(c)));
@@ -2666,6 +2667,27 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_vertex_takes_the_least_value_of_the_patches_of_its_triangles() {
+        // A 20×20 grid: its patches meet along their borders, where a vertex is a corner of
+        // triangles of two to four patches.
+        let model = ClothModel::grid(&GridSpec::new(20, 20, 0.03)).unwrap();
+        let c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+        let h = |k: usize| unit_interval(mix64(k as u64));
+        let value: Vec<f32> = (0..c.patches.len()).map(h).collect();
+        let mut shared = 0;
+        for p in 0..model.rest_positions.len() as u32 {
+            let of: Vec<u32> = (c.tris.iter().enumerate())
+                .filter(|(_, tri)| tri.contains(&p))
+                .map(|(t, _)| c.patches.of_triangle(t as u32))
+                .collect();
+            let least = of.iter().map(|&a| value[a as usize]).reduce(f32::min);
+            assert_eq!(c.patches.least_around(p, &value), least, "vertex {p}");
+            shared += usize::from(of.iter().any(|&a| a != of[0]));
+        }
+        assert!(shared > 20, "{shared} vertices on patch borders");
     }
 
     #[test]

@@ -41,6 +41,10 @@ pub(super) struct Patches {
     adjacent_start: Vec<u32>,
     /// The patches sharing a vertex with each patch, sorted per patch.
     adjacent: Vec<u32>,
+    /// Where each vertex's patches begin in `around` (one more than the vertices).
+    around_start: Vec<u32>,
+    /// The patches of the triangles with a corner at each vertex, sorted per vertex.
+    around: Vec<u32>,
     /// Where each patch's nearby patches begin in `nearby` (one more than the patches).
     nearby_start: Vec<u32>,
     /// The patches adjacent to each patch or to one of its adjacent patches, sorted per patch.
@@ -150,12 +154,15 @@ impl Patches {
             }
         }
         let mut sets: Vec<Vec<u32>> = vec![Vec::new(); patches];
+        let (mut around_start, mut around) = (vec![0u32], Vec::new());
         for list in &mut holding {
             list.sort_unstable();
             list.dedup();
             for &a in list.iter() {
                 sets[a as usize].extend(list.iter().copied().filter(|&b| b != a));
             }
+            around.extend_from_slice(list);
+            around_start.push(around.len() as u32);
         }
         let mut adjacent_start = vec![0u32];
         let mut adjacent = Vec::new();
@@ -187,6 +194,8 @@ impl Patches {
             culled_with: vec![false; nearby.len()],
             adjacent_start,
             adjacent,
+            around_start,
+            around,
             nearby_start,
             nearby,
             normal: Vec::with_capacity(tris.len()),
@@ -218,6 +227,17 @@ impl Patches {
     /// Patch of vertex `p`.
     pub fn of_vertex(&self, p: u32) -> u32 {
         self.of_vertex[p as usize]
+    }
+
+    /// The least of `of_patch` (by patch) over the patches of the triangles with a corner at
+    /// vertex `p`, which are those of every element with a particle at `p` (`None` for a vertex
+    /// in no triangle).
+    pub fn least_around(&self, p: u32, of_patch: &[f32]) -> Option<f32> {
+        let range =
+            self.around_start[p as usize] as usize..self.around_start[p as usize + 1] as usize;
+        (self.around[range].iter())
+            .map(|&a| of_patch[a as usize])
+            .reduce(f32::min)
     }
 
     /// The box of patch `p` as of the last [`Self::update`]: the union of its triangles' boxes.
