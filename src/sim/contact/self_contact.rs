@@ -535,7 +535,10 @@ impl SelfContacts {
                 return mean;
             }
             let turn_limit = 2.0 * self.reach;
-            let closing = self.regions.closing(state, &self.found, self.far_limit);
+            // The near bound stands in for the edges' own up to `EDGES_SPARED` of twice the
+            // reach: worked out pair by pair above that.
+            let limits = (EDGES_SPARED * turn_limit, self.far_limit);
+            let closing = self.regions.closing(state, &self.found, limits);
             if closing.slack >= 0.0
                 && closing.mid <= self.far_limit
                 && closing.far <= self.wide_limit
@@ -1616,9 +1619,15 @@ impl Regions {
     /// at `found` (by stored particle, as many as `state` holds and as were assigned): one pass
     /// over the particles. Infinite if a displacement is not finite. Pairs of neighbouring blocks
     /// are looked at only if the far bound exceeds every limit, pairs of neighbouring cubes only
-    /// if the blocks' bound exceeds the least of the cubes' limits, and pairs of cubes that are
-    /// not neighbours, within neighbouring blocks, only if it exceeds `mid_limit`.
-    fn closing<S: ContactState>(&mut self, state: &S, found: &[Vec3], mid_limit: f32) -> Closing {
+    /// if the blocks' bound exceeds the least of the cubes' limits or `spare` (below which the
+    /// near bound is close enough), and pairs of cubes that are not neighbours, within
+    /// neighbouring blocks, only if it exceeds `mid_limit`.
+    fn closing<S: ContactState>(
+        &mut self,
+        state: &S,
+        found: &[Vec3],
+        (spare, mid_limit): (f32, f32),
+    ) -> Closing {
         let n = self.of.len();
         if n == 0 {
             return Closing {
@@ -1714,7 +1723,7 @@ impl Regions {
         } else {
             self.cubes_apart().min(blocks)
         };
-        let (near, slack) = if blocks <= self.least {
+        let (near, slack) = if blocks <= self.least.min(spare) {
             (blocks, self.least - blocks)
         } else {
             // (A NaN displacement has made `far` infinite: the check fails whatever the slack.)
@@ -2379,7 +2388,7 @@ mod tests {
         // Every cube's limit, and the far one, at `limit`.
         regions.limit.fill(limit);
         (regions.least, regions.most) = (limit, limit);
-        regions.closing(&state, found, limit)
+        regions.closing(&state, found, (limit, limit))
     }
 
     /// `Regions::closing` for particles found at `found` and now at `x`, with the cubes' limits
@@ -2398,7 +2407,7 @@ mod tests {
             inv_mass: &w,
             touches: None,
         };
-        regions.closing(&state, found, mid_limit)
+        regions.closing(&state, found, (mid_limit, mid_limit))
     }
 
     #[test]
