@@ -160,8 +160,8 @@ pub(crate) struct SelfContacts {
     patch_edges: Grouped,
     /// The triangles' grown boxes in `patch_triangles`' order, and the edges' own boxes in
     /// `patch_edges`' order (scratch of the search through patch pairs).
-    triangle_boxes: Vec<(Vec3, Vec3)>,
-    edge_boxes: Vec<(Vec3, Vec3)>,
+    triangle_boxes: Vec<(Vec3A, Vec3A)>,
+    edge_boxes: Vec<(Vec3A, Vec3A)>,
     /// Per patch: whether its boxes are in `triangle_boxes` and `edge_boxes` (scratch).
     boxed: Vec<bool>,
     /// Whether some vertex is in no triangle (then every search goes through the hash).
@@ -827,11 +827,11 @@ impl SelfContacts {
     /// hash finds (every close pair that is not culled lies in one of the patch pairs), cheaply
     /// when few patches take part.
     fn pair_patches(&mut self, x: &[Vec3], margin: f32, cap: usize) {
-        let grow = Vec3::splat(margin);
+        let grow = Vec3A::splat(margin);
         // The boxes patch by patch, so that a pair's inner loop reads them in order; only those
         // of the patches in a pair (a hanging cloth's search has few), the others left as they
         // were.
-        let unset = (Vec3::NAN, Vec3::NAN);
+        let unset = (Vec3A::NAN, Vec3A::NAN);
         self.triangle_boxes
             .resize(self.patch_triangles.items.len(), unset);
         self.edge_boxes.resize(self.patch_edges.items.len(), unset);
@@ -846,14 +846,15 @@ impl SelfContacts {
                 .iter_mut()
                 .zip(&self.patch_triangles.items[range])
             {
-                *out = self.hash.boxes[t as usize];
+                let (lo, hi) = self.hash.boxes[t as usize];
+                *out = (lo.into(), hi.into());
             }
             let range = self.patch_edges.range(p);
             for (out, &e) in self.edge_boxes[range.clone()]
                 .iter_mut()
                 .zip(&self.patch_edges.items[range])
             {
-                let [a, b] = self.edges[e as usize].map(|i| x[i as usize]);
+                let [a, b] = self.edges[e as usize].map(|i| Vec3A::from(x[i as usize]));
                 *out = (a.min(b), a.max(b));
             }
         }
@@ -864,6 +865,7 @@ impl SelfContacts {
             for &(v, w) in sides {
                 // An element outside the other patch's box meets none of its triangles' boxes.
                 let (wlo, whi) = self.patches.bounds(w);
+                let bounds = (wlo.into(), whi.into());
                 let range = self.patch_triangles.range(w);
                 let (triangles, boxes) = (
                     &self.patch_triangles.items[range.clone()],
@@ -873,12 +875,12 @@ impl SelfContacts {
                     if self.vt.len() >= cap {
                         break 'vt;
                     }
-                    let at = x[p as usize];
-                    if !boxes_meet((wlo, whi), (at, at)) {
+                    let at = Vec3A::from(x[p as usize]);
+                    if !boxes_meet_wide(bounds, (at, at)) {
                         continue;
                     }
                     for (&t, &(lo, hi)) in triangles.iter().zip(boxes) {
-                        if !boxes_meet((lo, hi), (at, at)) {
+                        if !boxes_meet_wide((lo, hi), (at, at)) {
                             continue;
                         }
                         let tri = self.tris[t as usize];
@@ -886,7 +888,7 @@ impl SelfContacts {
                             continue;
                         }
                         let [ta, tb, tc] = tri.map(|i| x[i as usize]);
-                        let gap = point_triangle_distance(at, ta, tb, tc);
+                        let gap = point_triangle_distance(at.into(), ta, tb, tc);
                         if gap < margin && self.vt.len() < cap {
                             self.vt.push((p, t));
                             self.gap.push(gap);
@@ -897,6 +899,7 @@ impl SelfContacts {
         }
         'ee: for &(a, b) in self.patches.pairs() {
             let (blo, bhi) = self.patches.bounds(b);
+            let bounds = (blo.into(), bhi.into());
             let (ra, rb) = (self.patch_edges.range(a), self.patch_edges.range(b));
             let (others, boxes) = (&self.patch_edges.items[rb.clone()], &self.edge_boxes[rb]);
             for (&e, &(elo, ehi)) in self.patch_edges.items[ra.clone()]
@@ -906,12 +909,12 @@ impl SelfContacts {
                 if self.ee.len() >= cap {
                     break 'ee;
                 }
-                if !boxes_meet((elo, ehi), (blo, bhi)) {
+                if !boxes_meet_wide((elo, ehi), bounds) {
                     continue;
                 }
                 let (lo, hi) = (elo - grow, ehi + grow);
                 for (&f, &(flo, fhi)) in others.iter().zip(boxes) {
-                    if !boxes_meet((flo, fhi), (lo, hi)) || (a == b && f <= e) {
+                    if !boxes_meet_wide((flo, fhi), (lo, hi)) || (a == b && f <= e) {
                         continue;
                     }
                     let ([ea, eb], [fc, fd]) = (self.edges[e as usize], self.edges[f as usize]);
@@ -2292,6 +2295,12 @@ fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
 /// Whether boxes `a` and `b` (low and high corners) meet; false if a corner is NaN.
 fn boxes_meet((alo, ahi): (Vec3, Vec3), (blo, bhi): (Vec3, Vec3)) -> bool {
     alo.cmple(bhi).all() && ahi.cmpge(blo).all()
+}
+
+/// [`boxes_meet`] in whole vector registers, without a branch per axis (the inner loops of the
+/// patch pairs' search, where most boxes do not meet and which axis tells is hard to predict).
+fn boxes_meet_wide((alo, ahi): (Vec3A, Vec3A), (blo, bhi): (Vec3A, Vec3A)) -> bool {
+    (alo.cmple(bhi) & ahi.cmpge(blo)).all()
 }
 
 /// The cell of point `p` in a grid of cells `1 / inv` wide.
