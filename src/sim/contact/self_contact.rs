@@ -1769,12 +1769,25 @@ impl Regions {
     /// [`Self::closing`] (infinite if a displacement is not finite).
     fn edges_closing(&self, edges: &[[u32; 2]]) -> f32 {
         let moved = &self.moved;
-        let (mut worst, mut total) = (0.0f32, 0.0f32);
-        for &[a, b] in edges {
+        // Four edges at a time, each into running values of its own, so that one edge's sum
+        // does not wait on the last.
+        let (mut worst, mut total) = ([0.0f32; 4], [0.0f32; 4]);
+        let mut add = |k: usize, [a, b]: [u32; 2]| {
             let d = moved[a as usize].distance_squared(moved[b as usize]);
-            worst = if d > worst { d } else { worst };
-            total += d;
+            worst[k] = if d > worst[k] { d } else { worst[k] };
+            total[k] += d;
+        };
+        let mut fours = edges.chunks_exact(4);
+        for four in &mut fours {
+            for (k, &edge) in four.iter().enumerate() {
+                add(k, edge);
+            }
         }
+        for (k, &edge) in fours.remainder().iter().enumerate() {
+            add(k, edge);
+        }
+        let worst = worst.into_iter().fold(0.0f32, f32::max);
+        let total: f32 = total.into_iter().sum();
         // The comparison drops a NaN, which the sum keeps (a sum too large counts as one).
         if total.is_finite() {
             worst.sqrt()
@@ -2597,9 +2610,34 @@ mod tests {
         let edges = [[0, 1], [1, 2], [2, 3]];
         let closing = regions.edges_closing(&edges);
         assert!((closing - 1.25f32.sqrt()).abs() < 1e-6, "{closing}");
+        // The edge that turned most, wherever it is in a list of any length.
+        let one_among = |n: usize, k: usize, edge: [u32; 2], rest: [u32; 2]| {
+            let mut edges = vec![rest; n];
+            edges[k] = edge;
+            edges
+        };
+        for n in 1..10 {
+            for k in 0..n {
+                let closing = regions.edges_closing(&one_among(n, k, [1, 2], [0, 3]));
+                assert!(
+                    (closing - 1.25f32.sqrt()).abs() < 1e-6,
+                    "{n}, {k}: {closing}"
+                );
+            }
+        }
         for bad in [f32::NAN, f32::INFINITY, 1e30] {
             regions.moved[3] = Vec3A::splat(bad);
             assert_eq!(regions.edges_closing(&edges), f32::INFINITY, "{bad}");
+            for n in 1..10 {
+                for k in 0..n {
+                    let edges = one_among(n, k, [2, 3], [0, 1]);
+                    assert_eq!(
+                        regions.edges_closing(&edges),
+                        f32::INFINITY,
+                        "{bad} {n} {k}"
+                    );
+                }
+            }
         }
     }
 
