@@ -69,7 +69,7 @@ mod shapes;
 #[cfg(test)]
 mod tests;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
@@ -608,6 +608,29 @@ pub(crate) fn soa_since<const AHEAD: bool>(x: &Soa, d: &Soa, at: &Soa, guess: Ve
         out: &mut out,
     });
     out.checked()
+}
+
+/// [`ContactState::displaced`] of particles displaced by `d` over the substep (see
+/// [`soa_since`]): a plain loop over the arrays, whose running sums stay in registers.
+pub(crate) fn soa_displaced<const AHEAD: bool>(
+    x: &Soa,
+    d: &Soa,
+    found: &[Vec3],
+    moved: &mut [Vec3A],
+) -> (Vec3A, Vec3A) {
+    let n = x.len().min(d.len()).min(found.len()).min(moved.len());
+    let (mut m0, mut m1) = (Vec3A::ZERO, Vec3A::ZERO);
+    for i in 0..n {
+        let p = Vec3A::new(x.x[i], x.y[i], x.z[i]);
+        let q = Vec3A::new(d.x[i], d.y[i], d.z[i]);
+        let (start, end) = if AHEAD { (p, p + q) } else { (p - q, p) };
+        let at = Vec3A::from(found[i]);
+        let d = end - at;
+        moved[i] = d;
+        m0 += start - at;
+        m1 += d;
+    }
+    (m0, m1)
 }
 
 /// [`ContactState::ends`] of particles displaced by `d` over the substep (see [`soa_since`]).

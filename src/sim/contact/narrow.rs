@@ -1,7 +1,7 @@
 //! The narrow phase and the response (steps 2 and 3 of the pipeline in the module docs of
 //! [`contact`](super)), on any particle layout a stepper keeps ([`ContactState`]).
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec3, Vec3A};
 
 use super::Since;
 use super::shapes::{Collider, ColliderShape, Friction, Near, Pose, Shape};
@@ -165,6 +165,24 @@ pub(crate) trait ContactState {
         for i in 0..self.len() {
             f(i, self.start(i), self.position(i));
         }
+    }
+    /// Writes each particle's displacement since `found` (by stored particle, as many as the state
+    /// holds) at the end of the substep into `moved`, and returns the sums of the displacements
+    /// since `found` at the substep's start and at its end: one pass over the whole state (a
+    /// stepper overrides it with a loop over its own arrays).
+    fn displaced(&self, found: &[Vec3], moved: &mut [Vec3A]) -> (Vec3A, Vec3A)
+    where
+        Self: Sized,
+    {
+        let (mut m0, mut m1) = (Vec3A::ZERO, Vec3A::ZERO);
+        self.paths(|i, start, end| {
+            let (start, end, at) = (Vec3A::from(start), Vec3A::from(end), Vec3A::from(found[i]));
+            let d = end - at;
+            moved[i] = d;
+            m0 += start - at;
+            m1 += d;
+        });
+        (m0, m1)
     }
     /// The particles' displacements since they were at `at` (by stored particle, as many as the
     /// state holds) and over the substep, and the largest distance of the former from `guess`:

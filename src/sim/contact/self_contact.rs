@@ -1667,17 +1667,9 @@ impl Regions {
             }
         }
         self.moved.resize(n, Vec3A::ZERO);
-        let (mut m0, mut m1) = (Vec3A::ZERO, Vec3A::ZERO);
-        let (moved, found) = (&mut self.moved[..n], &found[..n]);
         // A NaN displacement is lost to the cubes' maxima but not to the mean `m1`, which makes
         // the far bound infinite.
-        state.paths(|i, start, end| {
-            let (start, end, at) = (Vec3A::from(start), Vec3A::from(end), Vec3A::from(found[i]));
-            let d = end - at;
-            moved[i] = d;
-            m0 += start - at;
-            m1 += d;
-        });
+        let (m0, m1) = state.displaced(&found[..n], &mut self.moved[..n]);
         self.scatter();
         let (m0, m1) = (Vec3::from(m0) / n as f32, Vec3::from(m1) / n as f32);
         // Any two particles: |d_p − d_q| ≤ |d_p − m1| + |d_q − m1|.

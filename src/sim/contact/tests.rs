@@ -3,7 +3,7 @@ use super::*;
 use crate::sim::simd::Build;
 use bevy::math::Dir3;
 use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
-use glam::Quat;
+use glam::{Quat, Vec3A};
 
 fn shapes() -> [ColliderShape; 4] {
     [
@@ -614,6 +614,46 @@ fn the_since_kernel_sees_every_particle_in_every_build() {
     // A position that is not a number is seen even where a maximum would drop it.
     x.set(20, Vec3::NAN);
     assert_eq!(soa_since::<false>(&x, &d, &at, guess).worst, f32::INFINITY);
+}
+
+#[test]
+fn the_arrays_displacements_are_those_of_the_particles_paths() {
+    // 9 particles at `x` displaced by `d` over the substep, found at `found`: the arrays' loop
+    // against the trait's default over the same paths (ending at `x`, or with `AHEAD` at
+    // `x + d`).
+    let n = 9;
+    let (mut x, mut d) = (Soa::new(n), Soa::new(n));
+    let found: Vec<Vec3> = (0..n)
+        .map(|i| Vec3::new((i as f32).cos(), 0.2 * i as f32, 1.0))
+        .collect();
+    for i in 0..n {
+        let t = i as f32;
+        x.set(i, found[i] + Vec3::new(0.1 * t, -0.03, 0.01 * t * t));
+        d.set(i, Vec3::new(0.002 * t, 0.001, -0.003));
+    }
+    let paths = |ahead: bool| {
+        let (mut moved, mut m) = (vec![Vec3A::ZERO; n], (Vec3A::ZERO, Vec3A::ZERO));
+        for i in 0..n {
+            let (start, end) = if ahead {
+                (x.get(i), x.get(i) + d.get(i))
+            } else {
+                (x.get(i) - d.get(i), x.get(i))
+            };
+            moved[i] = Vec3A::from(end - found[i]);
+            m.0 += Vec3A::from(start - found[i]);
+            m.1 += moved[i];
+        }
+        (moved, m)
+    };
+    for ahead in [false, true] {
+        let mut moved = vec![Vec3A::NAN; n];
+        let m = if ahead {
+            soa_displaced::<true>(&x, &d, &found, &mut moved)
+        } else {
+            soa_displaced::<false>(&x, &d, &found, &mut moved)
+        };
+        assert_eq!((moved, m), paths(ahead), "ahead: {ahead}");
+    }
 }
 
 /// A 2 m square sheet in the plane y = 0 (|x|, |z| ≤ 1) as a [`Surface`]: an open shell.

@@ -2,10 +2,10 @@
 //! scratch), and [`SoaState`], the coordinate arrays the vector steppers (XPBD, symplectic Euler,
 //! Verlet) step in, with their contact response.
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec3, Vec3A};
 
 use crate::sim::contact::{
-    ContactState, Contacts, Near, Pose, Since, soa_clearances, soa_ends, soa_since,
+    ContactState, Contacts, Near, Pose, Since, soa_clearances, soa_displaced, soa_ends, soa_since,
 };
 use crate::sim::forces::SpringSet;
 use crate::sim::model::ClothModel;
@@ -319,6 +319,9 @@ impl ContactState for SoaContacts<'_> {
         for (i, (x, d)) in self.state.x.iter().zip(self.state.d.iter()).enumerate() {
             f(i, x - d, x);
         }
+    }
+    fn displaced(&self, found: &[Vec3], moved: &mut [Vec3A]) -> (Vec3A, Vec3A) {
+        soa_displaced::<false>(&self.state.x, &self.state.d, found, moved)
     }
     fn since(&self, at: &Soa, guess: Vec3) -> Since {
         soa_since::<false>(&self.state.x, &self.state.d, at, guess)

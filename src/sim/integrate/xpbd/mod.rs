@@ -15,10 +15,12 @@ mod team;
 #[cfg(test)]
 mod tests;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::step::{SoaState, Step, frame_shift};
-use crate::sim::contact::{ContactState, Near, Since, soa_clearances, soa_ends, soa_since};
+use crate::sim::contact::{
+    ContactState, Near, Since, soa_clearances, soa_displaced, soa_ends, soa_since,
+};
 use crate::sim::model::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
@@ -382,6 +384,9 @@ impl ContactState for AheadOfEnd<'_> {
             // The end pass's `x += d`, coordinate by coordinate.
             f(i, x, x + d);
         }
+    }
+    fn displaced(&self, found: &[Vec3], moved: &mut [Vec3A]) -> (Vec3A, Vec3A) {
+        soa_displaced::<true>(self.x, self.d, found, moved)
     }
     fn since(&self, at: &Soa, guess: Vec3) -> Since {
         soa_since::<true>(self.x, self.d, at, guess)
