@@ -305,25 +305,7 @@ impl Patches {
         boxes: &[(Vec3, Vec3)],
         (flat, margin, out): (impl Fn(f32) -> f32, f32, f32),
     ) {
-        self.normal.clear();
-        self.altitude.clear();
-        for t in tris {
-            let [a, b, c] = t.map(|i| x[i as usize]);
-            let n = (b - a).cross(c - a);
-            let length = n.length();
-            let longest = (b - a)
-                .length_squared()
-                .max((c - b).length_squared())
-                .max((a - c).length_squared());
-            self.altitude.push(length / longest.sqrt());
-            // `normalize_or_zero`, with the length kept.
-            let rcp = length.recip();
-            self.normal.push(if rcp.is_finite() && rcp > 0.0 {
-                n * rcp
-            } else {
-                Vec3::ZERO
-            });
-        }
+        normals(x, tris, &mut self.normal, &mut self.altitude);
         for p in 0..self.len() {
             let members = &self.members[self.start[p] as usize..self.start[p + 1] as usize];
             let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
@@ -559,6 +541,73 @@ fn along(axis: Vec3, members: &[u32], tris: &[[u32; 3]], x: &[Vec3]) -> (f32, f3
         })
 }
 
+/// Triangles at a time in [`normals`].
+const LANES: usize = 8;
+
+/// Each of the triangles `tris`' unit normal at `x` (zero if degenerate or not finite) into
+/// `normal`, and its shortest altitude into `altitude`. [`LANES`] triangles at a time, so that the
+/// square roots and divisions run in vector registers; each lane does the arithmetic of
+/// `normal_of`, in the same order, so the results are the same bits.
+fn normals(x: &[Vec3], tris: &[[u32; 3]], normal: &mut Vec<Vec3>, altitude: &mut Vec<f32>) {
+    normal.clear();
+    altitude.clear();
+    for chunk in tris.chunks(LANES) {
+        // Per lane: the sides b − a, c − a and c − b, coordinate by coordinate.
+        let mut side = [[[0.0f32; LANES]; 3]; 3];
+        for (k, t) in chunk.iter().enumerate() {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            for (s, d) in side.iter_mut().zip([b - a, c - a, c - b]) {
+                for (axis, v) in s.iter_mut().zip(d.to_array()) {
+                    axis[k] = v;
+                }
+            }
+        }
+        let [[ux, uy, uz], [vx, vy, vz], [wx, wy, wz]] = side;
+        let (mut n, mut h) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
+        for k in 0..LANES {
+            let (nx, ny, nz) = (
+                uy[k] * vz[k] - vy[k] * uz[k],
+                uz[k] * vx[k] - vz[k] * ux[k],
+                ux[k] * vy[k] - vx[k] * uy[k],
+            );
+            let length = ((nx * nx) + (ny * ny) + (nz * nz)).sqrt();
+            let square = |x: f32, y: f32, z: f32| (x * x) + (y * y) + (z * z);
+            let longest = square(ux[k], uy[k], uz[k])
+                .max(square(wx[k], wy[k], wz[k]))
+                .max(square(vx[k], vy[k], vz[k]));
+            h[k] = length / longest.sqrt();
+            // `normalize_or_zero`, with the length kept.
+            let rcp = 1.0 / length;
+            let keep = rcp.is_finite() && rcp > 0.0;
+            for (n, v) in n.iter_mut().zip([nx, ny, nz]) {
+                n[k] = if keep { v * rcp } else { 0.0 };
+            }
+        }
+        for k in 0..chunk.len() {
+            normal.push(Vec3::new(n[0][k], n[1][k], n[2][k]));
+            altitude.push(h[k]);
+        }
+    }
+}
+
+/// One triangle's unit normal (zero if degenerate or not finite) and shortest altitude.
+#[cfg(test)]
+fn normal_of([a, b, c]: [Vec3; 3]) -> (Vec3, f32) {
+    let n = (b - a).cross(c - a);
+    let length = n.length();
+    let longest = (b - a)
+        .length_squared()
+        .max((c - b).length_squared())
+        .max((a - c).length_squared());
+    let rcp = length.recip();
+    let normal = if rcp.is_finite() && rcp > 0.0 {
+        n * rcp
+    } else {
+        Vec3::ZERO
+    };
+    (normal, length / longest.sqrt())
+}
+
 /// Notes that patches `a` and `b` are left uncovered with their elements at least `gap` apart.
 fn uncovered(clear_of: &mut [f32], (a, b): (usize, usize), gap: f32) {
     clear_of[a] = clear_of[a].min(gap);
@@ -578,6 +627,31 @@ mod tests {
             let rim = Quat::from_axis_angle(turn * side, a) * u;
             axis.angle_between(rim) <= angle + 1e-4
         })
+    }
+
+    #[test]
+    fn normals_eight_at_a_time_are_those_of_one_at_a_time() {
+        // 21 triangles (two whole lanes' worth and a part): scattered, one degenerate, one with
+        // a corner that is not a number, one that is not finite.
+        let h = |k: u32| ((k as f32 * 12.9898).sin() * 43_758.547).fract();
+        let mut x: Vec<Vec3> = (0..63)
+            .map(|i| Vec3::new(h(3 * i), h(3 * i + 1), h(3 * i + 2)))
+            .collect();
+        x[7] = x[6];
+        x[8] = x[6];
+        x[31] = Vec3::NAN;
+        x[44] = Vec3::new(f32::INFINITY, 0.0, 0.0);
+        let tris: Vec<[u32; 3]> = (0..21).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let (mut normal, mut altitude) = (Vec::new(), Vec::new());
+        normals(&x, &tris, &mut normal, &mut altitude);
+        assert_eq!(normal.len(), 21);
+        for (t, tri) in tris.iter().enumerate() {
+            let (n, a) = normal_of(tri.map(|i| x[i as usize]));
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            assert_eq!(bits(normal[t]), bits(n), "{t}");
+            assert_eq!(altitude[t].to_bits(), a.to_bits(), "{t}");
+        }
+        assert_eq!(normal[2], Vec3::ZERO);
     }
 
     #[test]
