@@ -552,7 +552,8 @@ impl SelfContacts {
                     self.regions.edges_closing(&self.edge_slots)
                 };
                 if turning <= turn_limit {
-                    let slack = (closing.slack)
+                    let slack = closing
+                        .slack
                         .min(self.far_limit - closing.mid)
                         .min(self.wide_limit - closing.far)
                         .min(turn_limit - turning);

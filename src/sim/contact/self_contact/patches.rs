@@ -546,8 +546,9 @@ const LANES: usize = 8;
 
 /// Each of the triangles `tris`' unit normal at `x` (zero if degenerate or not finite) into
 /// `normal`, and its shortest altitude into `altitude`. [`LANES`] triangles at a time, so that the
-/// square roots and divisions run in vector registers; each lane does the arithmetic of
-/// `normal_of`, in the same order, so the results are the same bits.
+/// square roots and divisions run in vector registers; each lane does the arithmetic of one
+/// triangle at a time (`normal_of` in the tests), in the same order, so the results are the
+/// same bits.
 fn normals(x: &[Vec3], tris: &[[u32; 3]], normal: &mut Vec<Vec3>, altitude: &mut Vec<f32>) {
     normal.clear();
     altitude.clear();
