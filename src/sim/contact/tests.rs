@@ -626,21 +626,21 @@ fn the_arrays_displacements_are_those_of_the_particles_paths() {
     let found: Vec<Vec3> = (0..n)
         .map(|i| Vec3::new((i as f32).cos(), 0.2 * i as f32, 1.0))
         .collect();
-    for i in 0..n {
+    for (i, at) in found.iter().enumerate() {
         let t = i as f32;
-        x.set(i, found[i] + Vec3::new(0.1 * t, -0.03, 0.01 * t * t));
+        x.set(i, *at + Vec3::new(0.1 * t, -0.03, 0.01 * t * t));
         d.set(i, Vec3::new(0.002 * t, 0.001, -0.003));
     }
     let paths = |ahead: bool| {
-        let (mut moved, mut m) = (vec![Vec3A::ZERO; n], (Vec3A::ZERO, Vec3A::ZERO));
-        for i in 0..n {
+        let (mut moved, mut m) = (Vec::new(), (Vec3A::ZERO, Vec3A::ZERO));
+        for (i, at) in found.iter().enumerate() {
             let (start, end) = if ahead {
                 (x.get(i), x.get(i) + d.get(i))
             } else {
                 (x.get(i) - d.get(i), x.get(i))
             };
-            moved[i] = Vec3A::from(end - found[i]);
-            m.0 += Vec3A::from(start - found[i]);
+            moved.push(Vec3A::from(end - *at));
+            m.0 += Vec3A::from(start - *at);
             m.1 += moved[i];
         }
         (moved, m)
