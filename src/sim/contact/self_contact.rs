@@ -2384,7 +2384,8 @@ mod tests {
         closing_from(regions, found, found, x, limit)
     }
 
-    /// `Regions::closing` for particles found at `found` that moved from `start` to `x`.
+    /// `Regions::closing` for particles found at `found` that moved from `start` to `x`, with
+    /// every cube's limit and the far one at `limit`.
     fn closing_from(
         regions: &mut Regions,
         found: &[Vec3],
@@ -2392,25 +2393,16 @@ mod tests {
         x: &mut [Vec3],
         limit: f32,
     ) -> Closing {
-        let (mut v, w) = (vec![Vec3::ZERO; x.len()], vec![1.0; x.len()]);
-        let state = Vectors {
-            x,
-            v: &mut v,
-            start,
-            inv_mass: &w,
-            touches: None,
-        };
-        // Every cube's limit, and the far one, at `limit`.
         regions.limit.fill(limit);
         (regions.least, regions.most) = (limit, limit);
-        regions.closing(&state, found, (limit, limit))
+        closing_within(regions, (found, start), x, limit)
     }
 
-    /// `Regions::closing` for particles found at `found` and now at `x`, with the cubes' limits
-    /// as they are and the far limit at `mid_limit`.
+    /// `Regions::closing` for particles found at `found` that moved from `start` to `x`, with the
+    /// cubes' limits as they are and the far limit at `mid_limit`.
     fn closing_within(
         regions: &mut Regions,
-        found: &[Vec3],
+        (found, start): (&[Vec3], &[Vec3]),
         x: &mut [Vec3],
         mid_limit: f32,
     ) -> Closing {
@@ -2418,7 +2410,7 @@ mod tests {
         let state = Vectors {
             x,
             v: &mut v,
-            start: found,
+            start,
             inv_mass: &w,
             touches: None,
         };
@@ -2541,7 +2533,7 @@ mod tests {
             (regions.least, regions.most) = (0.01, 0.05);
             let mut x = found.clone();
             x[1].x += 0.03;
-            let c = closing_within(&mut regions, &found, &mut x, 1.0);
+            let c = closing_within(&mut regions, (&found, &found), &mut x, 1.0);
             assert!((c.near - 0.03).abs() < 1e-6, "{limits:?}: near {}", c.near);
             assert!(
                 (c.slack - slack).abs() < 1e-6,
