@@ -1542,22 +1542,9 @@ impl Regions {
     fn limit(&mut self, slot: &[u32], of_particle: impl Fn(usize) -> f32) {
         self.limit.clear();
         self.limit.resize(self.count.len(), f32::INFINITY);
-        // Neighbours along the mesh mostly share a cube: its least is kept while they do.
-        let mut run: Option<(usize, f32)> = None;
         for (p, &s) in slot.iter().enumerate() {
-            let (cube, limit) = (self.of[s as usize] as usize, of_particle(p));
-            run = match run {
-                Some((c, least)) if c == cube => Some((c, least.min(limit))),
-                _ => {
-                    if let Some((c, least)) = run {
-                        self.limit[c] = self.limit[c].min(least);
-                    }
-                    Some((cube, limit))
-                }
-            };
-        }
-        if let Some((c, least)) = run {
-            self.limit[c] = self.limit[c].min(least);
+            let cube = &mut self.limit[self.of[s as usize] as usize];
+            *cube = cube.min(of_particle(p));
         }
         let (least, most) =
             (self.limit.iter()).fold((f32::INFINITY, 0.0f32), |(l, m), &c| (l.min(c), m.max(c)));

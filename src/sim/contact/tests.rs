@@ -619,8 +619,7 @@ fn the_since_kernel_sees_every_particle_in_every_build() {
 #[test]
 fn the_arrays_displacements_are_those_of_the_particles_paths() {
     // 9 particles at `x` displaced by `d` over the substep, found at `found`: the arrays' loop
-    // against the trait's default over the same paths (ending at `x`, or with `AHEAD` at
-    // `x + d`).
+    // against the trait's default on the same paths (ending at `x`, or with `AHEAD` at `x + d`).
     let n = 9;
     let (mut x, mut d) = (Soa::new(n), Soa::new(n));
     let found: Vec<Vec3> = (0..n)
@@ -631,28 +630,27 @@ fn the_arrays_displacements_are_those_of_the_particles_paths() {
         x.set(i, *at + Vec3::new(0.1 * t, -0.03, 0.01 * t * t));
         d.set(i, Vec3::new(0.002 * t, 0.001, -0.003));
     }
-    let paths = |ahead: bool| {
-        let (mut moved, mut m) = (Vec::new(), (Vec3A::ZERO, Vec3A::ZERO));
-        for (i, at) in found.iter().enumerate() {
-            let (start, end) = if ahead {
-                (x.get(i), x.get(i) + d.get(i))
-            } else {
-                (x.get(i) - d.get(i), x.get(i))
-            };
-            moved.push(Vec3A::from(end - *at));
-            m.0 += Vec3A::from(start - *at);
-            m.1 += moved[i];
-        }
-        (moved, m)
-    };
     for ahead in [false, true] {
+        let (start, mut end): (Vec<Vec3>, Vec<Vec3>) = (x.iter().zip(d.iter()))
+            .map(|(x, d)| if ahead { (x, x + d) } else { (x - d, x) })
+            .unzip();
+        let (mut v, w) = (vec![Vec3::ZERO; n], vec![1.0; n]);
+        let paths = Vectors {
+            x: &mut end,
+            v: &mut v,
+            start: &start,
+            inv_mass: &w,
+            touches: None,
+        };
+        let mut expected = vec![Vec3A::NAN; n];
+        let sums = paths.displaced(&found, &mut expected);
         let mut moved = vec![Vec3A::NAN; n];
         let m = if ahead {
             soa_displaced::<true>(&x, &d, &found, &mut moved)
         } else {
             soa_displaced::<false>(&x, &d, &found, &mut moved)
         };
-        assert_eq!((moved, m), paths(ahead), "ahead: {ahead}");
+        assert_eq!((moved, m), (expected, sums), "ahead: {ahead}");
     }
 }
 
