@@ -2506,6 +2506,26 @@ mod tests {
     }
 
     #[test]
+    fn a_cube_takes_the_least_limit_of_its_particles() {
+        // Cubes of 0.2 m along x: particles 0, 2 and 4 in cell 0, 1 and 3 in cell 1, stored in
+        // reverse; each particle's limit is its index plus one.
+        let found: Vec<Vec3> = [0.05, 0.25, 0.1, 0.3, 0.15]
+            .map(|x| Vec3::new(x, 0.1, 0.1))
+            .to_vec();
+        let slot: Vec<u32> = (0..5).rev().collect();
+        let mut regions = Regions {
+            size: 0.2,
+            ..Regions::default()
+        };
+        regions.assign(&found, &slot);
+        regions.limit(&slot, |p| p as f32 + 1.0);
+        let cube = |p: usize| regions.of[slot[p] as usize] as usize;
+        assert_eq!(regions.limit[cube(0)], 1.0);
+        assert_eq!(regions.limit[cube(1)], 2.0);
+        assert_eq!((regions.least, regions.most), (1.0, 2.0));
+    }
+
+    #[test]
     fn neighbouring_cubes_may_come_closer_by_the_larger_of_their_limits() {
         // Cubes of 0.2 m along x, one particle in each of cells 0, 1 and 2 (one block); the
         // middle one moves 3 cm toward the last.
