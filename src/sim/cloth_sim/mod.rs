@@ -314,8 +314,8 @@ impl ClothSim {
         self.steppers.prepare(
             integrator,
             &self.model,
-            &self.stiffness,
-            &self.particles.inv_mass,
+            (&self.stiffness, &self.particles.inv_mass),
+            self.contacts.limits(),
         );
         self.active = self.choose_integrator(1.0 / 60.0);
         // The copy tolerance mode estimates on is made of this cloth without its own copy.

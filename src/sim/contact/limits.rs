@@ -5,9 +5,10 @@
 //!   normal), so a cape follows its character without sinking into its back;
 //! - **tethers** (long-range attachments): a free particle stays within its geodesic rest
 //!   distance, times `1 + slack`, of the nearest pinned particle, so that stretch under a sudden
-//!   pull does not depend on how many iterations the springs get. They act once per step, at the
-//!   end of its last substep: what a step ends in (and shows) is within them, at a small share
-//!   of the cost of projecting them every substep (each tether is a gather from its anchor).
+//!   pull does not depend on how many iterations the springs get. XPBD projects them itself,
+//!   after the springs of every substep (`integrate/xpbd/tethers.rs`); for the other
+//!   integrators they act here once per step, at the end of its last substep: what a step ends
+//!   in (and shows) is within them.
 //!
 //! Each limit is a one-sided distance constraint between the particle and a point that moves on
 //! its own (the target, interpolated across the step like a pin; the pinned anchor, already at
@@ -160,12 +161,24 @@ impl Limits {
         }
     }
 
+    /// The tethers: (particle, anchor, length).
+    pub fn tethers(&self) -> impl Iterator<Item = (u32, u32, f32)> + '_ {
+        self.tethers
+            .iter()
+            .map(|t| (t.particle, t.anchor, t.length))
+    }
+
     /// Projects every free particle that has left its limits back onto them at the end of the
     /// substep `[t0, t1]` (fractions of the step) of length `h`: its targets' every substep,
-    /// its tether at the end of the step's last substep (`t1 == 1`).
+    /// its tether at the end of the step's last substep (`t1 == 1`), unless the stepper projects
+    /// the tethers itself ([`ContactState::projects_tethers`]).
     pub fn resolve<S: ContactState>(&self, (t0, t1, h): (f32, f32, f32), state: &mut S) {
         let inv_h = 1.0 / h;
-        let tethers = if t1 >= 1.0 { &self.tethers[..] } else { &[] };
+        let tethers = if t1 >= 1.0 && !state.projects_tethers() {
+            &self.tethers[..]
+        } else {
+            &[]
+        };
         for t in tethers {
             let i = state.slot(t.particle);
             if state.inv_mass(i) == 0.0 {
@@ -244,11 +257,26 @@ fn outside<S: ContactState>(
     state.set(i, centre + n * radius, v);
 }
 
-/// For every particle, the nearest pinned particle along the triangles' edges (`u32::MAX` where
-/// none is joined to it) and the length of that path at rest, by Dijkstra's algorithm from all
-/// pinned particles at once. Ties go to the lower-numbered anchor, whatever the order of work.
+/// The cosine of the largest angle between the rest shape's normals at the start of a straight
+/// stretch of a geodesic and at each particle it reaches.
+const FLAT: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
+/// For every particle, the nearest pinned particle along the rest shape (`u32::MAX` where no path
+/// along the triangles' edges joins one to it) and the length of that path, by Dijkstra's
+/// algorithm from all pinned particles at once. Ties go to the lower-numbered anchor, whatever
+/// the order of work.
+///
+/// A path along the edges alone is up to 8% longer than the straight line across a flat grid,
+/// which would leave a tether that much slack. So a path runs straight (any-angle, as in
+/// Theta*) from the last point where it bent to each particle it reaches, as long as the rest
+/// shape's normals there and at the bend are within 45° ([`FLAT`]); a stretch whose normals turn
+/// by `θ` counts as the arc of a circle through its ends, `θ/2 / sin(θ/2)` times the straight
+/// line (1 across a flat part of the cloth, the arc's length across a cylinder). A path is never
+/// shorter than the straight line between its ends, so the rest shape meets every tether. (A
+/// straight stretch may cut across a notch or hole of a flat cloth.)
 fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Vec<u32>, Vec<f32>) {
     let n = rest.len();
+    let normal = rest_normals(triangles, rest);
     // Each triangle's edges, both ways, as an adjacency list (compressed rows).
     let mut degree = vec![0u32; n + 1];
     let edges = triangles.chunks_exact(3).flat_map(|t| {
@@ -269,12 +297,14 @@ fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Ve
         fill[a as usize] += 1;
     }
 
-    /// A particle reached at `distance` from `anchor`, ordered nearest first for the max-heap.
+    /// A particle reached at `distance` from `anchor`, by a path whose last straight stretch
+    /// starts at `bend`; ordered nearest first for the max-heap.
     #[derive(PartialEq)]
     struct Reached {
         distance: f32,
         anchor: u32,
         particle: u32,
+        bend: u32,
     }
     impl Eq for Reached {}
     impl Ord for Reached {
@@ -301,6 +331,7 @@ fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Ve
             distance: 0.0,
             anchor: i as u32,
             particle: i as u32,
+            bend: i as u32,
         });
     }
     while let Some(r) = heap.pop() {
@@ -310,22 +341,57 @@ fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Ve
         }
         done[p] = true;
         (nearest[p], distance[p]) = (r.anchor, r.distance);
+        let bend = r.bend as usize;
         for &q in &neighbours[degree[p] as usize..degree[p + 1] as usize] {
             let q = q as usize;
-            if !done[q] {
-                let d = r.distance + rest[p].distance(rest[q]);
-                if d <= distance[q] {
-                    distance[q] = d;
-                    heap.push(Reached {
-                        distance: d,
-                        anchor: r.anchor,
-                        particle: q as u32,
-                    });
-                }
+            if done[q] {
+                continue;
+            }
+            // Straight on from the last bend where the cloth between is flat, else bend at `p`.
+            let turn = normal[bend].dot(normal[q]);
+            let (d, via) = if turn >= FLAT {
+                let chord = rest[bend].distance(rest[q]);
+                (distance[bend] + chord * arc_over_chord(turn), bend)
+            } else {
+                (r.distance + rest[p].distance(rest[q]), p)
+            };
+            if d <= distance[q] {
+                distance[q] = d;
+                heap.push(Reached {
+                    distance: d,
+                    anchor: r.anchor,
+                    particle: q as u32,
+                    bend: via as u32,
+                });
             }
         }
     }
     (nearest, distance)
+}
+
+/// The length of a circle's arc over its chord, for an arc whose normals turn by the angle whose
+/// cosine is `cos`: `θ/2 / sin(θ/2)`, at least 1.
+fn arc_over_chord(cos: f32) -> f32 {
+    let half = 0.5 * cos.clamp(-1.0, 1.0).acos();
+    if half < 1e-4 { 1.0 } else { half / half.sin() }
+}
+
+/// The rest shape's unit vertex normals, each the sum of its triangles' area-weighted normals
+/// (zero where they cancel or a vertex has no triangle, so such a vertex ends every straight
+/// stretch of a geodesic).
+fn rest_normals(triangles: &[u32], rest: &[Vec3]) -> Vec<Vec3> {
+    let mut normal = vec![Vec3::ZERO; rest.len()];
+    for t in triangles.chunks_exact(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| i as usize);
+        let area = (rest[b] - rest[a]).cross(rest[c] - rest[a]);
+        for i in [a, b, c] {
+            normal[i] += area;
+        }
+    }
+    for v in &mut normal {
+        *v = v.normalize_or_zero();
+    }
+    normal
 }
 
 #[cfg(test)]
@@ -334,10 +400,10 @@ mod tests {
     use crate::sim::model::{ClothModel, GridPlane, GridSpec};
 
     #[test]
-    fn geodesic_distances_follow_the_edges_to_the_nearest_pin() {
+    fn geodesic_distances_run_straight_across_a_flat_cloth_to_the_nearest_pin() {
         // A 5×4 grid of 0.1 m spacing pinned at its two top corners: each particle is tied to
-        // the corner on its side, at a path length between the straight line and the path along
-        // rows and columns (the triangles' diagonals shorten it).
+        // the corner on its side, at the straight line's length (a path along the edges would
+        // be up to 8% longer).
         let spec = GridSpec::new(5, 4, 0.1).with_plane(GridPlane::Vertical);
         let model = ClothModel::grid(&spec).unwrap();
         let rest = &model.rest_positions;
@@ -362,22 +428,57 @@ mod tests {
                     "particle {i} tied to the far corner {a}"
                 );
             }
-            let d = rest[i] - rest[a];
-            let (straight, rows_and_columns) = (d.length(), d.abs().element_sum());
+            let straight = rest[i].distance(rest[a]);
             assert!(
-                (straight - 1e-6..=rows_and_columns + 1e-6).contains(&distance[i]),
-                "particle {i}: {} not in {straight}..={rows_and_columns}",
+                (distance[i] - straight).abs() <= 1e-6 * straight.max(1.0),
+                "particle {i}: {} against the straight line {straight}",
                 distance[i]
             );
         }
-        assert!(
-            (0..n)
-                .any(|i| distance[i]
-                    < (rest[i] - rest[nearest[i] as usize]).abs().element_sum() - 1e-3),
-            "no path took a diagonal"
-        );
         // Nothing pinned: no anchor anywhere.
         let (nearest, _) = geodesic_to_nearest(&model.triangles, rest, &vec![false; n]);
         assert!(nearest.iter().all(|&a| a == u32::MAX));
+    }
+
+    #[test]
+    fn geodesic_distances_follow_a_curved_cloth() {
+        // A 24×6 grid of 0.1 m spacing rolled into half a cylinder around its columns, pinned at
+        // one corner: unrolled, the cloth is flat, so each particle's geodesic is the straight
+        // line of the flat grid. Straight lines through the air (the chord) would be up to a
+        // third shorter across the roll, paths along the edges up to 8% longer.
+        let (nx, ny, h) = (24, 6, 0.1);
+        let spec = GridSpec::new(nx, ny, h).with_plane(GridPlane::Vertical);
+        let model = ClothModel::grid(&spec).unwrap();
+        let radius = (nx - 1) as f32 * h / std::f32::consts::PI;
+        let flat = |p: u32| Vec3::new((p % nx) as f32 * h, (p / nx) as f32 * h, 0.0);
+        let rest: Vec<Vec3> = (0..nx * ny)
+            .map(|p| {
+                let f = flat(p);
+                let angle = f.x / radius;
+                Vec3::new(radius * angle.sin(), f.y, radius * (1.0 - angle.cos()))
+            })
+            .collect();
+        let mut pinned = vec![false; rest.len()];
+        pinned[0] = true;
+        let (nearest, distance) = geodesic_to_nearest(&model.triangles, &rest, &pinned);
+        let mut shortest_chord: f32 = 1.0;
+        for p in 1..nx * ny {
+            let i = p as usize;
+            assert_eq!(nearest[i], 0);
+            let geodesic = flat(p).distance(flat(0));
+            // The roll turns the normals by 7.8° a column, so the straight stretches bend at
+            // particles, a little off the geodesic.
+            assert!(
+                (0.99 * geodesic..=1.04 * geodesic).contains(&distance[i]),
+                "particle {p}: {} against the geodesic {geodesic}",
+                distance[i]
+            );
+            assert!(distance[i] >= rest[i].distance(rest[0]) * (1.0 - 1e-6));
+            shortest_chord = shortest_chord.min(rest[i].distance(rest[0]) / geodesic);
+        }
+        assert!(
+            shortest_chord < 0.7,
+            "the roll's chords are {shortest_chord} of its arcs"
+        );
     }
 }

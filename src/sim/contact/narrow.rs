@@ -141,6 +141,11 @@ pub(crate) trait ContactState {
     fn inv_mass(&self, i: usize) -> f32;
     /// Where model particle `p` is stored.
     fn slot(&self, p: u32) -> usize;
+    /// Whether the stepper projects the tethers itself, inside its solve (XPBD, every substep);
+    /// otherwise the limits project them at the end of each step.
+    fn projects_tethers(&self) -> bool {
+        false
+    }
     /// Position at the start of the substep.
     fn start(&self, i: usize) -> Vec3;
     /// Position now.

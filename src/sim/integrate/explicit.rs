@@ -58,7 +58,7 @@ impl Explicit {
     /// The contact response at the end of substep `sub` of `n` (length `h`).
     fn resolve_contacts(&mut self, s: &mut Step, sub: u32, n: u32, h: f32) {
         self.state
-            .resolve_contacts(s, (&Order::default(), None), (sub, n, h), true);
+            .resolve_contacts(s, (&Order::default(), None, false), (sub, n, h), true);
     }
 
     /// Symplectic Euler, `n` substeps of `h = dt/n`: `v ← e^{-c h} (v + h f(x)/m)`, then

@@ -18,6 +18,7 @@ pub use implicit::CG_TOLERANCE;
 pub(crate) use step::{Step, add_contact_work};
 pub use xpbd::{ScopedThread, Spread};
 
+use super::contact::Limits;
 use super::model::ClothModel;
 use super::settings::Integrator;
 
@@ -32,14 +33,15 @@ pub(crate) struct Steppers {
 }
 
 impl Steppers {
-    /// Readies the steppers `integrator` may run for `model` with per-spring `stiffness` and the
-    /// particles' inverse masses (pins at 0).
+    /// Readies the steppers `integrator` may run for `model` with per-spring `stiffness`, the
+    /// particles' inverse masses (pins at 0) and the tethers of `limits` (which XPBD projects
+    /// itself).
     pub fn prepare(
         &mut self,
         integrator: Integrator,
         model: &ClothModel,
-        stiffness: &[f32],
-        inv_mass: &[f32],
+        (stiffness, inv_mass): (&[f32], &[f32]),
+        limits: &Limits,
     ) {
         let auto = integrator == Integrator::Auto;
         if integrator == Integrator::ImplicitEuler {
@@ -50,7 +52,7 @@ impl Steppers {
             self.explicit.prepare(model, stiffness);
         }
         if integrator == Integrator::Xpbd || auto {
-            self.xpbd.prepare(model, stiffness, inv_mass);
+            self.xpbd.prepare(model, (stiffness, inv_mass), limits);
         }
     }
 

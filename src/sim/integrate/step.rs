@@ -233,7 +233,7 @@ impl SoaState {
     pub fn resolve_contacts(
         &mut self,
         step: &mut Step,
-        (order, inv_mass): (&Order, Option<&[f32]>),
+        (order, inv_mass, tethered): (&Order, Option<&[f32]>, bool),
         (sub, n, h): (u32, u32, f32),
         d_is_start: bool,
     ) {
@@ -259,6 +259,7 @@ impl SoaState {
             state: self,
             inv_mass: inv_mass.unwrap_or(&step.particles.inv_mass),
             order,
+            tethered,
         };
         let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
         let work = step
@@ -278,6 +279,8 @@ struct SoaContacts<'a> {
     /// Inverse masses in storage order.
     inv_mass: &'a [f32],
     order: &'a Order,
+    /// Whether the stepper projected the tethers itself ([`ContactState::projects_tethers`]).
+    tethered: bool,
 }
 
 impl ContactState for SoaContacts<'_> {
@@ -290,6 +293,9 @@ impl ContactState for SoaContacts<'_> {
     }
     fn slot(&self, p: u32) -> usize {
         self.order.stored(p) as usize
+    }
+    fn projects_tethers(&self) -> bool {
+        self.tethered
     }
     #[inline(always)]
     fn start(&self, i: usize) -> Vec3 {
@@ -407,6 +413,7 @@ mod tests {
             state: &mut soa_state,
             inv_mass: &stored_mass,
             order: &layout,
+            tethered: false,
         };
         contacts.resolve_state(t, &model.triangles, &mut state);
         let soa = [soa_state.x, soa_state.v, soa_state.d];

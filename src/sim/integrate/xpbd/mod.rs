@@ -5,6 +5,7 @@
 //! - `layout.rs` lays the springs out for the vector kernel ([`Projections`]),
 //! - `kernel.rs` projects them ([`Sweep`]),
 //! - `team.rs` shares a large cloth's sweeps and particle passes with a second thread,
+//! - `tethers.rs` projects the tethers after the sweeps ([`Tethered`]),
 //! - this file drives the substeps: the particle passes, pins, wind and contacts.
 //!
 //! Nothing here allocates inside a step.
@@ -14,12 +15,13 @@ mod layout;
 mod team;
 #[cfg(test)]
 mod tests;
+mod tethers;
 
 use glam::{Vec3, Vec3A};
 
 use super::step::{SoaState, Step, frame_shift};
 use crate::sim::contact::{
-    ContactState, Near, Since, soa_clearances, soa_displaced, soa_ends, soa_since,
+    ContactState, Limits, Near, Since, soa_clearances, soa_displaced, soa_ends, soa_since,
 };
 use crate::sim::model::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
@@ -29,6 +31,7 @@ use kernel::{Column, Read, Split, Sweep};
 use layout::{LANES, Projections};
 use team::{Lead, share};
 pub use team::{ScopedThread, Spread};
+use tethers::Tethered;
 
 /// XPBD's stepper: the springs' layout and the step's scratch, in the layout's storage order.
 #[derive(Debug, Clone, Default)]
@@ -40,6 +43,8 @@ pub(crate) struct Xpbd {
     lambda: Vec<f32>,
     /// The wind's velocity change per substep (scratch).
     wind_dv: Soa,
+    /// The tethers, projected after the sweeps of every substep.
+    tethers: Tethered,
     /// The velocities contacts set in the current substep, by storage slot (at most one per
     /// particle; see [`AheadOfEnd`]), and where each slot's is in that list (1 + its place; 0 for
     /// none).
@@ -52,8 +57,13 @@ pub(crate) struct Xpbd {
 
 impl Xpbd {
     /// Lays out `model`'s springs (if not done already) and sets their rest lengths,
-    /// compliances `1/k` and the particles' inverse masses.
-    pub fn prepare(&mut self, model: &ClothModel, stiffness: &[f32], inv_mass: &[f32]) {
+    /// compliances `1/k`, the particles' inverse masses and the tethers of `limits`.
+    pub fn prepare(
+        &mut self,
+        model: &ClothModel,
+        (stiffness, inv_mass): (&[f32], &[f32]),
+        limits: &Limits,
+    ) {
         let (s, n) = (&model.springs, model.particle_count());
         if !self.layout.fits(s.len(), n) {
             self.layout = Projections::new(model);
@@ -63,6 +73,7 @@ impl Xpbd {
             self.lambda = vec![0.0; self.layout.slot_count()];
         }
         self.layout.set_constants(&s.rest, stiffness, inv_mass);
+        self.tethers.set(limits.tethers(), self.layout.storage(), n);
     }
 
     /// Whether a step is worth sharing between two threads.
@@ -129,6 +140,7 @@ impl Xpbd {
                 self.lambda.fill(0.0);
             }
             self.sweeps(s.settings.iterations, accumulate, inv_h2, lead);
+            self.tethers.project(&self.state.x, &mut self.state.d);
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `contact`).
             if ahead {
@@ -150,7 +162,7 @@ impl Xpbd {
                 let layout = &self.layout;
                 self.state.resolve_contacts(
                     s,
-                    (layout.storage(), Some(&layout.inv_mass)),
+                    (layout.storage(), Some(&layout.inv_mass), true),
                     (sub, n, h),
                     false,
                 );
@@ -345,6 +357,9 @@ impl ContactState for AheadOfEnd<'_> {
     }
     fn slot(&self, p: u32) -> usize {
         self.layout.stored(p) as usize
+    }
+    fn projects_tethers(&self) -> bool {
+        true
     }
     #[inline(always)]
     fn start(&self, i: usize) -> Vec3 {
