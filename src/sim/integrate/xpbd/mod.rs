@@ -102,6 +102,8 @@ impl Xpbd {
             gravity: (s.settings.gravity * h).to_array(),
         };
         self.state.load(s.particles, self.layout.storage());
+        self.tethers
+            .begin_step(s.pins, &self.state.x, self.layout.storage());
         // Wind forces are held over the step (see `wind.rs`): their velocity change per substep,
         // in storage order.
         let wind = s.wind.active;
@@ -140,7 +142,7 @@ impl Xpbd {
                 self.lambda.fill(0.0);
             }
             self.sweeps(s.settings.iterations, accumulate, inv_h2, lead);
-            self.tethers.project(&self.state.x, &mut self.state.d);
+            self.tethers.project(t1, &self.state.x, &mut self.state.d);
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `contact`).
             if ahead {

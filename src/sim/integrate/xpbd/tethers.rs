@@ -1,33 +1,38 @@
 //! Tethers inside XPBD's solve. After each substep's spring sweeps, every tethered particle
-//! farther than its tether's length from its anchor (a pinned particle, already on its target
-//! for the substep's end) is projected back onto that sphere: a one-sided distance constraint
-//! whose anchor does not move. As for the springs, the velocity follows from the displacement.
+//! farther than its tether's length from its anchor (a pinned particle, on its target for the
+//! substep's end) is projected back onto that sphere: a one-sided distance constraint whose
+//! anchor does not move. As for the springs, the velocity follows from the displacement.
 //!
 //! Projected every substep, tethers carry a pin's pull down the whole cloth at once, which one
 //! Gauss-Seidel sweep per substep does only a few particles at a time: a cloth hanging from its
 //! pins stretches then by the tethers' slack at most, not by what the sweeps leave unconverged.
 
+use glam::Vec3;
+
 use crate::sim::integrate::step::Order;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
+use crate::sim::state::PinState;
 
-/// A cloth's tethers by storage slot, with each slot's anchor position in the current substep.
-/// The kernel reads the anchors' positions from arrays of their own, one value per slot, so that
-/// it runs in whole vectors without gathers; they are filled again only when an anchor has moved
-/// (never for still pins), run by run of slots that share an anchor.
+/// A cloth's tethers by storage slot, with each slot's anchor's targets over the step. The kernel
+/// reads the anchors' targets from arrays of their own, one value per slot, so that it runs in
+/// whole vectors without gathers; they are filled again only in a step whose pins' targets
+/// changed (never while the pins stand still).
 #[derive(Debug, Clone, Default)]
 pub(super) struct Tethered {
     /// Per slot: its tether's length, m (infinite where it has none).
     length: Vec<f32>,
-    /// The anchors' slots.
+    /// Per slot: the place of its anchor in `anchors` (`u32::MAX` where it has no tether).
+    place: Vec<u32>,
+    /// The anchors (particles).
     anchors: Vec<u32>,
-    /// Runs of consecutive slots with the same anchor (a place in `anchors`): `(start, end,
-    /// place)`. A slot without a tether joins the run before it (or the first).
-    runs: Vec<(u32, u32, u32)>,
-    /// The anchors' positions the slots' arrays were last filled with (NaN before the first).
-    filled: Soa,
-    /// Per slot: its anchor's position in the current substep, one array per coordinate.
-    at: Soa,
+    /// Each anchor's targets at the start and end of the step the slots' arrays were filled for
+    /// (NaN before the first).
+    filled: Vec<(Vec3, Vec3)>,
+    /// Per slot: its anchor's target at the start of the step and at its end, one array per
+    /// coordinate.
+    from: Soa,
+    to: Soa,
 }
 
 impl Tethered {
@@ -36,37 +41,26 @@ impl Tethered {
     pub fn set(&mut self, tethers: impl Iterator<Item = (u32, u32, f32)>, order: &Order, n: usize) {
         self.length.clear();
         self.length.resize(n, f32::INFINITY);
+        self.place.clear();
+        self.place.resize(n, u32::MAX);
         self.anchors.clear();
-        let mut place_of_slot = vec![u32::MAX; n];
         let mut place = std::collections::HashMap::new();
         for (particle, anchor, length) in tethers {
             if particle as usize >= n || anchor as usize >= n {
                 continue;
             }
-            let (slot, anchor) = (order.stored(particle), order.stored(anchor));
             let next = self.anchors.len() as u32;
             let k = *place.entry(anchor).or_insert(next);
             if k == next {
                 self.anchors.push(anchor);
             }
-            place_of_slot[slot as usize] = k;
-            self.length[slot as usize] = length;
+            let slot = order.stored(particle) as usize;
+            self.place[slot] = k;
+            self.length[slot] = length;
         }
-        self.runs.clear();
-        for (slot, &p) in place_of_slot.iter().enumerate() {
-            match self.runs.last_mut() {
-                Some(run) if p == u32::MAX || p == run.2 => run.1 = slot as u32 + 1,
-                // Leading slots without a tether join the first run.
-                Some(run) if run.2 == u32::MAX => *run = (run.0, slot as u32 + 1, p),
-                _ => self.runs.push((slot as u32, slot as u32 + 1, p)),
-            }
-        }
-        if self.anchors.is_empty() {
-            self.runs.clear();
-        }
-        self.filled = Soa::new(self.anchors.len());
-        self.filled.x.fill(f32::NAN);
-        self.at = Soa::new(n);
+        self.filled = vec![(Vec3::NAN, Vec3::NAN); self.anchors.len()];
+        self.from = Soa::new(n);
+        self.to = Soa::new(n);
     }
 
     /// Whether there is no tether.
@@ -74,38 +68,64 @@ impl Tethered {
         self.anchors.is_empty()
     }
 
+    /// Takes the anchors' targets over the coming step from `pins` (an anchor without a pin
+    /// stays where it is in `x`, in storage `order`).
+    pub fn begin_step(&mut self, pins: &[PinState], x: &Soa, order: &Order) {
+        if self.is_empty() {
+            return;
+        }
+        let mut ends: Vec<(Vec3, Vec3)> = self
+            .anchors
+            .iter()
+            .map(|&a| {
+                let at = x.get(order.stored(a) as usize);
+                (at, at)
+            })
+            .collect();
+        // Anchors are few; pins may be many.
+        for pin in pins {
+            if let Some(k) = self.anchors.iter().position(|&a| a == pin.particle) {
+                ends[k] = (pin.from, pin.to);
+            }
+        }
+        let bits = |(a, b): (Vec3, Vec3)| {
+            (
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+            )
+        };
+        if ends
+            .iter()
+            .zip(&self.filled)
+            .all(|(&e, &f)| bits(e) == bits(f))
+        {
+            return;
+        }
+        self.filled = ends;
+        for (slot, &k) in self.place.iter().enumerate() {
+            if let Some(&(from, to)) = self.filled.get(k as usize) {
+                self.from.set(slot, from);
+                self.to.set(slot, to);
+            }
+        }
+    }
+
     /// Projects every tethered particle that ends the substep (at `x + d`) past its tether back
-    /// onto it, by changing its `d`.
-    pub fn project(&mut self, x: &Soa, d: &mut Soa) {
-        self.project_as(None, x, d);
+    /// onto it, by changing its `d`; the substep ends at fraction `t1` of the step.
+    pub fn project(&self, t1: f32, x: &Soa, d: &mut Soa) {
+        self.project_as(None, t1, x, d);
     }
 
     /// [`Self::project`] in `build` (`None`: the widest the CPU has); returns whether it ran.
-    fn project_as(&mut self, build: Option<Build>, x: &Soa, d: &mut Soa) -> bool {
+    fn project_as(&self, build: Option<Build>, t1: f32, x: &Soa, d: &mut Soa) -> bool {
         if self.is_empty() {
             return true;
         }
-        let bits = |v: glam::Vec3| v.to_array().map(f32::to_bits);
-        let moved = self.anchors.iter().enumerate().any(|(k, &a)| {
-            let a = a as usize;
-            bits(x.get(a) + d.get(a)) != bits(self.filled.get(k))
-        });
-        if moved {
-            for k in 0..self.anchors.len() {
-                let a = self.anchors[k] as usize;
-                self.filled.set(k, x.get(a) + d.get(a));
-            }
-            for &(start, end, place) in &self.runs {
-                let p = self.filled.get(place as usize);
-                let range = start as usize..end as usize;
-                self.at.x[range.clone()].fill(p.x);
-                self.at.y[range.clone()].fill(p.y);
-                self.at.z[range].fill(p.z);
-            }
-        }
         let kernel = Project {
             length: &self.length,
-            at: [&self.at.x, &self.at.y, &self.at.z],
+            from: [&self.from.x, &self.from.y, &self.from.z],
+            to: [&self.to.x, &self.to.y, &self.to.z],
+            t1,
             x: [&x.x, &x.y, &x.z],
             d: [&mut d.x, &mut d.y, &mut d.z],
         };
@@ -125,7 +145,9 @@ impl Tethered {
 /// [`Tethered::project`]'s arguments, as a [`Kernel`].
 struct Project<'a> {
     length: &'a [f32],
-    at: [&'a [f32]; 3],
+    from: [&'a [f32]; 3],
+    to: [&'a [f32]; 3],
+    t1: f32,
     x: [&'a [f32]; 3],
     d: [&'a mut [f32]; 3],
 }
@@ -135,13 +157,27 @@ impl Kernel for Project<'_> {
 
     #[inline(always)]
     fn body<const WIDE: bool>(self) {
-        let Self { length, at, x, d } = self;
+        let Self {
+            length,
+            from,
+            to,
+            t1,
+            x,
+            d,
+        } = self;
         let n = length.len();
-        let [a0, a1, a2] = at.map(|c| &c[..n]);
+        let [f0, f1, f2] = from.map(|c| &c[..n]);
+        let [t0, t1s, t2] = to.map(|c| &c[..n]);
         let [x0, x1, x2] = x.map(|c| &c[..n]);
         let [d0, d1, d2] = d.map(|c| &mut c[..n]);
+        let s0 = 1.0 - t1;
         for k in 0..n {
-            let (ax, ay, az) = (a0[k], a1[k], a2[k]);
+            // The pin's target at the substep's end, as the pin computes it (`Vec3::lerp`).
+            let (ax, ay, az) = (
+                f0[k] * s0 + t0[k] * t1,
+                f1[k] * s0 + t1s[k] * t1,
+                f2[k] * s0 + t2[k] * t1,
+            );
             let (ex, ey, ez) = (x0[k] + d0[k] - ax, x1[k] + d1[k] - ay, x2[k] + d2[k] - az);
             let len2 = ex * ex + ey * ey + ez * ez;
             let limit = length[k];
@@ -158,23 +194,23 @@ impl Kernel for Project<'_> {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
-
     use super::*;
 
+    /// The anchors, every seventh particle and the last two have no tether.
     fn untethered(p: u32) -> bool {
-        p % 7 == 0 || p >= 68 || p == 29 || p == 40
+        p.is_multiple_of(7) || p >= 68 || p == 29 || p == 40
     }
 
-    /// Particle 67, in the first tethered slot, is tied to another anchor than the slot after it.
     fn anchor_of(p: u32) -> u32 {
-        if p < 35 || p == 67 { 29 } else { 40 }
+        if p < 35 { 29 } else { 40 }
     }
 
-    /// 70 particles stored in reverse order, tied to particle 29 or 40: some tethered past
-    /// their length, some within it, some untethered (the anchors, and the first two slots).
+    /// The substep ends at this fraction of the step.
+    const T1: f32 = 0.25;
 
-    fn case() -> (Tethered, Soa, Soa, Order) {
+    /// 70 particles stored in reverse order, tied to particle 29 or 40 (pins moving over the
+    /// step): some tethered past their length, some within it, some untethered.
+    fn case() -> (Tethered, Soa, Soa, Vec<PinState>) {
         let n = 70;
         let order = Order::new((0..n as u32).rev().collect());
         let mut x = Soa::new(n);
@@ -189,14 +225,26 @@ mod tests {
             .map(|p| (p, anchor_of(p), 0.04 * (p % 11) as f32));
         let mut t = Tethered::default();
         t.set(tethers, &order, n);
-        (t, x, d, order)
+        let pins: Vec<PinState> = [29u32, 40, 3]
+            .map(|p| {
+                let at = x.get(order.stored(p) as usize);
+                PinState {
+                    particle: p,
+                    from: at,
+                    to: at + Vec3::new(0.2, 0.1, -0.3),
+                }
+            })
+            .to_vec();
+        t.begin_step(&pins, &x, &order);
+        (t, x, d, pins)
     }
 
     #[test]
     fn tethered_particles_end_within_their_tethers_and_the_others_stay() {
-        let (mut t, x, mut d, order) = case();
+        let (t, x, mut d, pins) = case();
+        let order = Order::new((0..x.len() as u32).rev().collect());
         let before = d.clone();
-        t.project(&x, &mut d);
+        t.project(T1, &x, &mut d);
         let (mut moved, mut kept) = (0, 0);
         for p in 0..x.len() as u32 {
             let k = order.stored(p) as usize;
@@ -206,8 +254,8 @@ mod tests {
                 assert_eq!(d.get(k), before.get(k), "untethered particle {p} moved");
                 continue;
             }
-            let a = order.stored(anchor_of(p)) as usize;
-            let anchor = x.get(a) + d.get(a);
+            let pin = pins.iter().find(|q| q.particle == anchor_of(p)).unwrap();
+            let anchor = pin.from.lerp(pin.to, T1);
             let length = 0.04 * (p % 11) as f32;
             if was.distance(anchor) <= length {
                 assert_eq!(
@@ -234,13 +282,30 @@ mod tests {
     }
 
     #[test]
+    fn the_anchors_targets_are_taken_again_only_when_the_pins_move() {
+        let (mut t, x, _, mut pins) = case();
+        let order = Order::new((0..x.len() as u32).rev().collect());
+        let slot = order.stored(10) as usize;
+        assert_eq!(t.to.get(slot), pins[0].to);
+        // The same targets: nothing to fill (a stale array would show it).
+        t.to.set(slot, Vec3::ZERO);
+        t.begin_step(&pins, &x, &order);
+        assert_eq!(t.to.get(slot), Vec3::ZERO);
+        // A pin moved: every slot tied to it follows.
+        pins[0].to += Vec3::X;
+        t.begin_step(&pins, &x, &order);
+        assert_eq!(t.to.get(slot), pins[0].to);
+        assert_eq!(t.from.get(slot), pins[0].from);
+    }
+
+    #[test]
     fn every_build_projects_the_same() {
-        let (mut t, x, d, _) = case();
+        let (t, x, d, _) = case();
         let mut plain = d.clone();
-        assert!(t.project_as(Some(Build::Plain), &x, &mut plain));
+        assert!(t.project_as(Some(Build::Plain), T1, &x, &mut plain));
         for build in [Build::Avx2, Build::Avx512] {
             let mut wide = d.clone();
-            if t.project_as(Some(build), &x, &mut wide) {
+            if t.project_as(Some(build), T1, &x, &mut wide) {
                 for k in 0..x.len() {
                     assert_eq!(
                         wide.get(k).to_array().map(f32::to_bits),
