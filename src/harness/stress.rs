@@ -6,7 +6,8 @@
 //! neighbours differ up to 1000:1, a grid of 2×2 to 128×128 particles (shrunk to a work budget),
 //! pins oscillating at up to 20 m/s, a collider (sphere, capsule, box or floor) sweeping through
 //! the cloth at up to half its thickness per substep (the tunnelling limit of the swept test is a
-//! whole thickness), and wind of up to 50 m/s with gusts.
+//! whole thickness), wind of up to 50 m/s with gusts, and tethers to the pins (a quarter of the
+//! cases, slack 0–0.2).
 //!
 //! A case fails if stepping panics, a position or velocity becomes non-finite without a typed
 //! error, a free particle ends a step inside a collider by more than [`CLEARANCE_TOLERANCE`]
@@ -34,7 +35,8 @@ use crate::hash::{GOLDEN_GAMMA, mix64};
 use crate::sim::contact::convex_minimum;
 use crate::sim::{
     Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Environment, Friction, GridSpec,
-    Gusts, Integrator, MAX_SUBSTEPS, Pose, SelfCollision, SolverSettings, Stiffness, WindField,
+    Gusts, Integrator, MAX_SUBSTEPS, Pose, SelfCollision, SolverSettings, Stiffness, Tethers,
+    WindField,
 };
 
 /// How deep (m) a free particle may end a step inside a collider before the case fails.
@@ -214,7 +216,7 @@ pub fn draw_case(
         shear: structural * rng.range(0.1, 1.0),
         bend: structural * rng.log_range(1e-3, 1.0),
     };
-    let settings = SolverSettings {
+    let mut settings = SolverSettings {
         integrator,
         substeps,
         iterations: if integrator == Integrator::ImplicitEuler {
@@ -315,6 +317,18 @@ pub fn draw_case(
     } else {
         (Vec3::ZERO, false)
     };
+    // Tethers in a quarter of the cases, a third of those without slack (drawn last, so that
+    // every other draw stays what it was).
+    if rng.chance(0.25) {
+        settings.tethers = Tethers {
+            enabled: true,
+            slack: if rng.chance(1.0 / 3.0) {
+                0.0
+            } else {
+                rng.log_range(1e-3, 0.2)
+            },
+        };
+    }
     StressCase {
         seed,
         index,
