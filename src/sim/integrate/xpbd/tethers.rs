@@ -26,9 +26,12 @@ pub(super) struct Tethered {
     place: Vec<u32>,
     /// The anchors (particles).
     anchors: Vec<u32>,
+    /// Per particle: its place in `anchors` (`u32::MAX` for none).
+    anchor_place: Vec<u32>,
     /// Each anchor's targets at the start and end of the step the slots' arrays were filled for
-    /// (NaN before the first).
+    /// (NaN before the first), and the coming step's (scratch).
     filled: Vec<(Vec3, Vec3)>,
+    ends: Vec<(Vec3, Vec3)>,
     /// Per slot: its anchor's target at the start of the step and at its end, one array per
     /// coordinate.
     from: Soa,
@@ -44,21 +47,23 @@ impl Tethered {
         self.place.clear();
         self.place.resize(n, u32::MAX);
         self.anchors.clear();
-        let mut place = std::collections::HashMap::new();
+        self.anchor_place.clear();
+        self.anchor_place.resize(n, u32::MAX);
         for (particle, anchor, length) in tethers {
             if particle as usize >= n || anchor as usize >= n {
                 continue;
             }
-            let next = self.anchors.len() as u32;
-            let k = *place.entry(anchor).or_insert(next);
-            if k == next {
+            let k = &mut self.anchor_place[anchor as usize];
+            if *k == u32::MAX {
+                *k = self.anchors.len() as u32;
                 self.anchors.push(anchor);
             }
             let slot = order.stored(particle) as usize;
-            self.place[slot] = k;
+            self.place[slot] = *k;
             self.length[slot] = length;
         }
         self.filled = vec![(Vec3::NAN, Vec3::NAN); self.anchors.len()];
+        self.ends = self.filled.clone();
         self.from = Soa::new(n);
         self.to = Soa::new(n);
     }
@@ -74,18 +79,15 @@ impl Tethered {
         if self.is_empty() {
             return;
         }
-        let mut ends: Vec<(Vec3, Vec3)> = self
-            .anchors
-            .iter()
-            .map(|&a| {
-                let at = x.get(order.stored(a) as usize);
-                (at, at)
-            })
-            .collect();
-        // Anchors are few; pins may be many.
+        for (end, &a) in self.ends.iter_mut().zip(&self.anchors) {
+            let at = x.get(order.stored(a) as usize);
+            *end = (at, at);
+        }
         for pin in pins {
-            if let Some(k) = self.anchors.iter().position(|&a| a == pin.particle) {
-                ends[k] = (pin.from, pin.to);
+            if let Some(&k) = self.anchor_place.get(pin.particle as usize)
+                && let Some(end) = self.ends.get_mut(k as usize)
+            {
+                *end = (pin.from, pin.to);
             }
         }
         let bits = |(a, b): (Vec3, Vec3)| {
@@ -94,14 +96,15 @@ impl Tethered {
                 b.to_array().map(f32::to_bits),
             )
         };
-        if ends
+        if self
+            .ends
             .iter()
             .zip(&self.filled)
             .all(|(&e, &f)| bits(e) == bits(f))
         {
             return;
         }
-        self.filled = ends;
+        std::mem::swap(&mut self.filled, &mut self.ends);
         for (slot, &k) in self.place.iter().enumerate() {
             if let Some(&(from, to)) = self.filled.get(k as usize) {
                 self.from.set(slot, from);
