@@ -409,14 +409,11 @@ fn collide_particle<S: ContactState, D: Fn(Vec3) -> (f32, Vec3)>(
         Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
         None => {
             // Started in contact: it went through if it ends inside where the nearest surface
-            // faces away from (or across) the one it started at, or ends outside having been
-            // deep inside on the way.
+            // faces away from (or across) the one it started at, or, inside or out, having been
+            // deeper on the way than at its end.
             let through = d0 <= margin
-                && if d < margin {
-                    normal.dot(n0) <= 0.0
-                } else {
-                    went_through((shape, distance), (local0, d0), (local, d), margin)
-                };
+                && ((d < margin && normal.dot(n0) <= 0.0)
+                    || went_through((shape, distance), (local0, d0), (local, d), margin));
             if through {
                 // Out to the tangent plane where it started, plus the margin: the shape lies
                 // behind that plane (it is convex), so the particle ends clear of it on its own
@@ -476,9 +473,11 @@ fn respond(
 }
 
 /// Whether a particle that started in contact, at `from` (distance `d0`), went through the shape
-/// on its straight path to `to` (distance `d`, outside the margin): the path reaches more than
-/// `margin` below the surface on the way. A particle sliding along the surface and off it cuts
-/// the surface by its path's sagitta, far less.
+/// on its straight path to `to` (distance `d`): the path reaches below `min(d, 0) - margin`,
+/// more than `margin` below the surface and deeper than its end. A particle sliding along the surface and off it, or
+/// into it, cuts the surface by its path's sagitta, far less; one that ends inside nearer
+/// another face than the one it started at (a pull across a capsule from its side to its cap)
+/// passed the deepest point of its path on the way.
 /// The signed distance of a convex shape is convex along a line, so a ternary search finds the
 /// deepest point. The signed distance changes no faster than the point moves, so a path shorter
 /// than the way down and back up (every resting particle's) is not searched.
@@ -494,12 +493,14 @@ fn went_through(
 ) -> bool {
     let length = from.distance(to);
     match shape {
+        // Ending inside such a surface is left to the caller's test of the normals.
         Shape::Surface(s) if s.is_shell() || !s.is_convex() => {
-            length >= d0 + d && s.crosses(from, to)
+            d >= margin && length >= d0 + d && s.crosses(from, to)
         }
         _ => {
-            length > d0 + d + 2.0 * margin
-                && convex_minimum(|t| distance(from.lerp(to, t)).0) < -margin
+            let floor = d.min(0.0) - margin;
+            length > d0 + d - 2.0 * floor
+                && convex_minimum(|t| distance(from.lerp(to, t)).0) < floor
         }
     }
 }

@@ -214,6 +214,29 @@ fn a_particle_in_contact_cannot_pass_through_a_thin_box_or_cut_its_corner() {
 }
 
 #[test]
+fn a_particle_pulled_across_a_capsule_goes_back_to_the_side_it_came_from() {
+    // Resting on the side of a capsule (radius 0.3, axis along y, 0.35 from its centre to each
+    // cap's), it is pulled in one substep past the axis to end inside nearer the top cap, whose
+    // surface faces up, not away from its start: pushing it out there would let it through.
+    let collider = Collider::fixed(
+        ColliderShape::Capsule(Capsule3d::new(0.3, 0.7)),
+        Pose::IDENTITY,
+        Friction::NONE,
+        0.005,
+    );
+    let start = Vec3::new(0.0, -0.2, 0.304);
+    let end = Vec3::new(0.05, 0.5, 0.05);
+    let mut c = active(collider, 0.01, 0.1);
+    c.begin_substep(&[start]);
+    let (mut x, mut v) = ([end], [(end - start) / 0.01]);
+    c.resolve(0.0, 1.0, 0.01, &[], &[1.0], (&mut x, &mut v), None);
+    // Out to the side's tangent plane where it started, plus the margin.
+    let expected = Vec3::new(0.05, 0.5, 0.305);
+    assert!((x[0] - expected).length() < 1e-4, "{}", x[0]);
+    assert!(v[0].z >= 0.0, "{}", v[0]);
+}
+
+#[test]
 fn friction_sticks_below_the_cone_and_slides_above() {
     let plane = ColliderShape::HalfSpace(InfinitePlane3d::new(Dir3::Y));
     for (mu, sticks) in [(0.8, true), (0.3, false)] {
