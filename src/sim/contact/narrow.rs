@@ -474,10 +474,10 @@ fn respond(
 
 /// Whether a particle that started in contact, at `from` (distance `d0`), went through the shape
 /// on its straight path to `to` (distance `d`): the path reaches below `min(d, 0) - margin`,
-/// more than `margin` below the surface and deeper than its end. A particle sliding along the surface and off it, or
-/// into it, cuts the surface by its path's sagitta, far less; one that ends inside nearer
-/// another face than the one it started at (a pull across a capsule from its side to its cap)
-/// passed the deepest point of its path on the way.
+/// more than `margin` below the surface and deeper than its end. A particle sliding along the
+/// surface and off it, or into it, cuts the surface by its path's sagitta, far less; one that
+/// ends inside nearer another face than the one it started at (pulled across a capsule from its
+/// side to its cap) passed the deepest point of its path on the way.
 /// The signed distance of a convex shape is convex along a line, so a ternary search finds the
 /// deepest point. The signed distance changes no faster than the point moves, so a path shorter
 /// than the way down and back up (every resting particle's) is not searched.

@@ -116,32 +116,28 @@ impl Tethered {
     /// Projects every tethered particle that ends the substep (at `x + d`) past its tether back
     /// onto it, by changing its `d`; the substep ends at fraction `t1` of the step.
     pub fn project(&self, t1: f32, x: &Soa, d: &mut Soa) {
-        self.project_as(None, t1, x, d);
+        if let Some(kernel) = self.kernel(t1, x, d) {
+            simd::run(kernel);
+        }
     }
 
-    /// [`Self::project`] in `build` (`None`: the widest the CPU has); returns whether it ran.
-    fn project_as(&self, build: Option<Build>, t1: f32, x: &Soa, d: &mut Soa) -> bool {
-        if self.is_empty() {
-            return true;
-        }
-        let kernel = Project {
+    /// [`Self::project`] in `build`; returns whether it ran.
+    #[cfg(test)]
+    fn project_as(&self, build: Build, t1: f32, x: &Soa, d: &mut Soa) -> bool {
+        self.kernel(t1, x, d)
+            .is_none_or(|kernel| simd::run_as(build, kernel))
+    }
+
+    /// The projection's kernel, if there is a tether.
+    fn kernel<'a>(&'a self, t1: f32, x: &'a Soa, d: &'a mut Soa) -> Option<Project<'a>> {
+        (!self.is_empty()).then(|| Project {
             length: &self.length,
             from: [&self.from.x, &self.from.y, &self.from.z],
             to: [&self.to.x, &self.to.y, &self.to.z],
             t1,
             x: [&x.x, &x.y, &x.z],
             d: [&mut d.x, &mut d.y, &mut d.z],
-        };
-        match build {
-            None => {
-                simd::run(kernel);
-                true
-            }
-            #[cfg(test)]
-            Some(build) => simd::run_as(build, kernel),
-            #[cfg(not(test))]
-            Some(_) => unreachable!("builds are chosen by tests only"),
-        }
+        })
     }
 }
 
@@ -305,10 +301,10 @@ mod tests {
     fn every_build_projects_the_same() {
         let (t, x, d, _) = case();
         let mut plain = d.clone();
-        assert!(t.project_as(Some(Build::Plain), T1, &x, &mut plain));
+        assert!(t.project_as(Build::Plain, T1, &x, &mut plain));
         for build in [Build::Avx2, Build::Avx512] {
             let mut wide = d.clone();
-            if t.project_as(Some(build), T1, &x, &mut wide) {
+            if t.project_as(build, T1, &x, &mut wide) {
                 for k in 0..x.len() {
                     assert_eq!(
                         wide.get(k).to_array().map(f32::to_bits),
