@@ -22,6 +22,7 @@ use std::collections::BinaryHeap;
 use glam::Vec3;
 
 use super::narrow::ContactState;
+use crate::sim::model::compute_normals;
 use crate::sim::settings::{TargetLimits, Tethers};
 
 /// A particle tied to an animated target (see [`crate::sim::ClothSim::set_targets`]).
@@ -276,7 +277,8 @@ const FLAT: f32 = std::f32::consts::FRAC_1_SQRT_2;
 /// straight stretch may cut across a notch or hole of a flat cloth.)
 fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Vec<u32>, Vec<f32>) {
     let n = rest.len();
-    let normal = rest_normals(triangles, rest);
+    let mut normal = vec![Vec3::ZERO; n];
+    compute_normals(rest, triangles, &mut normal);
     // Each triangle's edges, both ways, as an adjacency list (compressed rows).
     let mut degree = vec![0u32; n + 1];
     let edges = triangles.chunks_exact(3).flat_map(|t| {
@@ -374,24 +376,6 @@ fn geodesic_to_nearest(triangles: &[u32], rest: &[Vec3], pinned: &[bool]) -> (Ve
 fn arc_over_chord(cos: f32) -> f32 {
     let half = 0.5 * cos.clamp(-1.0, 1.0).acos();
     if half < 1e-4 { 1.0 } else { half / half.sin() }
-}
-
-/// The rest shape's unit vertex normals, each the sum of its triangles' area-weighted normals
-/// (zero where they cancel or a vertex has no triangle, so such a vertex ends every straight
-/// stretch of a geodesic).
-fn rest_normals(triangles: &[u32], rest: &[Vec3]) -> Vec<Vec3> {
-    let mut normal = vec![Vec3::ZERO; rest.len()];
-    for t in triangles.chunks_exact(3) {
-        let [a, b, c] = [t[0], t[1], t[2]].map(|i| i as usize);
-        let area = (rest[b] - rest[a]).cross(rest[c] - rest[a]);
-        for i in [a, b, c] {
-            normal[i] += area;
-        }
-    }
-    for v in &mut normal {
-        *v = v.normalize_or_zero();
-    }
-    normal
 }
 
 #[cfg(test)]

@@ -166,16 +166,16 @@ impl Kernel for Project<'_> {
         } = self;
         let n = length.len();
         let [f0, f1, f2] = from.map(|c| &c[..n]);
-        let [t0, t1s, t2] = to.map(|c| &c[..n]);
+        let [g0, g1, g2] = to.map(|c| &c[..n]);
         let [x0, x1, x2] = x.map(|c| &c[..n]);
         let [d0, d1, d2] = d.map(|c| &mut c[..n]);
         let s0 = 1.0 - t1;
         for k in 0..n {
             // The pin's target at the substep's end, as the pin computes it (`Vec3::lerp`).
             let (ax, ay, az) = (
-                f0[k] * s0 + t0[k] * t1,
-                f1[k] * s0 + t1s[k] * t1,
-                f2[k] * s0 + t2[k] * t1,
+                f0[k] * s0 + g0[k] * t1,
+                f1[k] * s0 + g1[k] * t1,
+                f2[k] * s0 + g2[k] * t1,
             );
             let (ex, ey, ez) = (x0[k] + d0[k] - ax, x1[k] + d1[k] - ay, x2[k] + d2[k] - az);
             let len2 = ex * ex + ey * ey + ez * ez;
