@@ -75,12 +75,19 @@ pub(crate) fn max_length(vectors: &[Vec3]) -> f32 {
         .sqrt()
 }
 
+/// A target that moves from `from` to `to` over the step, at fraction `t` of it: `Vec3::lerp`,
+/// except that a coordinate that does not move is `from`'s exactly (the blend rounds it by an ulp
+/// at some `t`, which would give a still pin or target a speed).
+pub(crate) fn between(from: Vec3, to: Vec3, t: f32) -> Vec3 {
+    Vec3::select(from.cmpeq(to), from, from.lerp(to, t))
+}
+
 /// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length
 /// `1/inv_h`, and the velocity of its motion over the substep.
 pub(crate) fn pin_motion(pin: &PinState, t0: f32, t1: f32, inv_h: f32) -> (Vec3, Vec3) {
-    let target = pin.from.lerp(pin.to, t1);
+    let target = between(pin.from, pin.to, t1);
     // `from` is where the particle was when the step began (pins start where their particle is).
-    (target, (target - pin.from.lerp(pin.to, t0)) * inv_h)
+    (target, (target - between(pin.from, pin.to, t0)) * inv_h)
 }
 
 /// The energy of the free particles (inverse mass > 0), with `(mass, inverse mass)` per

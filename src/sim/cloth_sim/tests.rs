@@ -185,6 +185,30 @@ fn bad_settings_are_rejected() {
     }
 }
 
+/// A pin that does not move holds its particle exactly where it is, at no speed, with every
+/// integrator. (Blended as `Vec3::lerp` blends, 0.17 × (1 − t) + 0.17 × t differs from 0.17 by an
+/// ulp at t = 0.95, the start of the last of 20 substeps, which gave a still pin a speed.)
+#[test]
+fn a_still_pin_holds_its_particle_exactly_still() {
+    let at = Vec3::new(0.17, 1.36, -0.68);
+    for integrator in Integrator::CHOICES {
+        let settings = SolverSettings {
+            integrator,
+            ..Default::default()
+        };
+        let model = ClothModel::grid(&GridSpec::new(3, 3, 0.1)).unwrap();
+        let mut s = ClothSim::new(model, settings, |p| p + at).unwrap();
+        // The first step takes the pin from where its particle is to `at`.
+        s.set_pins([(0, at)]).unwrap();
+        s.step(1.0 / 60.0).unwrap();
+        for step in 1..10 {
+            s.step(1.0 / 60.0).unwrap();
+            let (x, v) = (s.positions()[0], s.velocities()[0]);
+            assert_eq!((x, v), (at, Vec3::ZERO), "{integrator:?}, step {step}");
+        }
+    }
+}
+
 #[test]
 fn a_cloth_without_springs_falls_freely_with_every_integrator() {
     let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];

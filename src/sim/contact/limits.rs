@@ -24,6 +24,7 @@ use glam::Vec3;
 use super::narrow::ContactState;
 use crate::sim::model::compute_normals;
 use crate::sim::settings::{TargetLimits, Tethers};
+use crate::sim::state::between;
 
 /// A particle tied to an animated target (see [`crate::sim::ClothSim::set_targets`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -195,8 +196,8 @@ impl Limits {
             if state.inv_mass(i) == 0.0 {
                 continue;
             }
-            let target = t.from.lerp(t.to, t1);
-            let velocity = (target - t.from.lerp(t.to, t0)) * inv_h;
+            let target = between(t.from, t.to, t1);
+            let velocity = (target - between(t.from, t.to, t0)) * inv_h;
             within(
                 state,
                 i,

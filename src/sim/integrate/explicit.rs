@@ -11,6 +11,7 @@ use super::step::{Order, SoaState, Step, frame_shift};
 use crate::sim::forces::{ForceRuns, add_spring_forces};
 use crate::sim::model::ClothModel;
 use crate::sim::soa::Soa;
+use crate::sim::state::between;
 
 /// The explicit integrators' scratch: the springs grouped for the vector force kernel, the force
 /// sums and the coordinate arrays they step in (in the particles' own order).
@@ -115,7 +116,7 @@ impl Explicit {
             for pin in s.pins {
                 self.state
                     .x
-                    .set(pin.particle as usize, pin.from.lerp(pin.to, mid));
+                    .set(pin.particle as usize, between(pin.from, pin.to, mid));
             }
             self.compute_forces(s);
             let last = sub + 1 == n;

@@ -28,7 +28,7 @@ use crate::sim::forces::{
     SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
     spring_energy,
 };
-use crate::sim::state::{Particles, drive_pins, energy_of};
+use crate::sim::state::{Particles, between, drive_pins, energy_of};
 
 /// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
 /// right-hand side and the substep's gravity impulse `h m g` (both as Euclidean norms).
@@ -316,7 +316,7 @@ impl Implicit {
             // Prescribed Δv of the pinned particles; free ones start from the last substep's Δv.
             for pin in pins.iter() {
                 let i = pin.particle as usize;
-                let mut target = pin.from.lerp(pin.to, t1);
+                let mut target = between(pin.from, pin.to, t1);
                 if let Some(shift) = &shift {
                     target -= shift.point(x[i]) - x[i];
                 }

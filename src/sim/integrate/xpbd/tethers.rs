@@ -170,12 +170,13 @@ impl Kernel for Project<'_> {
         let [x0, x1, x2] = x.map(|c| &c[..n]);
         let [d0, d1, d2] = d.map(|c| &mut c[..n]);
         let s0 = 1.0 - t1;
+        // The pin's target at the substep's end, as the pin computes it (`state::between`).
+        let between = |f: f32, g: f32| if f == g { f } else { f * s0 + g * t1 };
         for k in 0..n {
-            // The pin's target at the substep's end, as the pin computes it (`Vec3::lerp`).
             let (ax, ay, az) = (
-                f0[k] * s0 + g0[k] * t1,
-                f1[k] * s0 + g1[k] * t1,
-                f2[k] * s0 + g2[k] * t1,
+                between(f0[k], g0[k]),
+                between(f1[k], g1[k]),
+                between(f2[k], g2[k]),
             );
             let (ex, ey, ez) = (x0[k] + d0[k] - ax, x1[k] + d1[k] - ay, x2[k] + d2[k] - az);
             let len2 = ex * ex + ey * ey + ez * ez;
@@ -254,7 +255,7 @@ mod tests {
                 continue;
             }
             let pin = pins.iter().find(|q| q.particle == anchor_of(p)).unwrap();
-            let anchor = pin.from.lerp(pin.to, T1);
+            let anchor = crate::sim::state::between(pin.from, pin.to, T1);
             let length = 0.04 * (p % 11) as f32;
             if was.distance(anchor) <= length {
                 assert_eq!(
