@@ -168,7 +168,8 @@ pub(super) struct Sweep<'a> {
 }
 
 impl Sweep<'_> {
-    /// Projects the springs of `runs` (with `accumulate`, keeping the multipliers).
+    /// Projects the springs of `runs`, one colour's or one share of one (with `accumulate`,
+    /// keeping the multipliers).
     ///
     /// # Safety
     /// As [`solve_springs`]: no other thread touches what `runs` touch meanwhile.
@@ -185,8 +186,8 @@ impl Sweep<'_> {
     }
 }
 
-/// One Gauss-Seidel sweep over the springs of `runs` (every colour, or one thread's share of
-/// one), run by run: the XPBD update
+/// One Gauss-Seidel sweep over the springs of `runs`, which are one colour's (or one thread's
+/// share of one): the XPBD update
 /// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
 /// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
 ///
@@ -197,8 +198,9 @@ impl Sweep<'_> {
 /// to be 0 and is neither read nor stored.
 ///
 /// A vector [`Kernel`]: on x86-64 CPUs it runs as 8-wide AVX2 vectors, or with AVX-512 as 16-wide
-/// ones where a contiguous run allows, two of them at once where it allows that; the results are
-/// bit-identical either way.
+/// ones where a contiguous run allows, two of them at once where it allows that or where two
+/// batches of the colour hold no padding. The springs of a colour touch disjoint particles, so
+/// their order changes no result: the results are bit-identical either way.
 ///
 /// # Safety
 /// While it runs, no other thread reads or writes the displacements of the particles, or the
@@ -233,16 +235,18 @@ pub(super) unsafe fn solve_springs_in<const ACCUMULATE: bool>(
     lambda: Column,
     inv_h2: f32,
 ) -> bool {
-    simd::run_as(
-        build,
-        SolveSprings::<ACCUMULATE> {
-            p,
-            runs: &p.runs,
-            x,
-            lambda,
-            inv_h2,
-        },
-    )
+    (0..p.color_count()).all(|c| {
+        simd::run_as(
+            build,
+            SolveSprings::<ACCUMULATE> {
+                p,
+                runs: p.color(c),
+                x,
+                lambda,
+                inv_h2,
+            },
+        )
+    })
 }
 
 /// [`solve_springs`]'s arguments, as a [`Kernel`]. Made only by [`solve_springs`], whose caller
@@ -313,6 +317,11 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
     let inv_mass = &p.inv_mass[..];
     // Every column cut to the particle count, so that one bounds check per batch covers them all.
     let x = x.cut(inv_mass.len());
+    // A contiguous batch of `WIDE_BATCH` slots without padding, waiting for another to be
+    // projected with: two chains of square root and division in flight instead of one. The
+    // runs are one colour's, so the real springs of two such batches touch disjoint particles
+    // and the pair gives what the two give one after the other.
+    let mut waiting: Option<usize> = None;
     for run in runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
         let mut k = start;
@@ -326,12 +335,27 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
                     solve_contiguous_run::<ACCUMULATE, { 4 * LANES }>(p, x, lambda, inv_h2, k, end)
                 };
             }
-            // Two batches at once where their 32 particles are distinct.
-            if offset >= 2 * LANES {
-                // SAFETY: as above.
-                k = unsafe {
-                    solve_contiguous_run::<ACCUMULATE, { 2 * LANES }>(p, x, lambda, inv_h2, k, end)
-                };
+            // Two batches at once where their 32 particles are distinct, paired with another
+            // such batch of the colour where neither holds padding (a padding slot writes back
+            // what it read, which a pair's other batch may have moved meanwhile).
+            if offset >= WIDE_BATCH {
+                while k + WIDE_BATCH <= end {
+                    if !rest[k..k + WIDE_BATCH].iter().all(|&r| r > 0.0) {
+                        // SAFETY: as above.
+                        unsafe {
+                            solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k)
+                        };
+                    } else if let Some(first) = waiting.take() {
+                        // SAFETY: as above; the two batches' real springs are distinct springs
+                        // of one colour, so their particles are disjoint.
+                        unsafe {
+                            solve_contiguous_pair::<ACCUMULATE>(p, x, lambda, inv_h2, [first, k])
+                        };
+                    } else {
+                        waiting = Some(k);
+                    }
+                    k += WIDE_BATCH;
+                }
             }
         }
         while k + LANES <= end {
@@ -363,7 +387,14 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
             unsafe { solve_gathered::<ACCUMULATE, 1>(&p.a, &p.b, x, inv_mass, batch, inv_h2) };
         }
     }
+    if let Some(k) = waiting {
+        // SAFETY: as above.
+        unsafe { solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k) };
+    }
 }
+
+/// The slots of one AVX-512 vector.
+const WIDE_BATCH: usize = 2 * LANES;
 
 /// The lane-wise XPBD update of `N` independent slots: `s[0..3]` are the first ends' x, y, z
 /// at the start of the substep and `s[3..6]` the second ends', `d` their displacements since,
@@ -386,6 +417,31 @@ unsafe fn project<const ACCUMULATE: bool, const N: usize>(
     } else {
         [0.0; N]
     };
+    update::<ACCUMULATE, N>(
+        s,
+        d,
+        (wa, wb),
+        (batch.rest, batch.compliance),
+        &mut lambda,
+        inv_h2,
+    );
+    if ACCUMULATE {
+        // SAFETY: the caller's contract.
+        unsafe { batch.lambda.store(batch.k, &lambda) };
+    }
+}
+
+/// [`project`]'s arithmetic, lane by lane, with the batch's inverse masses, rest lengths and
+/// compliances, and its multipliers in `lambda` (read and written only with `ACCUMULATE`).
+#[inline(always)]
+fn update<const ACCUMULATE: bool, const N: usize>(
+    s: &[[f32; N]; 6],
+    d: &mut [[f32; N]; 6],
+    (wa, wb): (&[f32; N], &[f32; N]),
+    (rest, compliance): (&[f32; N], &[f32; N]),
+    lambda: &mut [f32; N],
+    inv_h2: f32,
+) {
     for l in 0..N {
         // The start vectors and the displacements are differenced separately, so that the
         // small displacements keep their precision.
@@ -394,8 +450,8 @@ unsafe fn project<const ACCUMULATE: bool, const N: usize>(
         let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
         let len2 = dx * dx + dy * dy + dz * dz;
         let lam = lambda[l];
-        let alpha = batch.compliance[l] * inv_h2;
-        let rest = batch.rest[l];
+        let alpha = compliance[l] * inv_h2;
+        let rest = rest[l];
         let len = len2.sqrt();
         let scale = (rest - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
         // A spring of (near) zero length has no direction and is skipped, and so is a padding
@@ -416,10 +472,6 @@ unsafe fn project<const ACCUMULATE: bool, const N: usize>(
         d[3][l] -= dx * sb;
         d[4][l] -= dy * sb;
         d[5][l] -= dz * sb;
-    }
-    if ACCUMULATE {
-        // SAFETY: the caller's contract.
-        unsafe { batch.lambda.store(batch.k, &lambda) };
     }
 }
 
@@ -452,6 +504,96 @@ unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const N: usize>(
         k += N;
     }
     k
+}
+
+/// The contiguous batch of `N` slots at slot `k`.
+///
+/// # Safety
+/// As [`solve_contiguous`].
+#[inline(always)]
+unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const N: usize>(
+    p: &Projections,
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+    k: usize,
+) {
+    let batch = Batch::at(&p.rest, &p.compliance, lambda, k);
+    let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+    // SAFETY: the caller's contract.
+    unsafe { solve_contiguous::<ACCUMULATE, N>(x, &p.inv_mass, a, b, batch, inv_h2) };
+}
+
+/// Two contiguous batches of [`WIDE_BATCH`] slots, at slots `k[0]` and `k[1]`, projected as one
+/// of twice the width.
+///
+/// # Safety
+/// As [`solve_contiguous`], for both batches, whose particles must be disjoint.
+#[inline(always)]
+unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
+    p: &Projections,
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+    k: [usize; 2],
+) {
+    const N: usize = WIDE_BATCH;
+    let inv_mass = &p.inv_mass[..];
+    let [(a0, b0), (a1, b1)] = k.map(|k| (p.a[k] as usize, p.b[k] as usize));
+    // One test covers every load and store below (the columns are cut to the particle count).
+    assert!(
+        a0.max(b0).max(a1).max(b1) + N <= inv_mass.len(),
+        "a batch past the particles"
+    );
+    let both = |first: [f32; N], second: [f32; N]| -> [f32; 2 * N] {
+        std::array::from_fn(|l| if l < N { first[l] } else { second[l - N] })
+    };
+    let slots = |v: &[f32]| both(load(v, k[0]), load(v, k[1]));
+    let s = ends(a0, b0, |c, i| x.start[c].load::<N>(i));
+    let t = ends(a1, b1, |c, i| x.start[c].load::<N>(i));
+    let s: [[f32; 2 * N]; 6] = std::array::from_fn(|e| both(s[e], t[e]));
+    // SAFETY: the caller's contract.
+    let (d, e) = unsafe {
+        (
+            ends(a0, b0, |c, i| x.delta[c].load::<N>(i)),
+            ends(a1, b1, |c, i| x.delta[c].load::<N>(i)),
+        )
+    };
+    let mut d: [[f32; 2 * N]; 6] = std::array::from_fn(|c| both(d[c], e[c]));
+    let wa = both(load(inv_mass, a0), load(inv_mass, a1));
+    let wb = both(load(inv_mass, b0), load(inv_mass, b1));
+    let mut lam = if ACCUMULATE {
+        // SAFETY: the caller's contract.
+        unsafe { both(lambda.load(k[0]), lambda.load(k[1])) }
+    } else {
+        [0.0; 2 * N]
+    };
+    let (rest, compliance) = (slots(&p.rest), slots(&p.compliance));
+    update::<ACCUMULATE, { 2 * N }>(
+        &s,
+        &mut d,
+        (&wa, &wb),
+        (&rest, &compliance),
+        &mut lam,
+        inv_h2,
+    );
+    let half = |v: &[f32; 2 * N], h: usize| -> [f32; N] { std::array::from_fn(|l| v[h * N + l]) };
+    for (c, coord) in x.delta.iter().enumerate() {
+        // SAFETY: the caller's contract.
+        unsafe {
+            coord.store(a0, &half(&d[c], 0));
+            coord.store(b0, &half(&d[c + 3], 0));
+            coord.store(a1, &half(&d[c], 1));
+            coord.store(b1, &half(&d[c + 3], 1));
+        }
+    }
+    if ACCUMULATE {
+        // SAFETY: the caller's contract.
+        unsafe {
+            lambda.store(k[0], &half(&lam, 0));
+            lambda.store(k[1], &half(&lam, 1));
+        }
+    }
 }
 
 /// Slots joining particles `ia..ia + N` to `ib..ib + N`.

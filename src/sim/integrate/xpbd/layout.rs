@@ -218,6 +218,12 @@ impl Projections {
         self.a.len() >= SHARED_MIN_SLOTS
     }
 
+    /// The runs of colour `c`, both shares.
+    pub(super) fn color(&self, c: usize) -> &[Run] {
+        let begin = c.checked_sub(1).map_or(0, |c| self.colors[c].end) as usize;
+        &self.runs[begin..self.colors[c].end as usize]
+    }
+
     /// The runs of colour `c`'s share `share` (0 or 1).
     pub(super) fn share(&self, c: usize, share: usize) -> &[Run] {
         let begin = c.checked_sub(1).map_or(0, |c| self.colors[c].end) as usize;

@@ -202,8 +202,12 @@ impl Xpbd {
                         lead.run(&|k| unsafe { sweep.run(sweep.p.share(c, k), accumulate) });
                     }
                 }
-                // SAFETY: one thread, and the columns are used by nothing else meanwhile.
-                None => unsafe { sweep.run(&sweep.p.runs, accumulate) },
+                None => {
+                    for c in 0..sweep.p.color_count() {
+                        // SAFETY: one thread, and the columns are used by nothing else meanwhile.
+                        unsafe { sweep.run(sweep.p.color(c), accumulate) };
+                    }
+                }
             }
         }
     }
