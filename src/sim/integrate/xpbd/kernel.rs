@@ -340,7 +340,11 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
             // what it read, which a pair's other batch may have moved meanwhile).
             if offset >= WIDE_BATCH {
                 while k + WIDE_BATCH <= end {
-                    if !rest[k..k + WIDE_BATCH].iter().all(|&r| r > 0.0) {
+                    // Without an early exit, so that the test is one vector comparison.
+                    let padded = rest[k..k + WIDE_BATCH]
+                        .iter()
+                        .fold(false, |padded, &r| padded | (r <= 0.0));
+                    if padded {
                         // SAFETY: as above.
                         unsafe {
                             solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k)
