@@ -7,7 +7,7 @@
 
 use std::marker::PhantomData;
 
-use super::layout::{LANES, Layout, Projections, Run, interleaved_offset};
+use super::layout::{LANES, Layout, Projections, Run, WIDE_BATCH, interleaved_offset};
 use crate::sim::simd::{self, Build, Kernel};
 
 /// A column of `f32` that every thread of a sweep only reads.
@@ -168,8 +168,8 @@ pub(super) struct Sweep<'a> {
 }
 
 impl Sweep<'_> {
-    /// Projects the springs of `runs`, one colour's or one share of one (with `accumulate`,
-    /// keeping the multipliers).
+    /// Projects the springs of `runs`, one share of a colour (with `accumulate`, keeping the
+    /// multipliers).
     ///
     /// # Safety
     /// As [`solve_springs`]: no other thread touches what `runs` touch meanwhile.
@@ -186,8 +186,8 @@ impl Sweep<'_> {
     }
 }
 
-/// One Gauss-Seidel sweep over the springs of `runs`, which are one colour's (or one thread's
-/// share of one): the XPBD update
+/// One Gauss-Seidel sweep over the springs of `runs`, which are one share of a colour
+/// ([`Projections::share`]; the layout pairs batches within a share): the XPBD update
 /// `Δλ = (-C - α̃ λ) / (w_a + w_b + α̃)`, `α̃ = α / h²`, `C = |x_a - x_b| - L`, then
 /// `x_a += w_a Δλ n`, `x_b -= w_b Δλ n` with `n = (x_a - x_b) / |x_a - x_b|`.
 ///
@@ -198,8 +198,8 @@ impl Sweep<'_> {
 /// to be 0 and is neither read nor stored.
 ///
 /// A vector [`Kernel`]: on x86-64 CPUs it runs as 8-wide AVX2 vectors, or with AVX-512 as 16-wide
-/// ones where a contiguous run allows, two of them at once where it allows that or where two
-/// batches of the colour hold no padding. The springs of a colour touch disjoint particles, so
+/// ones where a contiguous run allows, two of them at once where it allows that or where the
+/// layout pairs two batches of the share. The springs of a colour touch disjoint particles, so
 /// their order changes no result: the results are bit-identical either way.
 ///
 /// # Safety
@@ -235,18 +235,21 @@ pub(super) unsafe fn solve_springs_in<const ACCUMULATE: bool>(
     lambda: Column,
     inv_h2: f32,
 ) -> bool {
-    (0..p.color_count()).all(|c| {
-        simd::run_as(
-            build,
-            SolveSprings::<ACCUMULATE> {
-                p,
-                runs: p.color(c),
-                x,
-                lambda,
-                inv_h2,
-            },
-        )
-    })
+    let shares = (0..p.color_count()).flat_map(|c| [p.share(c, 0), p.share(c, 1)]);
+    shares
+        .map(|runs| {
+            simd::run_as(
+                build,
+                SolveSprings::<ACCUMULATE> {
+                    p,
+                    runs,
+                    x,
+                    lambda,
+                    inv_h2,
+                },
+            )
+        })
+        .fold(true, |ran, r| ran & r)
 }
 
 /// [`solve_springs`]'s arguments, as a [`Kernel`]. Made only by [`solve_springs`], whose caller
@@ -317,10 +320,10 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
     let inv_mass = &p.inv_mass[..];
     // Every column cut to the particle count, so that one bounds check per batch covers them all.
     let x = x.cut(inv_mass.len());
-    // A contiguous batch of `WIDE_BATCH` slots without padding, waiting for another to be
-    // projected with: two chains of square root and division in flight instead of one. The
-    // runs are one colour's, so the real springs of two such batches touch disjoint particles
-    // and the pair gives what the two give one after the other.
+    // A batch of `WIDE_BATCH` slots waiting for another to be projected with: two chains of
+    // square root and division in flight instead of one. The runs are one share of a colour,
+    // and the pair touches disjoint particles, so it gives what the two give one after the
+    // other.
     let mut waiting: Option<usize> = None;
     for run in runs {
         let (start, end) = (run.start as usize, (run.start + run.len) as usize);
@@ -335,23 +338,17 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
                     solve_contiguous_run::<ACCUMULATE, { 4 * LANES }>(p, x, lambda, inv_h2, k, end)
                 };
             }
-            // Two batches at once where their 32 particles are distinct, paired with another
-            // such batch of the colour where neither holds padding (a padding slot writes back
-            // what it read, which a pair's other batch may have moved meanwhile).
+            // Batches of 16 slots, paired as the layout says ([`Projections::solo`]).
             if offset >= WIDE_BATCH {
                 while k + WIDE_BATCH <= end {
-                    // Without an early exit, so that the test is one vector comparison.
-                    let padded = rest[k..k + WIDE_BATCH]
-                        .iter()
-                        .fold(false, |padded, &r| padded | (r <= 0.0));
-                    if padded {
+                    if p.solo[k] {
                         // SAFETY: as above.
                         unsafe {
                             solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k)
                         };
                     } else if let Some(first) = waiting.take() {
-                        // SAFETY: as above; the two batches' real springs are distinct springs
-                        // of one colour, so their particles are disjoint.
+                        // SAFETY: as above; the layout pairs batches whose particles are
+                        // disjoint.
                         unsafe {
                             solve_contiguous_pair::<ACCUMULATE>(p, x, lambda, inv_h2, [first, k])
                         };
@@ -396,9 +393,6 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
         unsafe { solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k) };
     }
 }
-
-/// The slots of one AVX-512 vector.
-const WIDE_BATCH: usize = 2 * LANES;
 
 /// The lane-wise XPBD update of `N` independent slots: `s[0..3]` are the first ends' x, y, z
 /// at the start of the substep and `s[3..6]` the second ends', `d` their displacements since,

@@ -4,8 +4,11 @@
 //! scalar code. On grids of 32 columns or more the particles are stored in an order
 //! ([`grid_order`]) in which every spring is such a contiguous access. Each colour is cut into two
 //! shares that touch disjoint particles, which two threads may project at once: the kernel's
-//! soundness rests on that, and on no particle appearing twice in a batch ([`Projections::check`]
-//! proves both; debug builds check every layout they make).
+//! soundness rests on that, and on no particle appearing twice in a batch. Within a share, the
+//! layout pairs vector batches that the kernel would otherwise project one at a time, where their
+//! particles are disjoint, so that it has two of them in flight ([`Projections::solo`]); its
+//! results rest on that. [`Projections::check`] proves all three; debug builds check every layout
+//! they make.
 
 use crate::sim::integrate::step::Order;
 #[cfg(any(test, debug_assertions))]
@@ -16,6 +19,11 @@ use crate::sim::runs;
 /// Springs projected together by the vector kernel. Within one colour no two springs share a
 /// particle, so a batch gives exactly the sequential Gauss-Seidel result.
 pub(super) const LANES: usize = 8;
+
+/// The slots of one AVX-512 vector: the batch that the kernel projects two at a time, either
+/// from one run where its particles allow or from two places of one colour's share
+/// ([`Projections::solo`]).
+pub(super) const WIDE_BATCH: usize = 2 * LANES;
 
 /// Fewest slots for which a step is shared between two threads (see
 /// [`Projections::worth_sharing`]): below it, handing phases between threads costs more than the
@@ -109,6 +117,12 @@ pub(super) struct Projections {
     pub b: Vec<u32>,
     /// The spring in each slot; `None` for padding.
     pub(super) spring: Vec<Option<u32>>,
+    /// Per slot, for the first slot of each batch of [`Projections::wide_singles`]: whether the
+    /// kernel projects it alone. The others go in pairs, in the order the kernel meets them in
+    /// a share (the first with the second, the third with the fourth, …), and the layout makes
+    /// the two of every pair touch disjoint particles, padding included (a padding slot writes
+    /// back what it read, which the pair's other batch may be moving).
+    pub(super) solo: Vec<bool>,
     pub rest: Vec<f32>,
     pub compliance: Vec<f32>,
     pub runs: Vec<Run>,
@@ -156,6 +170,12 @@ impl Projections {
                 cut: cut as u32,
                 end: p.runs.len() as u32,
             });
+        }
+        p.solo = vec![false; p.a.len()];
+        for c in 0..p.colors.len() {
+            for share in 0..2 {
+                p.pair_singles(c, share, &mut marks);
+            }
         }
         p.rest = vec![0.0; p.a.len()];
         p.compliance = vec![0.0; p.a.len()];
@@ -218,12 +238,6 @@ impl Projections {
         self.a.len() >= SHARED_MIN_SLOTS
     }
 
-    /// The runs of colour `c`, both shares.
-    pub(super) fn color(&self, c: usize) -> &[Run] {
-        let begin = c.checked_sub(1).map_or(0, |c| self.colors[c].end) as usize;
-        &self.runs[begin..self.colors[c].end as usize]
-    }
-
     /// The runs of colour `c`'s share `share` (0 or 1).
     pub(super) fn share(&self, c: usize, share: usize) -> &[Run] {
         let begin = c.checked_sub(1).map_or(0, |c| self.colors[c].end) as usize;
@@ -231,6 +245,51 @@ impl Projections {
         let (cut, end) = (cut as usize, end as usize);
         let range = if share == 0 { begin..cut } else { cut..end };
         &self.runs[range]
+    }
+
+    /// The first slots of the batches of [`WIDE_BATCH`] slots that the kernel projects one by one
+    /// in `runs` (on a CPU with AVX-512), in the order it meets them: in a contiguous run whose
+    /// ends are at least that far apart, those left after its groups of `4 * LANES` slots.
+    pub(super) fn wide_singles(&self, runs: &[Run]) -> impl Iterator<Item = usize> {
+        runs.iter()
+            .filter(|r| r.layout == Layout::Contiguous)
+            .flat_map(|r| {
+                let (start, len) = (r.start as usize, r.len as usize);
+                let offset = (self.b[start] - self.a[start]) as usize;
+                let grouped = if offset >= 4 * LANES {
+                    len / (4 * LANES) * (4 * LANES)
+                } else {
+                    0
+                };
+                let singles = if offset >= WIDE_BATCH {
+                    (len - grouped) / WIDE_BATCH
+                } else {
+                    0
+                };
+                (0..singles).map(move |m| start + grouped + m * WIDE_BATCH)
+            })
+    }
+
+    /// Sets [`Self::solo`] for the batches of colour `c`'s share `share`: each batch is paired
+    /// with the next one if their particles are disjoint, and projected alone otherwise.
+    fn pair_singles(&mut self, c: usize, share: usize, marks: &mut Marks) {
+        let batches: Vec<usize> = self.wide_singles(self.share(c, share)).collect();
+        let mut waiting: Option<(usize, u32)> = None;
+        for k in batches {
+            match waiting.take() {
+                None => waiting = Some((k, marks.mark(self.touched_slots(k..k + WIDE_BATCH)))),
+                Some((w, stamp)) => {
+                    let disjoint = self
+                        .touched_slots(k..k + WIDE_BATCH)
+                        .all(|i| marks.of[i as usize] != stamp);
+                    if disjoint {
+                        continue;
+                    }
+                    self.solo[w] = true;
+                    waiting = Some((k, marks.mark(self.touched_slots(k..k + WIDE_BATCH))));
+                }
+            }
+        }
     }
 
     /// The particles the slots of `runs` read and write (a padding slot writes back what it read,
@@ -485,6 +544,23 @@ impl Projections {
                     && color_of(s as usize) != c
                 {
                     return Err(format!("colour {c} holds a run of another colour"));
+                }
+            }
+            for share in 0..2 {
+                let paired = self
+                    .wide_singles(self.share(c, share))
+                    .filter(|&k| !self.solo[k])
+                    .collect::<Vec<_>>();
+                for pair in paired.chunks_exact(2) {
+                    let first: std::collections::HashSet<u32> =
+                        self.touched_slots(pair[0]..pair[0] + WIDE_BATCH).collect();
+                    let mut second = self.touched_slots(pair[1]..pair[1] + WIDE_BATCH);
+                    if let Some(i) = second.find(|i| first.contains(i)) {
+                        return Err(format!(
+                            "the paired batches at slots {} and {} both touch particle {i}",
+                            pair[0], pair[1]
+                        ));
+                    }
                 }
             }
             let first: std::collections::HashSet<u32> = self.touched(self.share(c, 0)).collect();

@@ -202,10 +202,14 @@ impl Xpbd {
                         lead.run(&|k| unsafe { sweep.run(sweep.p.share(c, k), accumulate) });
                     }
                 }
+                // Share by share, as two threads would: the kernel pairs batches within a share.
                 None => {
                     for c in 0..sweep.p.color_count() {
-                        // SAFETY: one thread, and the columns are used by nothing else meanwhile.
-                        unsafe { sweep.run(sweep.p.color(c), accumulate) };
+                        for k in 0..2 {
+                            // SAFETY: one thread, and the columns are used by nothing else
+                            // meanwhile.
+                            unsafe { sweep.run(sweep.p.share(c, k), accumulate) };
+                        }
                     }
                 }
             }

@@ -69,6 +69,24 @@ fn grid_springs_are_projected_as_vectors() {
 }
 
 #[test]
+fn single_vector_batches_of_a_grid_are_projected_in_pairs() {
+    // A 64-column grid's rows leave many runs of 16 or 48 slots: a vector batch each that the
+    // kernel would otherwise project with one chain of square root and division in flight.
+    let model = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap();
+    let p = Projections::new(&model);
+    let shares = (0..p.color_count()).flat_map(|c| [p.share(c, 0), p.share(c, 1)]);
+    let (mut singles, mut solo) = (0, 0);
+    for runs in shares {
+        for k in p.wide_singles(runs) {
+            singles += 1;
+            solo += usize::from(p.solo[k]);
+        }
+    }
+    assert!(singles > 500, "{singles} single batches");
+    assert!(solo * 50 < singles, "{solo} of {singles} alone");
+}
+
+#[test]
 fn grid_colours_split_into_balanced_shares() {
     for (nx, ny) in [(64, 64), (128, 128), (100, 37)] {
         let model = ClothModel::grid(&GridSpec::new(nx, ny, 0.1)).unwrap();
