@@ -347,8 +347,7 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
                             solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k)
                         };
                     } else if let Some(first) = waiting.take() {
-                        // SAFETY: as above; the layout pairs batches whose particles are
-                        // disjoint.
+                        // SAFETY: as above.
                         unsafe {
                             solve_contiguous_pair::<ACCUMULATE>(p, x, lambda, inv_h2, [first, k])
                         };
@@ -523,10 +522,11 @@ unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const N: usize>(
 }
 
 /// Two contiguous batches of [`WIDE_BATCH`] slots, at slots `k[0]` and `k[1]`, projected as one
-/// of twice the width.
+/// of twice the width. The result is that of the two in turn only if their particles are
+/// disjoint (the layout pairs only such batches).
 ///
 /// # Safety
-/// As [`solve_contiguous`], for both batches, whose particles must be disjoint.
+/// As [`solve_contiguous`], for both batches.
 #[inline(always)]
 unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
     p: &Projections,
