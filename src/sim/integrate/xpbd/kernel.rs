@@ -494,10 +494,8 @@ unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const N: usize>(
     end: usize,
 ) -> usize {
     while k + N <= end {
-        let batch = Batch::at(&p.rest, &p.compliance, lambda, k);
-        let (a, b) = (p.a[k] as usize, p.b[k] as usize);
         // SAFETY: the caller's contract.
-        unsafe { solve_contiguous::<ACCUMULATE, N>(x, &p.inv_mass, a, b, batch, inv_h2) };
+        unsafe { solve_contiguous_at::<ACCUMULATE, N>(p, x, lambda, inv_h2, k) };
         k += N;
     }
     k

@@ -276,19 +276,16 @@ impl Projections {
         let batches: Vec<usize> = self.wide_singles(self.share(c, share)).collect();
         let mut waiting: Option<(usize, u32)> = None;
         for k in batches {
-            match waiting.take() {
-                None => waiting = Some((k, marks.mark(self.touched_slots(k..k + WIDE_BATCH)))),
-                Some((w, stamp)) => {
-                    let disjoint = self
-                        .touched_slots(k..k + WIDE_BATCH)
-                        .all(|i| marks.of[i as usize] != stamp);
-                    if disjoint {
-                        continue;
-                    }
-                    self.solo[w] = true;
-                    waiting = Some((k, marks.mark(self.touched_slots(k..k + WIDE_BATCH))));
+            if let Some((w, stamp)) = waiting.take() {
+                let disjoint = self
+                    .touched_slots(k..k + WIDE_BATCH)
+                    .all(|i| marks.of[i as usize] != stamp);
+                if disjoint {
+                    continue;
                 }
+                self.solo[w] = true;
             }
+            waiting = Some((k, marks.mark(self.touched_slots(k..k + WIDE_BATCH))));
         }
     }
 
