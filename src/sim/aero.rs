@@ -17,6 +17,9 @@
 //! and nothing holds state but [`GustSampler`]'s note of the noise cells it last used.
 
 use crate::hash::{GOLDEN_GAMMA, mix64, unit_interval};
+use crate::sim::model::two_rows;
+use crate::sim::simd::{self, Build, Kernel};
+use crate::sim::soa::Soa;
 use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -145,6 +148,244 @@ pub(crate) fn add_aero_forces_in(
     }
 }
 
+/// The wind at each triangle, for [`GridAero::add_forces`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum TriangleWind<'a> {
+    /// The same air velocity (m/s) at every triangle.
+    Uniform(Vec3),
+    /// The air velocity at each triangle, in the model's triangle order.
+    Each(&'a [Vec3]),
+}
+
+/// [`add_aero_forces`] for the canonical grid ([`ClothModel::grid`]), row by row over one array
+/// per coordinate instead of triangle by triangle, whose scattered three-float reads and writes
+/// no vector unit helps with. Every triangle's force is [`plate_force`] of the same inputs, and
+/// every vertex adds its triangles' forces in triangle order, so the result is the same, bit for
+/// bit. Holds its scratch, so a call allocates nothing.
+///
+/// [`ClothModel::grid`]: crate::sim::ClothModel::grid
+#[derive(Debug, Clone)]
+pub(crate) struct GridAero {
+    nx: usize,
+    ny: usize,
+    /// The positions and velocities, one array per coordinate.
+    x: Soa,
+    v: Soa,
+    /// The inputs of one row of quads' first and second triangles.
+    plates: [Plates; 2],
+    /// The forces (times a third) of each quad's two triangles, `(a, c, b)` and `(b, c, d)`, on a
+    /// grid of `(nx + 1) × (ny + 1)` slots: quad `(i, j)` at slot `(i + 1, j + 1)`, the first
+    /// and last row and column zero, so that every vertex adds the same six slots whether or not
+    /// it is on an edge (adding a zero to a sum begun at +0 leaves its bits as they are).
+    first: Soa,
+    second: Soa,
+    /// Each vertex's sum, one array per coordinate.
+    sums: Soa,
+}
+
+/// The inputs of a row of triangles, one array per coordinate: their edges `e₁ = p₁ − p₀`,
+/// `e₂ = p₂ − p₀` and relative winds `u` (see [`plate_force`]).
+#[derive(Debug, Clone)]
+struct Plates {
+    e1: Soa,
+    e2: Soa,
+    u: Soa,
+}
+
+impl GridAero {
+    /// The kernel for `model` if it is still the grid [`ClothModel::grid`] built.
+    ///
+    /// [`ClothModel::grid`]: crate::sim::ClothModel::grid
+    pub fn new(model: &crate::sim::ClothModel) -> Option<Self> {
+        let (nx, ny) = model.canonical_grid()?;
+        let slots = (nx + 1) * (ny + 1);
+        let plates = || Plates {
+            e1: Soa::new(nx - 1),
+            e2: Soa::new(nx - 1),
+            u: Soa::new(nx - 1),
+        };
+        Some(Self {
+            nx,
+            ny,
+            x: Soa::new(nx * ny),
+            v: Soa::new(nx * ny),
+            plates: [plates(), plates()],
+            first: Soa::new(slots),
+            second: Soa::new(slots),
+            sums: Soa::new(nx * ny),
+        })
+    }
+
+    /// Adds the aerodynamic force of every triangle, a third to each of its vertices, to `forces`
+    /// (as [`add_aero_forces`] does, with the same bits when `forces` starts at zero). Returns
+    /// `false`, adding nothing, unless `positions`, `velocities` and `forces` have one entry per
+    /// particle and `wind` one per triangle.
+    pub fn add_forces(
+        &mut self,
+        positions: &[Vec3],
+        velocities: &[Vec3],
+        wind: TriangleWind,
+        params: &AeroParams,
+        forces: &mut [Vec3],
+    ) -> bool {
+        let n = self.nx * self.ny;
+        let triangles = 2 * (self.nx - 1) * (self.ny - 1);
+        if [positions.len(), velocities.len(), forces.len()] != [n; 3]
+            || matches!(wind, TriangleWind::Each(w) if w.len() != triangles)
+        {
+            return false;
+        }
+        self.x.load(positions);
+        self.v.load(velocities);
+        simd::run(GridAeroKernel {
+            grid: self,
+            wind,
+            params,
+        });
+        for (f, s) in forces.iter_mut().zip(self.sums.iter()) {
+            *f += s;
+        }
+        true
+    }
+}
+
+/// [`GridAero::add_forces`]' arguments, as a [`Kernel`].
+struct GridAeroKernel<'a> {
+    grid: &'a mut GridAero,
+    wind: TriangleWind<'a>,
+    params: &'a AeroParams,
+}
+
+impl Kernel for GridAeroKernel<'_> {
+    const WIDEST: Build = Build::Avx2;
+
+    #[inline(always)]
+    fn body<const WIDE: bool>(self) {
+        let GridAero {
+            nx,
+            ny,
+            x,
+            v,
+            plates,
+            first,
+            second,
+            sums,
+        } = self.grid;
+        let (nx, ny, w) = (*nx, *ny, *nx + 1);
+        let scale = force_scale(self.params, 1.0 / 3.0);
+        for j in 0..ny - 1 {
+            // Quad (i, j) has the corners a = (i, j), b = (i + 1, j), c = (i, j + 1) and
+            // d = (i + 1, j + 1); its triangles take them in the order (a, c, b) and (b, c, d),
+            // as `TriangleLanes::gather` does.
+            let (m, rows) = (nx - 1, j * (nx - 1));
+            match self.wind {
+                TriangleWind::Uniform(wind) => {
+                    row_inputs(x, v, j * nx, plates, |c, _| (wind[c], wind[c]));
+                }
+                TriangleWind::Each(each) => {
+                    let each = &each[2 * rows..2 * (rows + m)];
+                    row_inputs(x, v, j * nx, plates, |c, i| {
+                        (each[2 * i][c], each[2 * i + 1][c])
+                    });
+                }
+            }
+            // The forces of row j's quads, into slot row j + 1, columns 1..nx.
+            let s = (j + 1) * w + 1..(j + 1) * w + nx;
+            for (p, out) in plates.iter().zip([&mut *first, &mut *second]) {
+                let (fx, fy, fz) = (
+                    &mut out.x[s.clone()],
+                    &mut out.y[s.clone()],
+                    &mut out.z[s.clone()],
+                );
+                let m = fx.len();
+                let (e1, e2, u) = (&p.e1, &p.e2, &p.u);
+                let (e1x, e1y, e1z) = (&e1.x[..m], &e1.y[..m], &e1.z[..m]);
+                let (e2x, e2y, e2z) = (&e2.x[..m], &e2.y[..m], &e2.z[..m]);
+                let (ux, uy, uz) = (&u.x[..m], &u.y[..m], &u.z[..m]);
+                for i in 0..m {
+                    [fx[i], fy[i], fz[i]] = plate_force(
+                        [e1x[i], e1y[i], e1z[i]],
+                        [e2x[i], e2y[i], e2z[i]],
+                        [ux[i], uy[i], uz[i]],
+                        scale,
+                    );
+                }
+            }
+        }
+        // Vertex (i, j) is d of quad (i − 1, j − 1) (its second triangle), c of (i, j − 1)
+        // (both), b of (i − 1, j) (both) and a of (i, j) (first): slots (i, j), (i + 1, j),
+        // (i, j + 1) and (i + 1, j + 1), added in that order, which is the triangles'.
+        for j in 0..ny {
+            let (up, down) = ((j + 1) * w, j * w);
+            let row = j * nx..(j + 1) * nx;
+            for (first, second, out) in [
+                (&first.x, &second.x, &mut sums.x[row.clone()]),
+                (&first.y, &second.y, &mut sums.y[row.clone()]),
+                (&first.z, &second.z, &mut sums.z[row]),
+            ] {
+                let (fd, gd) = (&first[down..down + w], &second[down..down + w]);
+                let (fu, gu) = (&first[up..up + w], &second[up..up + w]);
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = 0.0 + gd[i] + fd[i + 1] + gd[i + 1] + fu[i] + gu[i] + fu[i + 1];
+                }
+            }
+        }
+    }
+}
+
+/// The inputs of the triangles of the row of quads whose corners `a` are particles
+/// `start..start + nx − 1`, into `plates`, with `wind(c, i)` the coordinate `c` of the winds at
+/// quad `i`'s two triangles. Quad `i` has the corners `a`, `b = a + 1`, `c = a + nx` and
+/// `d = c + 1`; its triangles take them in the order `(a, c, b)` and `(b, c, d)`, as
+/// `TriangleLanes::gather` does.
+#[inline(always)]
+fn row_inputs(
+    x: &Soa,
+    v: &Soa,
+    start: usize,
+    [p0, p1]: &mut [Plates; 2],
+    wind: impl Fn(usize, usize) -> (f32, f32),
+) {
+    let nx = p0.e1.len() + 1;
+    let coords = [
+        (
+            &x.x,
+            &v.x,
+            [&mut p0.e1.x, &mut p0.e2.x, &mut p0.u.x],
+            [&mut p1.e1.x, &mut p1.e2.x, &mut p1.u.x],
+        ),
+        (
+            &x.y,
+            &v.y,
+            [&mut p0.e1.y, &mut p0.e2.y, &mut p0.u.y],
+            [&mut p1.e1.y, &mut p1.e2.y, &mut p1.u.y],
+        ),
+        (
+            &x.z,
+            &v.z,
+            [&mut p0.e1.z, &mut p0.e2.z, &mut p0.u.z],
+            [&mut p1.e1.z, &mut p1.e2.z, &mut p1.u.z],
+        ),
+    ];
+    for (c, (x, v, [e1, e2, u0], [f1, f2, u1])) in coords.into_iter().enumerate() {
+        let m = nx - 1;
+        let ((xa, xc), (va, vc)) = (two_rows(x, start, nx), two_rows(v, start, nx));
+        let (xa, xb, xc, xd) = (&xa[..m], &xa[1..], &xc[..m], &xc[1..]);
+        let (va, vb, vc, vd) = (&va[..m], &va[1..], &vc[..m], &vc[1..]);
+        let (e1, e2, u0) = (&mut e1[..m], &mut e2[..m], &mut u0[..m]);
+        let (f1, f2, u1) = (&mut f1[..m], &mut f2[..m], &mut u1[..m]);
+        for i in 0..m {
+            e1[i] = xc[i] - xa[i];
+            e2[i] = xb[i] - xa[i];
+            f1[i] = xc[i] - xb[i];
+            f2[i] = xd[i] - xb[i];
+            let (w0, w1) = wind(c, i);
+            u0[i] = ((w0 - va[i]) + (w0 - vc[i]) + (w0 - vb[i])) * (1.0 / 3.0);
+            u1[i] = ((w1 - vb[i]) + (w1 - vc[i]) + (w1 - vd[i])) * (1.0 / 3.0);
+        }
+    }
+}
+
 /// Writes the centroid (mean of the three vertex positions, m) of each triangle into `out`, for
 /// sampling the wind field per triangle.
 ///
@@ -202,41 +443,62 @@ impl<const N: usize> TriangleLanes<N> {
         lanes
     }
 
-    /// `share` times each triangle's aerodynamic force (N); see [`add_aero_forces`].
-    ///
-    /// With the cross product `c = e₁ × e₂` (so `A = |c|/2`, `n = c/|c|`) and `k = c·u`, the
-    /// force `q (C_d |cos θ| û + C_l cos θ (n − cos θ û))` becomes
-    /// `ρ/4 (C_d |k| u + C_l k (|u|² c − k u) / (|c| |u|))`: one square root and one division,
-    /// and exactly zero when the plate is edge-on (`k = 0`).
+    /// `share` times each triangle's aerodynamic force (N), lane by lane ([`plate_force`]); see
+    /// [`add_aero_forces`].
     #[inline(always)]
     fn forces(&self, params: &AeroParams, share: f32) -> [[f32; N]; 3] {
-        let scale = 0.25 * params.air_density * share;
+        let scale = force_scale(params, share);
         let (e1, e2, u) = (&self.e1, &self.e2, &self.u);
         let mut f = [[0.0; N]; 3];
         for l in 0..N {
-            let c = [
-                e1[1][l] * e2[2][l] - e1[2][l] * e2[1][l],
-                e1[2][l] * e2[0][l] - e1[0][l] * e2[2][l],
-                e1[0][l] * e2[1][l] - e1[1][l] * e2[0][l],
-            ];
-            let u = [u[0][l], u[1][l], u[2][l]];
-            let speed_sq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-            let cross_sq = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
-            let k = c[0] * u[0] + c[1] * u[1] + c[2] * u[2];
-            let r = 1.0 / (cross_sq * speed_sq).sqrt();
-            // Still air, or a degenerate triangle (|c| = 2A): no force.
-            let on = speed_sq >= MIN_SPEED_SQ && cross_sq >= 4.0 * MIN_AREA * MIN_AREA;
-            let (drag, lift) = if on {
-                (scale * params.drag * k.abs(), scale * params.lift * k * r)
-            } else {
-                (0.0, 0.0)
-            };
+            let at = |v: &[[f32; N]; 3]| [v[0][l], v[1][l], v[2][l]];
+            let g = plate_force(at(e1), at(e2), at(u), scale);
             for d in 0..3 {
-                f[d][l] = drag * u[d] + lift * (speed_sq * c[d] - k * u[d]);
+                f[d][l] = g[d];
             }
         }
         f
     }
+}
+
+/// The factors of [`plate_force`]'s drag and lift, `ρ/4 · share · C_d` and `ρ/4 · share · C_l`.
+#[inline(always)]
+fn force_scale(params: &AeroParams, share: f32) -> (f32, f32) {
+    let scale = 0.25 * params.air_density * share;
+    (scale * params.drag, scale * params.lift)
+}
+
+/// The force of [`TriangleLanes::forces`] on one triangle with edges `e1`, `e2` and relative
+/// wind `u`, `(drag, lift)` being [`force_scale`]: written once, so that every path computes the
+/// same bits.
+///
+/// With the cross product `c = e₁ × e₂` (so `A = |c|/2`, `n = c/|c|`) and `k = c·u`, the
+/// force `q (C_d |cos θ| û + C_l cos θ (n − cos θ û))` becomes
+/// `ρ/4 (C_d |k| u + C_l k (|u|² c − k u) / (|c| |u|))`: one square root and one division,
+/// and exactly zero when the plate is edge-on (`k = 0`).
+#[inline(always)]
+fn plate_force(e1: [f32; 3], e2: [f32; 3], u: [f32; 3], (drag, lift): (f32, f32)) -> [f32; 3] {
+    let c = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let speed_sq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    let cross_sq = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    let k = c[0] * u[0] + c[1] * u[1] + c[2] * u[2];
+    let r = 1.0 / (cross_sq * speed_sq).sqrt();
+    // Still air, or a degenerate triangle (|c| = 2A): no force.
+    let on = speed_sq >= MIN_SPEED_SQ && cross_sq >= 4.0 * MIN_AREA * MIN_AREA;
+    let (drag, lift) = if on {
+        (drag * k.abs(), lift * k * r)
+    } else {
+        (0.0, 0.0)
+    };
+    let mut f = [0.0; 3];
+    for d in 0..3 {
+        f[d] = drag * u[d] + lift * (speed_sq * c[d] - k * u[d]);
+    }
+    f
 }
 
 /// `share` times the aerodynamic force (N) on one triangle; see [`TriangleLanes::forces`].
@@ -525,7 +787,97 @@ fn channel_seed(seed: u64, channel: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::{ClothModel, GridPlane, GridSpec};
     use std::f32::consts::FRAC_1_SQRT_2;
+
+    /// A grid bent out of its plane, with every particle moving differently, in `wind`. Some
+    /// triangles are left moving with the wind (no force) and one pair of particles collapsed
+    /// (a degenerate triangle), so that the kernel's cut-offs are crossed too.
+    fn moving_grid(
+        nx: u32,
+        ny: u32,
+        plane: GridPlane,
+        wind: Vec3,
+    ) -> (ClothModel, Vec<Vec3>, Vec<Vec3>) {
+        let spec = GridSpec {
+            plane,
+            ..GridSpec::new(nx, ny, 0.1)
+        };
+        let model = ClothModel::grid(&spec).unwrap();
+        let mut positions: Vec<Vec3> = model
+            .rest_positions
+            .iter()
+            .enumerate()
+            .map(|(k, p)| *p + Vec3::new(0.01, 0.03, -0.02) * (k as f32 * 0.7).sin())
+            .collect();
+        let mut velocities: Vec<Vec3> = (0..positions.len())
+            .map(|k| Vec3::new((k as f32 * 1.3).sin(), (k as f32 * 0.4).cos(), -0.5) * 3.0)
+            .collect();
+        if positions.len() > 4 {
+            velocities[..nx as usize + 1].fill(wind);
+            positions[3] = positions[2];
+        }
+        (model, positions, velocities)
+    }
+
+    #[test]
+    fn grid_rows_give_the_triangle_sums_bit_for_bit() {
+        let params = AeroParams::default();
+        let wind = Vec3::new(5.0, -1.0, 2.0);
+        for (nx, ny, plane) in [
+            (2, 2, GridPlane::Horizontal),
+            (3, 7, GridPlane::Vertical),
+            (17, 9, GridPlane::Horizontal),
+            (64, 64, GridPlane::Vertical),
+        ] {
+            let (model, x, v) = moving_grid(nx, ny, plane, wind);
+            let triangles = model.triangles.as_chunks::<3>().0;
+            let each: Vec<Vec3> = (0..triangles.len())
+                .map(|t| wind + Vec3::new(0.0, (t as f32).sin(), 0.5 * (t as f32).cos()))
+                .collect();
+            let mut grid = GridAero::new(&model).expect("a canonical grid");
+            for winds in [TriangleWind::Uniform(wind), TriangleWind::Each(&each)] {
+                let mut expected = vec![Vec3::ZERO; x.len()];
+                match winds {
+                    TriangleWind::Uniform(w) => {
+                        add_aero_forces_in(&x, &v, triangles, |_| w, &params, &mut expected)
+                    }
+                    TriangleWind::Each(e) => {
+                        add_aero_forces(&x, &v, triangles, e, &params, &mut expected)
+                    }
+                }
+                let mut got = vec![Vec3::ZERO; x.len()];
+                assert!(grid.add_forces(&x, &v, winds, &params, &mut got));
+                let bits = |f: &[Vec3]| -> Vec<[u32; 3]> {
+                    f.iter().map(|f| f.to_array().map(f32::to_bits)).collect()
+                };
+                assert_eq!(bits(&got), bits(&expected), "{nx}×{ny} {winds:?}");
+                assert!(
+                    expected.iter().any(|f| f.length() > 1e-3),
+                    "{nx}×{ny}: no force"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn grid_rows_refuse_an_edited_model_and_wrong_lengths() {
+        let (mut model, x, v) = moving_grid(5, 4, GridPlane::Horizontal, Vec3::X);
+        let mut grid = GridAero::new(&model).expect("a canonical grid");
+        let (params, wind) = (AeroParams::default(), TriangleWind::Uniform(Vec3::X));
+        let mut forces = vec![Vec3::ZERO; x.len()];
+        assert!(!grid.add_forces(&x[1..], &v[1..], wind, &params, &mut forces[1..]));
+        assert!(!grid.add_forces(
+            &x,
+            &v,
+            TriangleWind::Each(&[Vec3::X; 3]),
+            &params,
+            &mut forces
+        ));
+        assert!(forces.iter().all(|f| *f == Vec3::ZERO), "nothing added");
+        model.triangles.swap(0, 1);
+        assert!(GridAero::new(&model).is_none());
+    }
 
     /// `|a − b| ≤ tol · max(1, |b|)`.
     fn close(a: Vec3, b: Vec3, tol: f32) -> bool {

@@ -11,8 +11,10 @@
 use glam::Vec3;
 
 use super::aero::{
-    AeroParams, GustSampler, Gusts, add_aero_forces, add_aero_forces_in, triangle_centroids,
+    AeroParams, GridAero, GustSampler, Gusts, TriangleWind, add_aero_forces, add_aero_forces_in,
+    triangle_centroids,
 };
+use super::model::ClothModel;
 use crate::error::{ClothError, finite_vec3, non_negative, unit_interval};
 
 /// A region of extra wind: inside `shape` (in the zone's frame, placed by `to_local`), `velocity` is
@@ -180,11 +182,14 @@ pub(crate) struct WindScratch {
     particle_force: Vec<Vec3>,
     /// Sum and count of the winds of each particle's triangles (scratch).
     wind_sum: Vec<(Vec3, u32)>,
+    /// The forces row by row, for a cloth that is still the canonical grid.
+    grid: Option<GridAero>,
 }
 
 impl WindScratch {
-    /// Buffers for `particles` particles and `triangles` triangles.
-    pub fn new(particles: usize, triangles: usize) -> Self {
+    /// Buffers for `model`'s particles and triangles.
+    pub fn new(model: &ClothModel) -> Self {
+        let (particles, triangles) = (model.particle_count(), model.triangles.len() / 3);
         Self {
             active: false,
             params: AeroParams::default(),
@@ -192,6 +197,7 @@ impl WindScratch {
             triangle_wind: vec![Vec3::ZERO; triangles],
             particle_force: vec![Vec3::ZERO; particles],
             wind_sum: vec![(Vec3::ZERO, 0); particles],
+            grid: GridAero::new(model),
         }
     }
 
@@ -221,26 +227,46 @@ impl WindScratch {
         self.particle_force.fill(Vec3::ZERO);
         // A uniform field needs no sampling, and its mean around every particle is itself.
         let uniform = field.is_uniform().then_some(field.velocity);
+        let grid = self.grid.as_mut();
         if let Some(wind) = uniform {
-            add_aero_forces_in(
-                positions,
-                velocities,
-                triangles,
-                |_| wind,
-                &self.params,
-                &mut self.particle_force,
-            );
+            let forces = &mut self.particle_force;
+            let wind_at = TriangleWind::Uniform(wind);
+            let by_rows = grid.is_some_and(|g| {
+                g.add_forces(positions, velocities, wind_at, &self.params, forces)
+            });
+            if !by_rows {
+                add_aero_forces_in(
+                    positions,
+                    velocities,
+                    triangles,
+                    |_| wind,
+                    &self.params,
+                    forces,
+                );
+            }
         } else {
             triangle_centroids(positions, triangles, &mut self.centroids);
             field.sample_many(&self.centroids, &mut self.triangle_wind);
-            add_aero_forces(
-                positions,
-                velocities,
-                triangles,
-                &self.triangle_wind,
-                &self.params,
-                &mut self.particle_force,
-            );
+            let (forces, winds) = (&mut self.particle_force, &self.triangle_wind);
+            let by_rows = grid.is_some_and(|g| {
+                g.add_forces(
+                    positions,
+                    velocities,
+                    TriangleWind::Each(winds),
+                    &self.params,
+                    forces,
+                )
+            });
+            if !by_rows {
+                add_aero_forces(
+                    positions,
+                    velocities,
+                    triangles,
+                    winds,
+                    &self.params,
+                    forces,
+                );
+            }
             // The mean wind around each particle.
             self.wind_sum.fill((Vec3::ZERO, 0));
             for (tri, w) in triangles.iter().zip(&self.triangle_wind) {

@@ -193,7 +193,7 @@ impl ClothSim {
             longest_spring: model.springs.rest.iter().copied().fold(0.0, f32::max),
             active: settings.integrator,
             contacts: Contacts::new(n, model.max_edge_length()),
-            wind: WindScratch::new(n, model.triangles.len() / 3),
+            wind: WindScratch::new(&model),
             pins: Vec::new(),
             model,
             settings,

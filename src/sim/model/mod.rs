@@ -20,6 +20,7 @@ mod tests;
 pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
 pub use normals::GridNormals;
+pub(crate) use normals::two_rows;
 pub use springs::{SpringKind, Springs};
 pub use subdivided::SubdividedModel;
 
@@ -56,6 +57,31 @@ impl ClothModel {
     /// Number of particles.
     pub fn particle_count(&self) -> usize {
         self.rest_positions.len()
+    }
+
+    /// The grid's `(nx, ny)` if this model's particles and triangles are still those
+    /// [`ClothModel::grid`] built (its fields are public, so a model may have been edited since):
+    /// particle `(i, j)` at `j nx + i`, and quad `(i, j)` as the triangles `(a, c, b)` and
+    /// `(b, c, d)` of its corners `a = (i, j)`, `b = (i + 1, j)`, `c = (i, j + 1)`,
+    /// `d = (i + 1, j + 1)`, quads in row order. Row-by-row kernels rely on exactly that.
+    pub(crate) fn canonical_grid(&self) -> Option<(usize, usize)> {
+        let spec = self.grid.as_ref()?;
+        let (nx, ny) = (spec.nx as usize, spec.ny as usize);
+        if nx < 2 || ny < 2 || self.rest_positions.len() != nx * ny {
+            return None;
+        }
+        let id = |i: usize, j: usize| (j * nx + i) as u32;
+        let canonical = (0..ny - 1).flat_map(|j| {
+            (0..nx - 1).flat_map(move |i| {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
+                [a, c, b, b, c, d]
+            })
+        });
+        self.triangles
+            .iter()
+            .copied()
+            .eq(canonical)
+            .then_some((nx, ny))
     }
 
     /// The longest triangle edge at rest, m (0 without triangles).

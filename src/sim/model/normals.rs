@@ -45,21 +45,7 @@ impl GridNormals {
     /// The kernel for `model` if it is a grid whose triangles are those [`ClothModel::grid`]
     /// builds (a model edited since may not be).
     pub fn new(model: &ClothModel) -> Option<Self> {
-        let spec = model.grid.as_ref()?;
-        let (nx, ny) = (spec.nx as usize, spec.ny as usize);
-        if nx < 2 || ny < 2 || model.rest_positions.len() != nx * ny {
-            return None;
-        }
-        let id = |i: usize, j: usize| (j * nx + i) as u32;
-        let canonical = (0..ny - 1).flat_map(|j| {
-            (0..nx - 1).flat_map(move |i| {
-                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
-                [a, c, b, b, c, d]
-            })
-        });
-        if !model.triangles.iter().copied().eq(canonical) {
-            return None;
-        }
+        let (nx, ny) = model.canonical_grid()?;
         let slots = (nx + 1) * (ny + 1);
         Some(Self {
             nx,
@@ -177,7 +163,7 @@ impl Kernel for Normals<'_> {
 
 /// Rows `start / n` and the next of an array of rows `n` long.
 #[inline(always)]
-fn two_rows(v: &[f32], start: usize, n: usize) -> (&[f32], &[f32]) {
+pub(crate) fn two_rows(v: &[f32], start: usize, n: usize) -> (&[f32], &[f32]) {
     v[start..start + 2 * n].split_at(n)
 }
 

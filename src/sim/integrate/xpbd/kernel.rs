@@ -541,13 +541,25 @@ unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
         a0.max(b0).max(a1).max(b1) + N <= inv_mass.len(),
         "a batch past the particles"
     );
+    // Plain copies rather than `std::array::from_fn`, whose closures the compiler may leave
+    // uninlined in this hot loop.
     let both = |first: [f32; N], second: [f32; N]| -> [f32; 2 * N] {
-        std::array::from_fn(|l| if l < N { first[l] } else { second[l - N] })
+        let mut v = [0.0; 2 * N];
+        v[..N].copy_from_slice(&first);
+        v[N..].copy_from_slice(&second);
+        v
+    };
+    let both6 = |first: [[f32; N]; 6], second: [[f32; N]; 6]| -> [[f32; 2 * N]; 6] {
+        let mut v = [[0.0; 2 * N]; 6];
+        for e in 0..6 {
+            v[e] = both(first[e], second[e]);
+        }
+        v
     };
     let slots = |v: &[f32]| both(load(v, k[0]), load(v, k[1]));
     let s = ends(a0, b0, |c, i| x.start[c].load::<N>(i));
     let t = ends(a1, b1, |c, i| x.start[c].load::<N>(i));
-    let s: [[f32; 2 * N]; 6] = std::array::from_fn(|e| both(s[e], t[e]));
+    let s = both6(s, t);
     // SAFETY: the caller's contract.
     let (d, e) = unsafe {
         (
@@ -555,7 +567,7 @@ unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
             ends(a1, b1, |c, i| x.delta[c].load::<N>(i)),
         )
     };
-    let mut d: [[f32; 2 * N]; 6] = std::array::from_fn(|c| both(d[c], e[c]));
+    let mut d = both6(d, e);
     let wa = both(load(inv_mass, a0), load(inv_mass, a1));
     let wb = both(load(inv_mass, b0), load(inv_mass, b1));
     let mut lam = if ACCUMULATE {
@@ -573,7 +585,7 @@ unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
         &mut lam,
         inv_h2,
     );
-    let half = |v: &[f32; 2 * N], h: usize| -> [f32; N] { std::array::from_fn(|l| v[h * N + l]) };
+    let half = |v: &[f32; 2 * N], h: usize| -> [f32; N] { *array(&v[h * N..(h + 1) * N]) };
     for (c, coord) in x.delta.iter().enumerate() {
         // SAFETY: the caller's contract.
         unsafe {
