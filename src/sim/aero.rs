@@ -395,7 +395,12 @@ fn row_inputs(
 pub fn triangle_centroids(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut [Vec3]) {
     assert_eq!(out.len(), triangles.len(), "one centroid per triangle");
     for (o, tri) in out.iter_mut().zip(triangles) {
-        let [a, b, c] = tri.map(|i| positions[i as usize]);
+        // Indexed one by one: the compiler has left `tri.map(..)` a call here.
+        let (a, b, c) = (
+            positions[tri[0] as usize],
+            positions[tri[1] as usize],
+            positions[tri[2] as usize],
+        );
         *o = (a + b + c) / 3.0;
     }
 }
