@@ -653,14 +653,28 @@ impl GustSampler {
 
     /// The gusty wind velocity (m/s) at `position` (m): [`Gusts::sample`].
     pub fn sample(&mut self, position: Vec3) -> Vec3 {
-        let (base, speed) = (self.base, self.speed);
-        if self.speed_sq < MIN_SPEED_SQ {
-            return base;
+        if self.is_calm() {
+            return self.base;
         }
-        // Frozen gusts: the air now at `position` crossed the plane through the origin
-        // `position·b̂ / |base|` seconds ago, carrying the gust it had then.
-        let phase = (self.time - position.dot(base) / self.speed_sq) * self.gusts.frequency;
+        let phase = self.phase(position);
+        self.at_phase(phase)
+    }
 
+    /// Whether the mean wind is too slow to have a direction (it is then returned as it is).
+    fn is_calm(&self) -> bool {
+        self.speed_sq < MIN_SPEED_SQ
+    }
+
+    /// The noise phase of the gust at `position`. Frozen gusts: the air now at `position`
+    /// crossed the plane through the origin `position·b̂ / |base|` seconds ago, carrying the gust
+    /// it had then.
+    fn phase(&self, position: Vec3) -> f32 {
+        (self.time - position.dot(self.base) / self.speed_sq) * self.gusts.frequency
+    }
+
+    /// The gusty wind velocity (m/s) at noise phase `phase` (not calm air).
+    fn at_phase(&mut self, phase: f32) -> Vec3 {
+        let (base, speed) = (self.base, self.speed);
         let gain = 1.0 + self.gusts.strength * self.speed_fluctuation(phase);
 
         let (e1, e2) = self.across;
@@ -683,6 +697,96 @@ impl GustSampler {
             + w_sine_1 * (TAU * SINE_FREQUENCIES[0] * phase + phase_1).sin()
             + w_sine_2 * (TAU * SINE_FREQUENCIES[1] * phase + phase_2).sin();
         (sum / (w_noise + w_sine_1 + w_sine_2)).clamp(-1.0, 1.0)
+    }
+}
+
+/// Spacing of a [`GustTable`]'s knots, in noise phase (time × [`Gusts::frequency`]). The wind
+/// is a smooth function of the phase (quintic fades, sines), so linear interpolation between
+/// knots this close errs by about 2·10⁻⁵ of the gusts' amplitude `|base| (strength +
+/// turbulence)` at most, falling with the square of the spacing (a unit test of
+/// `WindField::sample_many` holds it to that at frequencies up to 6 Hz).
+const GUST_KNOT_SPACING: f32 = 1.0 / 512.0;
+
+/// Most knots a [`GustTable`] holds (on the stack): points spread over more phase than this
+/// covers are sampled one by one.
+const MAX_GUST_KNOTS: usize = 512;
+
+/// [`GustSampler::sample`] for many points of one step. The wind depends on a point only through
+/// its phase along the wind, so where the points' phases span few knots
+/// ([`GUST_KNOT_SPACING`]) next to their number, the sampler is evaluated at the knots and each
+/// point gets the linear interpolation between its two: a cloth's triangles in a 1 m span of
+/// 5 m/s wind take about a hundred samples instead of one each. Otherwise each point is sampled,
+/// with exactly [`GustSampler::sample`]'s value.
+#[derive(Debug, Clone)]
+pub(crate) struct GustTable {
+    sampler: GustSampler,
+    knots: Option<Knots>,
+}
+
+/// The wind at `len` knots `GUST_KNOT_SPACING` apart in phase; a point `p` lies
+/// `p·scale + offset` knots past the first.
+#[derive(Debug, Clone)]
+struct Knots {
+    scale: Vec3,
+    offset: f32,
+    len: usize,
+    wind: [Vec3; MAX_GUST_KNOTS],
+}
+
+impl GustTable {
+    /// `sampler` for `points`: with knots where they are fewer than a quarter of the points.
+    pub fn new(mut sampler: GustSampler, points: &[Vec3]) -> Self {
+        if sampler.is_calm() {
+            return Self {
+                sampler,
+                knots: None,
+            };
+        }
+        // The phase as a linear function of the point, `p·along + at_origin`: `phase`'s value to
+        // rounding, which the interpolation does not resolve anyway.
+        let frequency = sampler.gusts.frequency;
+        let along = sampler.base * (-frequency / sampler.speed_sq);
+        let at_origin = sampler.time * frequency;
+        let (lo, hi) = points
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |r, p| {
+                let phase = p.dot(along) + at_origin;
+                (r.0.min(phase), r.1.max(phase))
+            });
+        // At least two knots; a span that is not finite fails the count.
+        let len = (((hi - lo) / GUST_KNOT_SPACING).ceil() as usize + 1).max(2);
+        let knots = (len <= MAX_GUST_KNOTS && 4 * len <= points.len()).then(|| {
+            let mut wind = [Vec3::ZERO; MAX_GUST_KNOTS];
+            for (k, w) in wind[..len].iter_mut().enumerate() {
+                *w = sampler.at_phase(lo + k as f32 * GUST_KNOT_SPACING);
+            }
+            Knots {
+                scale: along / GUST_KNOT_SPACING,
+                offset: (at_origin - lo) / GUST_KNOT_SPACING,
+                len,
+                wind,
+            }
+        });
+        Self { sampler, knots }
+    }
+
+    /// The gusty wind velocity (m/s) at `position`, one of the points the table was made for.
+    #[inline]
+    pub fn sample(&mut self, position: Vec3) -> Vec3 {
+        let Some(knots) = &self.knots else {
+            return self.sampler.sample(position);
+        };
+        let x = position.dot(knots.scale) + knots.offset;
+        // `as` saturates (and takes NaN to 0); the last interval extends past its knot.
+        let k = (x as usize).min(knots.len - 2);
+        let (a, b) = (knots.wind[k], knots.wind[k + 1]);
+        a + (b - a) * (x - k as f32)
+    }
+
+    /// Whether the points are interpolated between knots (else sampled one by one).
+    #[cfg(test)]
+    pub fn interpolates(&self) -> bool {
+        self.knots.is_some()
     }
 }
 
