@@ -13,8 +13,10 @@
 //! triangle's winding. The wind itself is sampled per triangle (e.g. at [`triangle_centroids`]),
 //! typically from [`Gusts::sample`].
 //!
-//! SI units throughout (m, s, kg, N). Plain slices in, plain slices out; nothing here allocates,
-//! and nothing holds state but [`GustSampler`]'s note of the noise cells it last used.
+//! SI units throughout (m, s, kg, N). Plain slices in, plain slices out. Nothing here allocates
+//! but `GridAero`'s scratch, once, when it is made; nothing holds state from one step to the next
+//! (a [`GustSampler`] notes the noise cells it last used, a `GustTable` its knots, both for one
+//! step).
 
 use crate::hash::{GOLDEN_GAMMA, mix64, unit_interval};
 use crate::sim::model::two_rows;
@@ -155,6 +157,17 @@ pub(crate) enum TriangleWind<'a> {
     Uniform(Vec3),
     /// The air velocity at each triangle, in the model's triangle order.
     Each(&'a [Vec3]),
+}
+
+impl TriangleWind<'_> {
+    /// The air velocity at triangle `t`.
+    #[inline(always)]
+    pub fn at(&self, t: usize) -> Vec3 {
+        match self {
+            Self::Uniform(w) => *w,
+            Self::Each(each) => each[t],
+        }
+    }
 }
 
 /// [`add_aero_forces`] for the canonical grid ([`ClothModel::grid`]), row by row over one array

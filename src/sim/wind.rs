@@ -11,8 +11,8 @@
 use glam::Vec3;
 
 use super::aero::{
-    AeroParams, GridAero, GustSampler, GustTable, Gusts, TriangleWind, add_aero_forces,
-    add_aero_forces_in, triangle_centroids,
+    AeroParams, GridAero, GustSampler, GustTable, Gusts, TriangleWind, add_aero_forces_in,
+    triangle_centroids,
 };
 use super::model::ClothModel;
 use crate::error::{ClothError, finite_vec3, non_negative, unit_interval};
@@ -234,46 +234,30 @@ impl WindScratch {
         self.particle_force.fill(Vec3::ZERO);
         // A uniform field needs no sampling, and its mean around every particle is itself.
         let uniform = field.is_uniform().then_some(field.velocity);
-        let grid = self.grid.as_mut();
-        if let Some(wind) = uniform {
-            let forces = &mut self.particle_force;
-            let wind_at = TriangleWind::Uniform(wind);
-            let by_rows = grid.is_some_and(|g| {
-                g.add_forces(positions, velocities, wind_at, &self.params, forces)
-            });
-            if !by_rows {
-                add_aero_forces_in(
-                    positions,
-                    velocities,
-                    triangles,
-                    |_| wind,
-                    &self.params,
-                    forces,
-                );
+        let winds = match uniform {
+            Some(wind) => TriangleWind::Uniform(wind),
+            None => {
+                triangle_centroids(positions, triangles, &mut self.centroids);
+                field.sample_many(&self.centroids, &mut self.triangle_wind);
+                TriangleWind::Each(&self.triangle_wind)
             }
-        } else {
-            triangle_centroids(positions, triangles, &mut self.centroids);
-            field.sample_many(&self.centroids, &mut self.triangle_wind);
-            let (forces, winds) = (&mut self.particle_force, &self.triangle_wind);
-            let by_rows = grid.is_some_and(|g| {
-                g.add_forces(
-                    positions,
-                    velocities,
-                    TriangleWind::Each(winds),
-                    &self.params,
-                    forces,
-                )
-            });
-            if !by_rows {
-                add_aero_forces(
-                    positions,
-                    velocities,
-                    triangles,
-                    winds,
-                    &self.params,
-                    forces,
-                );
-            }
+        };
+        let forces = &mut self.particle_force;
+        let by_rows = self
+            .grid
+            .as_mut()
+            .is_some_and(|g| g.add_forces(positions, velocities, winds, &self.params, forces));
+        if !by_rows {
+            add_aero_forces_in(
+                positions,
+                velocities,
+                triangles,
+                |t| winds.at(t),
+                &self.params,
+                forces,
+            );
+        }
+        if uniform.is_none() {
             // The mean wind around each particle.
             self.wind_sum.fill((Vec3::ZERO, 0));
             for (tri, w) in triangles.iter().zip(&self.triangle_wind) {
