@@ -105,11 +105,11 @@ impl WindField {
         wind[0]
     }
 
-    /// The wind velocity at each of `points` into `out` (as many as both hold): [`Self::sample`]
-    /// at each, with each gusty field prepared once for all of them ([`GustSampler`]). Where
-    /// the points lie along a short stretch of the wind next to their number (a cloth's
-    /// triangles), gusts are sampled at phases along the wind and interpolated between them
-    /// (`GustTable`): then each point's gust is within about 2·10⁻⁵ of the gusts' amplitude
+    /// The wind velocity at each of `points` into `out` (as many as both hold), with each gusty
+    /// field prepared once for all of them ([`GustSampler`]): [`Self::sample`] at each, except
+    /// where the points lie along a short stretch of the wind next to their number (a cloth's
+    /// triangles). There gusts are sampled at phases along the wind and interpolated between them
+    /// (`GustTable`), and each point's gust is within about 2·10⁻⁵ of the gusts' amplitude
     /// (`|base| (strength + turbulence)`) of [`Self::sample`]'s.
     pub fn sample_many(&self, points: &[Vec3], out: &mut [Vec3]) {
         let points = &points[..points.len().min(out.len())];
