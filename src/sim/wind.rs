@@ -322,6 +322,22 @@ impl WindScratch {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::{DiscSpec, GridPlane, GridSpec};
+
+    #[test]
+    fn grid_cloths_get_the_row_kernel_and_others_the_triangle_path() {
+        // The two paths give the same bits, so only this sees which one a cloth takes.
+        for plane in [GridPlane::Horizontal, GridPlane::Vertical] {
+            let spec = GridSpec {
+                plane,
+                ..GridSpec::new(9, 5, 0.1)
+            };
+            let grid = ClothModel::grid(&spec).unwrap();
+            assert!(WindScratch::new(&grid).grid.is_some(), "{plane:?}");
+        }
+        let disc = ClothModel::disc(&DiscSpec::new(12, 4, 0.5)).unwrap();
+        assert!(WindScratch::new(&disc).grid.is_none());
+    }
 
     #[test]
     fn many_points_sampled_at_once_get_what_each_gets_alone() {
