@@ -766,8 +766,11 @@ impl GustTable {
                 let phase = p.dot(along) + at_origin;
                 (r.0.min(phase), r.1.max(phase))
             });
-        // At least two knots; a span that is not finite fails the count.
-        let len = (((hi - lo) / GUST_KNOT_SPACING).ceil() as usize + 1).max(2);
+        // At least two knots; a span that is not finite (or too long for `usize`) fails the
+        // count below.
+        let len = (((hi - lo) / GUST_KNOT_SPACING).ceil() as usize)
+            .saturating_add(1)
+            .max(2);
         let knots = (len <= MAX_GUST_KNOTS && 4 * len <= points.len()).then(|| {
             let mut wind = [Vec3::ZERO; MAX_GUST_KNOTS];
             for (k, w) in wind[..len].iter_mut().enumerate() {

@@ -416,8 +416,22 @@ mod tests {
                 time: 3.7,
                 ..Default::default()
             };
-            let table = GustTable::new(GustSampler::new(&gusts, velocity, 3.7), &points);
-            assert!(table.interpolates(), "{frequency} Hz");
+            let sampler = GustSampler::new(&gusts, velocity, 3.7);
+            assert!(
+                GustTable::new(sampler.clone(), &points).interpolates(),
+                "{frequency} Hz"
+            );
+            // One point out of all proportion sends them all to exact sampling; a point that is
+            // not a number gets no number, as it would alone.
+            for far in [Vec3::splat(1e30), Vec3::new(f32::INFINITY, 0.0, 0.0)] {
+                let mut spread = points.clone();
+                spread[0] = far;
+                assert!(!GustTable::new(sampler.clone(), &spread).interpolates());
+            }
+            let mut odd = points.clone();
+            odd[0] = Vec3::NAN;
+            let mut table = GustTable::new(sampler.clone(), &odd);
+            assert!(table.interpolates() && table.sample(odd[0]).is_nan());
             let mut winds = vec![Vec3::ZERO; points.len()];
             field.sample_many(&points, &mut winds);
             // The gusts' amplitude: how far they may take the wind from its mean.
