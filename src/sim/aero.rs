@@ -293,11 +293,11 @@ impl Kernel for GridAeroKernel<'_> {
             let (m, rows) = (nx - 1, j * (nx - 1));
             match self.wind {
                 TriangleWind::Uniform(wind) => {
-                    row_inputs(x, v, j * nx, plates, |c, _| (wind[c], wind[c]));
+                    row_inputs(x, v, (j * nx, nx), plates, |c, _| (wind[c], wind[c]));
                 }
                 TriangleWind::Each(each) => {
                     let each = &each[2 * rows..2 * (rows + m)];
-                    row_inputs(x, v, j * nx, plates, |c, i| {
+                    row_inputs(x, v, (j * nx, nx), plates, |c, i| {
                         (each[2 * i][c], each[2 * i + 1][c])
                     });
                 }
@@ -347,7 +347,7 @@ impl Kernel for GridAeroKernel<'_> {
 }
 
 /// The inputs of the triangles of the row of quads whose corners `a` are particles
-/// `start..start + nx − 1`, into `plates`, with `wind(c, i)` the coordinate `c` of the winds at
+/// `start..start + nx − 1` (rows of `nx` particles), into `plates`, with `wind(c, i)` the coordinate `c` of the winds at
 /// quad `i`'s two triangles. Quad `i` has the corners `a`, `b = a + 1`, `c = a + nx` and
 /// `d = c + 1`; its triangles take them in the order `(a, c, b)` and `(b, c, d)`, as
 /// `TriangleLanes::gather` does.
@@ -355,11 +355,10 @@ impl Kernel for GridAeroKernel<'_> {
 fn row_inputs(
     x: &Soa,
     v: &Soa,
-    start: usize,
+    (start, nx): (usize, usize),
     [p0, p1]: &mut [Plates; 2],
     wind: impl Fn(usize, usize) -> (f32, f32),
 ) {
-    let nx = p0.e1.len() + 1;
     let coords = [
         (
             &x.x,
@@ -408,7 +407,8 @@ fn row_inputs(
 pub fn triangle_centroids(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut [Vec3]) {
     assert_eq!(out.len(), triangles.len(), "one centroid per triangle");
     for (o, tri) in out.iter_mut().zip(triangles) {
-        // Indexed one by one: the compiler has left `tri.map(..)` a call here.
+        // Indexed one by one rather than through `tri.map(..)`, which the compiler may leave a
+        // call in this loop.
         let (a, b, c) = (
             positions[tri[0] as usize],
             positions[tri[1] as usize],
@@ -714,10 +714,10 @@ impl GustSampler {
 }
 
 /// Spacing of a [`GustTable`]'s knots, in noise phase (time × [`Gusts::frequency`]). The wind
-/// is a smooth function of the phase (quintic fades, sines), so linear interpolation between
-/// knots this close errs by about 2·10⁻⁵ of the gusts' amplitude `|base| (strength +
-/// turbulence)` at most, falling with the square of the spacing (a unit test of
-/// `WindField::sample_many` holds it to that at frequencies up to 6 Hz).
+/// is a smooth function of the phase (quintic fades, sines), so linear interpolation errs by a
+/// part of the gusts' amplitude `|base| (strength + turbulence)` that falls with the square of
+/// the spacing; at this spacing a unit test of `WindField::sample_many` holds it under
+/// 2.5·10⁻⁵ for gusts up to 6 Hz.
 const GUST_KNOT_SPACING: f32 = 1.0 / 512.0;
 
 /// Most knots a [`GustTable`] holds (on the stack): points spread over more phase than this
@@ -727,9 +727,8 @@ const MAX_GUST_KNOTS: usize = 512;
 /// [`GustSampler::sample`] for many points of one step. The wind depends on a point only through
 /// its phase along the wind, so where the points' phases span few knots
 /// ([`GUST_KNOT_SPACING`]) next to their number, the sampler is evaluated at the knots and each
-/// point gets the linear interpolation between its two: a cloth's triangles in a 1 m span of
-/// 5 m/s wind take about a hundred samples instead of one each. Otherwise each point is sampled,
-/// with exactly [`GustSampler::sample`]'s value.
+/// point gets the linear interpolation between its two, so a cloth's triangles share a few
+/// samples. Otherwise each point is sampled, with exactly [`GustSampler::sample`]'s value.
 #[derive(Debug, Clone)]
 pub(crate) struct GustTable {
     sampler: GustSampler,
