@@ -227,7 +227,8 @@ impl ClothContacts {
         }
         // A resolution can be deferred past the step's start only if the others start it where
         // the last step's ended.
-        if self.tris != self.last_tris || self.start != self.last_end {
+        let same_tris = same_triangles(&self.tris, &self.last_tris);
+        if !same_tris || self.start != self.last_end {
             self.settled.forget();
         }
         self.resolved_at = 0.0;
@@ -236,7 +237,7 @@ impl ClothContacts {
             .fold(0.0, max_or_infinite);
         // Candidates found in an earlier step hold while the same cloths are copied in the same
         // order (the joined indices they name are the same) and their particles stay within reach.
-        if self.tris != self.last_tris {
+        if !same_tris {
             self.stale = true;
             edge_table(
                 &self.tris,
@@ -688,12 +689,31 @@ impl<S: ContactState> ContactState for Joined<'_, S> {
     }
 }
 
+/// Whether `a` and `b` list the same triangles. Two empty lists (a cloth with no other near,
+/// every step) are answered without comparing: a slice comparison calls `memcmp` even for zero
+/// bytes, at an empty `Vec`'s dangling address, and glibc's AVX-512 `memcmp` is slow there (its
+/// masked load of nothing at an unmapped page takes a microcode assist).
+fn same_triangles(a: &[[u32; 3]], b: &[[u32; 3]]) -> bool {
+    a.len() == b.len() && (a.is_empty() || a == b)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sim::contact::self_contact::EDGES_APART;
     use crate::sim::contact::{Vectors, bounds};
     use crate::sim::{ClothModel, GridSpec};
+
+    #[test]
+    fn triangle_lists_compare_as_slices_do() {
+        let (one, two) = ([[0, 1, 2]], [[0, 1, 2], [2, 1, 3]]);
+        let lists: [&[[u32; 3]]; 4] = [&[], &one, &two, &[[0, 1, 3]]];
+        for a in lists {
+            for b in lists {
+                assert_eq!(same_triangles(a, b), a == b, "{a:?} against {b:?}");
+            }
+        }
+    }
 
     /// An 8×8 grid of 3 cm cells at rest (its model), and contacts for it begun with the same
     /// grid shifted by `shift` (held still, 5 mm thick, with `friction`), the step's particles
