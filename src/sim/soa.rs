@@ -7,25 +7,149 @@ use glam::Vec3;
 /// eight consecutive particles with whole vector loads and stores.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Soa {
-    pub x: Vec<f32>,
-    pub y: Vec<f32>,
-    pub z: Vec<f32>,
+    pub x: Coordinate,
+    pub y: Coordinate,
+    pub z: Coordinate,
+}
+
+/// Values per 4 KiB page.
+const PAGE: usize = 1024;
+
+/// How far apart, in values, the columns of [`Soa::spread`] start within their pages (448 bytes).
+const STAGGER: usize = 112;
+
+/// A page of values, aligned to its size, so that a [`Coordinate`] knows where its values start
+/// within a page.
+#[derive(Clone, Copy)]
+#[repr(C, align(4096))]
+struct Page([f32; PAGE]);
+
+/// One coordinate of a [`Soa`]: `len` values starting `offset` values into page-aligned storage,
+/// used as a slice. Columns that a kernel reads and writes at the same indices start at different
+/// places within a page ([`Soa::spread`]): where their starts share the low 12 address bits, a
+/// store to one column looks, to the CPU, like a store to the address of a later load from
+/// another at a nearby index (4K aliasing), and each such load waits. The results are the same
+/// either way; only the time differs.
+#[derive(Clone, Default)]
+pub(crate) struct Coordinate {
+    pages: Vec<Page>,
+    offset: usize,
+    len: usize,
+}
+
+impl Coordinate {
+    /// `n` zeros, starting `offset` (under [`PAGE`]) values into the first page.
+    fn zeros(n: usize, offset: usize) -> Self {
+        let mut c = Self {
+            pages: Vec::new(),
+            offset: offset % PAGE,
+            len: 0,
+        };
+        c.resize(n);
+        c
+    }
+
+    /// Makes it hold `n` values (new ones zero), keeping its allocation where it suffices.
+    pub fn resize(&mut self, n: usize) {
+        let pages = (self.offset + n).div_ceil(PAGE);
+        if pages > self.pages.len() {
+            self.pages.resize(pages, Page([0.0; PAGE]));
+        }
+        let old = self.len;
+        self.len = n;
+        if n > old {
+            self[old..].fill(0.0);
+        }
+    }
+
+    /// All the storage's values.
+    fn all(&self) -> &[f32] {
+        // SAFETY: a `Page` is an array of `PAGE` f32 with no padding (`repr(C)`, its size a
+        // multiple of its alignment), and a `Vec`'s pages lie one after another.
+        unsafe {
+            std::slice::from_raw_parts(self.pages.as_ptr().cast::<f32>(), self.pages.len() * PAGE)
+        }
+    }
+
+    /// All the storage's values, to write.
+    fn all_mut(&mut self) -> &mut [f32] {
+        // SAFETY: as in `all`; the borrow is exclusive.
+        unsafe {
+            std::slice::from_raw_parts_mut(
+                self.pages.as_mut_ptr().cast::<f32>(),
+                self.pages.len() * PAGE,
+            )
+        }
+    }
+}
+
+impl std::ops::Deref for Coordinate {
+    type Target = [f32];
+    #[inline]
+    fn deref(&self) -> &[f32] {
+        let (offset, len) = (self.offset, self.len);
+        &self.all()[offset..offset + len]
+    }
+}
+
+impl std::ops::DerefMut for Coordinate {
+    #[inline]
+    fn deref_mut(&mut self) -> &mut [f32] {
+        let (offset, len) = (self.offset, self.len);
+        &mut self.all_mut()[offset..offset + len]
+    }
+}
+
+impl<'a> IntoIterator for &'a Coordinate {
+    type Item = &'a f32;
+    type IntoIter = std::slice::Iter<'a, f32>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl<'a> IntoIterator for &'a mut Coordinate {
+    type Item = &'a mut f32;
+    type IntoIter = std::slice::IterMut<'a, f32>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter_mut()
+    }
+}
+
+impl PartialEq for Coordinate {
+    /// The same values (wherever they are stored).
+    fn eq(&self, other: &Self) -> bool {
+        **self == **other
+    }
+}
+
+impl std::fmt::Debug for Coordinate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        (**self).fmt(f)
+    }
 }
 
 impl Soa {
     /// `n` zero vectors.
     pub fn new(n: usize) -> Self {
+        Self::spread(n, 0)
+    }
+
+    /// `n` zero vectors whose columns start [`STAGGER`] values apart within their pages, after
+    /// those of `group` other `Soa`s (see [`Coordinate`]).
+    pub fn spread(n: usize, group: usize) -> Self {
+        let column = |c: usize| Coordinate::zeros(n, (3 * group + c) * STAGGER);
         Self {
-            x: vec![0.0; n],
-            y: vec![0.0; n],
-            z: vec![0.0; n],
+            x: column(0),
+            y: column(1),
+            z: column(2),
         }
     }
 
-    /// Makes it hold `n` vectors (new ones zero), keeping its allocation.
+    /// Makes it hold `n` vectors (new ones zero), keeping its allocation where it suffices.
     pub fn resize(&mut self, n: usize) {
         for a in [&mut self.x, &mut self.y, &mut self.z] {
-            a.resize(n, 0.0);
+            a.resize(n);
         }
     }
 
@@ -105,5 +229,36 @@ impl Soa {
             .zip(&self.y)
             .zip(&self.z)
             .map(|((x, y), z)| Vec3::new(*x, *y, *z))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_states_columns_start_at_different_places_within_a_page() {
+        let starts: Vec<usize> = (0..3)
+            .flat_map(|group| {
+                let s = Soa::spread(5000, group);
+                [s.x, s.y, s.z].map(|c| c.as_ptr() as usize % 4096)
+            })
+            .collect();
+        for (k, &start) in starts.iter().enumerate() {
+            assert_eq!(start, k * STAGGER * 4 % 4096, "column {k}");
+        }
+    }
+
+    #[test]
+    fn a_coordinate_resizes_as_a_vec_does() {
+        let mut c = Coordinate::zeros(3, 1000);
+        c.copy_from_slice(&[1.0, 2.0, 3.0]);
+        c.resize(30);
+        assert_eq!(c[..4], [1.0, 2.0, 3.0, 0.0]);
+        assert!(c[3..].iter().all(|&v| v == 0.0));
+        c.resize(2);
+        c.resize(5);
+        assert_eq!(*c, [1.0, 2.0, 0.0, 0.0, 0.0]);
+        assert_eq!(c.as_ptr() as usize % 4096, 4000);
     }
 }

@@ -169,9 +169,9 @@ impl SoaState {
     /// Arrays for `n` particles.
     pub fn new(n: usize) -> Self {
         Self {
-            x: Soa::new(n),
-            v: Soa::new(n),
-            d: Soa::new(n),
+            x: Soa::spread(n, 0),
+            v: Soa::spread(n, 1),
+            d: Soa::spread(n, 2),
         }
     }
 
