@@ -347,10 +347,10 @@ impl Kernel for GridAeroKernel<'_> {
 }
 
 /// The inputs of the triangles of the row of quads whose corners `a` are particles
-/// `start..start + nx − 1` (rows of `nx` particles), into `plates`, with `wind(c, i)` the coordinate `c` of the winds at
-/// quad `i`'s two triangles. Quad `i` has the corners `a`, `b = a + 1`, `c = a + nx` and
-/// `d = c + 1`; its triangles take them in the order `(a, c, b)` and `(b, c, d)`, as
-/// `TriangleLanes::gather` does.
+/// `start..start + nx − 1` (rows of `nx` particles), into `plates`, with `wind(c, i)` the
+/// coordinate `c` of the winds at quad `i`'s two triangles. Quad `i` has the corners `a`,
+/// `b = a + 1`, `c = a + nx` and `d = c + 1`; its triangles take them in the order `(a, c, b)`
+/// and `(b, c, d)`, as `TriangleLanes::gather` does.
 #[inline(always)]
 fn row_inputs(
     x: &Soa,
