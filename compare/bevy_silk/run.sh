@@ -3,7 +3,8 @@
 # hanging from two corners at 60 Hz, each crate with its default settings, one thread each
 # (bevy_cloth: `cloth_cli bench` on `assets/scenes/silk_compare64.ron`, single-threaded executor,
 # a compute pool of one thread; bevy_silk: `src/main.rs` here, built without Bevy's threads).
-# Rounds alternate the two; the last lines give the medians over the rounds and the ratio of
+# Rounds alternate the two; the last lines give the medians over the rounds (time, and the median
+# strain of the grid's rows and columns and of every constraint each crate has) and the ratio of
 # bevy_silk's step alone to bevy_cloth's whole App frame.
 #
 #   compare/bevy_silk/run.sh [ROUNDS] [FRAMES]      (default 5 rounds of 600 timed frames)
@@ -32,11 +33,14 @@ for line in open(sys.argv[1]):
 med = lambda rows, key: statistics.median(r[key] for r in rows)
 frame = med(cloth, "median_ms")
 print(f"bevy_cloth whole App frame: median {frame:.3f} ms over {len(cloth)} rounds, "
-      f"median structural strain {100 * med(cloth, 'median_structural_strain'):.3f}%, "
-      f"shear {100 * med(cloth, 'median_shear_strain'):.3f}%")
+      f"median strain of rows and columns {100 * med(cloth, 'median_structural_strain'):.3f}%, "
+      f"shear {100 * med(cloth, 'median_shear_strain'):.3f}%, "
+      f"bend {100 * med(cloth, 'median_bend_strain'):.3f}%, "
+      f"all springs {100 * med(cloth, 'median_spring_strain'):.3f}%")
 print(f"bevy_silk 0.10 whole App frame: {med(silk, 'app_frame_median_ms'):.3f} ms, "
       f"step alone: {med(silk, 'step_median_ms'):.3f} ms, "
-      f"median edge strain {100 * med(silk, 'median_strain'):.3f}%")
+      f"median strain of rows and columns {100 * med(silk, 'median_strain'):.3f}%, "
+      f"all sticks {100 * med(silk, 'median_stick_strain'):.3f}%")
 print(f"bevy_silk step alone / bevy_cloth whole frame: {med(silk, 'step_median_ms') / frame:.2f}")
 print(f"bevy_silk whole frame / bevy_cloth whole frame: {med(silk, 'app_frame_median_ms') / frame:.2f}")
 PY

@@ -3,7 +3,7 @@
 //! bevy_silk's default settings. Prints one JSON line: the median milliseconds of the whole
 //! headless App frame (bevy_silk's step, its normals and its mesh write), of the step alone (the
 //! calls bevy_silk's update system makes, on the same cloth, without the ECS), and the median
-//! strain of the grid's row and column edges after the run.
+//! strain of the grid's row and column edges after the run, and of all its sticks.
 //!
 //! `cargo run --release -- [FRAMES]` (600 timed frames by default, after 10 untimed ones).
 
@@ -52,13 +52,9 @@ fn main() {
         app.update();
         frame_ms.push(t.elapsed().as_secs_f64() * 1e3);
     }
-    let strain = median_strain(
-        &app.world()
-            .get::<Cloth>(cloth)
-            .expect("cloth built")
-            .current_point_positions,
-        spacing,
-    );
+    let built = app.world().get::<Cloth>(cloth).expect("cloth built");
+    let strain = median_strain(&built.current_point_positions, spacing);
+    let stick_strain = median_stick_strain(built);
 
     // The step alone, from the state the App frames ended in: the same calls as bevy_silk's
     // update system, with its default config and no wind.
@@ -86,10 +82,11 @@ fn main() {
     std::hint::black_box(&alone);
 
     println!(
-        "{{\"crate\":\"bevy_silk 0.10.0\",\"frames\":{frames},\"app_frame_median_ms\":{:.4},\"step_median_ms\":{:.4},\"median_strain\":{:.6}}}",
+        "{{\"crate\":\"bevy_silk 0.10.0\",\"frames\":{frames},\"app_frame_median_ms\":{:.4},\"step_median_ms\":{:.4},\"median_strain\":{:.6},\"median_stick_strain\":{:.6}}}",
         median(&mut frame_ms),
         median(&mut step_ms),
-        strain
+        strain,
+        stick_strain
     );
 }
 
@@ -101,6 +98,18 @@ fn median(v: &mut [f64]) -> f64 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
+}
+
+/// Median of `|length / rest - 1|` over all of the cloth's sticks (its mesh's edges: rows,
+/// columns and one diagonal per quad), each against its own rest length.
+fn median_stick_strain(cloth: &Cloth) -> f64 {
+    let x = &cloth.current_point_positions;
+    let mut strain: Vec<f64> = cloth
+        .stick_lengths
+        .iter()
+        .map(|(&[a, b], &rest)| f64::from((x[a].distance(x[b]) / rest - 1.0).abs()))
+        .collect();
+    median(&mut strain)
 }
 
 /// Median of `|length / rest - 1|` over the row and column edges of the `N × N` grid.
