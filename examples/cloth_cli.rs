@@ -342,8 +342,8 @@ fn stats(times: &mut [f64]) -> serde_json::Value {
     })
 }
 
-/// Median of `|length / rest - 1|` over the springs of one `kind` (structural: a grid's row and
-/// column edges; shear: its diagonals).
+/// Median of `|length / rest - 1|` over the springs of `kinds` (structural: a grid's row and
+/// column edges; shear: its diagonals; bend: its springs that skip one particle).
 fn median_strain(sim: &ClothSim, kinds: &[SpringKind]) -> f64 {
     let mut strain: Vec<f64> = kinds
         .iter()
@@ -446,13 +446,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 });
             }
             line["constraint_solves_per_s"] = (solves / median_s).round().into();
-            // Both families: which of them holds more of an unconverged solve's residual
-            // depends on the order they are projected in.
+            // Each family: which of them holds more of an unconverged solve's residual depends
+            // on the order they are projected in.
             line["median_structural_strain"] = median_strain(sim, &[SpringKind::Structural]).into();
             line["median_shear_strain"] = median_strain(sim, &[SpringKind::Shear]).into();
             line["median_bend_strain"] = median_strain(sim, &[SpringKind::Bend]).into();
-            // Every spring at once: the median "edge strain" of a cloth whose constraints are
-            // all its edges, as bevy_silk's sticks are.
+            // All springs pooled, as the bevy_silk harness pools all of its sticks.
             line["median_spring_strain"] = median_strain(sim, &SpringKind::ALL).into();
             line["cloth_frames_asleep"] = slept.into();
             println!("{line}");

@@ -100,8 +100,9 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-/// Median of `|length / rest - 1|` over all of the cloth's sticks (its mesh's edges: rows,
-/// columns and one diagonal per quad), each against its own rest length.
+/// Median of `|length / rest - 1|` over all of the cloth's sticks, each against its own rest
+/// length (with bevy_silk's default stick generation, the quads' edges: the grid's rows and
+/// columns).
 fn median_stick_strain(cloth: &Cloth) -> f64 {
     let x = &cloth.current_point_positions;
     let mut strain: Vec<f64> = cloth
