@@ -104,31 +104,25 @@ fn median(v: &mut [f64]) -> f64 {
 /// length (with bevy_silk's default stick generation, the quads' edges: the grid's rows and
 /// columns).
 fn median_stick_strain(cloth: &Cloth) -> f64 {
-    let x = &cloth.current_point_positions;
-    let mut strain: Vec<f64> = cloth
+    let sticks = cloth
         .stick_lengths
         .iter()
-        .map(|(&[a, b], &rest)| f64::from((x[a].distance(x[b]) / rest - 1.0).abs()))
-        .collect();
-    median(&mut strain)
+        .map(|(&[a, b], &rest)| (a, b, rest));
+    median_edge_strain(&cloth.current_point_positions, sticks)
 }
 
 /// Median of `|length / rest - 1|` over the row and column edges of the `N × N` grid.
 fn median_strain(x: &[Vec3], spacing: f32) -> f64 {
-    let mut strain = Vec::with_capacity(2 * N * (N - 1));
-    for j in 0..N {
-        for i in 0..N {
-            let p = j * N + i;
-            let mut edge = |q: usize| {
-                strain.push(f64::from((x[p].distance(x[q]) / spacing - 1.0).abs()));
-            };
-            if i + 1 < N {
-                edge(p + 1);
-            }
-            if j + 1 < N {
-                edge(p + N);
-            }
-        }
-    }
+    let rows = (0..N).flat_map(|j| (0..N - 1).map(move |i| (j * N + i, j * N + i + 1)));
+    let columns = (0..N - 1).flat_map(|j| (0..N).map(move |i| (j * N + i, (j + 1) * N + i)));
+    let edges = rows.chain(columns).map(|(a, b)| (a, b, spacing));
+    median_edge_strain(x, edges)
+}
+
+/// Median of `|length / rest - 1|` over `edges` (two point indices and a rest length each).
+fn median_edge_strain(x: &[Vec3], edges: impl Iterator<Item = (usize, usize, f32)>) -> f64 {
+    let mut strain: Vec<f64> = edges
+        .map(|(a, b, rest)| f64::from((x[a].distance(x[b]) / rest - 1.0).abs()))
+        .collect();
     median(&mut strain)
 }
