@@ -383,14 +383,15 @@ fn sleeping(c: &mut Criterion) {
         let mut app = app_with(active, sleeping);
         group.bench_function(name, |b| b.iter(|| app.update()));
     }
-    // The same frames on Bevy's single-threaded executor, which leaves out the hand-over of
-    // systems to worker threads (Bevy's transform propagation still uses the compute pool).
+    // The same frames on Bevy's single-threaded executor and without its static-scene transform
+    // tracking, which leaves out the hand-overs of systems and of that tracking's task to worker
+    // threads.
     for (name, active) in [
         ("no_cloth_single_threaded", 0),
         ("one_active_single_threaded", 1),
     ] {
         let mut app = app_with(active, 0);
-        bevy_cloth::harness::use_single_threaded_executors(&mut app);
+        bevy_cloth::harness::use_single_threaded_frame(&mut app);
         group.bench_function(name, |b| b.iter(|| app.update()));
     }
     group.finish();

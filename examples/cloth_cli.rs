@@ -87,7 +87,8 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
         /// Run the app's schedules on Bevy's single-threaded executor instead of the
-        /// multi-threaded one.
+        /// multi-threaded one, with Bevy's static-scene transform tracking off
+        /// (`harness::use_single_threaded_frame`).
         #[arg(long)]
         single_threaded: bool,
     },
@@ -414,7 +415,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             let (mut app, entities, parsed) = load_copies(&scene, copies)?;
             if single_threaded {
-                bevy_cloth::harness::use_single_threaded_executors(&mut app);
+                bevy_cloth::harness::use_single_threaded_frame(&mut app);
             }
             run_counting_sleep(&mut app, &entities, 10)?;
             let (mut times, slept) = run_counting_sleep(&mut app, &entities, frames)?;

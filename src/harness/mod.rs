@@ -49,17 +49,21 @@ pub fn heightfield_mesh(
     (vertices, triangles)
 }
 
-/// Runs every schedule of `app` on Bevy's single-threaded executor (systems one after another on
-/// the calling thread; a query's parallel iteration still uses the compute task pool). On a
-/// machine with few cores, the multi-threaded executor's handing of each system to a worker
-/// thread and back can cost more than a small cloth's whole step (BENCHMARKS.md, issue 25).
-pub fn use_single_threaded_executors(app: &mut App) {
+/// Sets `app` up for a machine with few cores: every schedule on Bevy's single-threaded executor
+/// (systems one after another on the calling thread), and Bevy's static-scene transform tracking
+/// off. On a machine with few cores, the multi-threaded executor's handing of each system to a
+/// worker thread and back can cost more than a small cloth's whole step, and the tracking
+/// (`StaticTransformOptimizations`) hands a task to the compute pool and back every frame, which
+/// only pays in scenes with many still entities under parents (BENCHMARKS.md, issue 25). A
+/// query's parallel iteration still uses the compute pool where it has more than one thread.
+pub fn use_single_threaded_frame(app: &mut App) {
     let mut schedules = app
         .world_mut()
         .resource_mut::<bevy::ecs::schedule::Schedules>();
     for (_, schedule) in schedules.iter_mut() {
         schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
     }
+    app.insert_resource(bevy::transform::StaticTransformOptimizations::Disabled);
 }
 
 /// [`try_headless_app`] for a step known to be valid.
