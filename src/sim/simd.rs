@@ -1,9 +1,11 @@
 //! Runtime-dispatched vector builds. A vector kernel is written once, as a [`Kernel`] body of
 //! plain lane-wise loops; [`run`] compiles that body for AVX-512 and AVX2 as well as for the
 //! baseline target and calls the widest build the CPU has. The builds compute bit-identical
-//! results: they differ only in vector width, never in the order or kind of operations (Rust never
-//! contracts `a * b + c` into a fused multiply-add), and [`Build`] lets a test run each on the same
-//! input.
+//! results: they differ only in vector width, never in the order or kind of operations, and
+//! [`Build`] lets a test run each on the same input. Rust never contracts `a * b + c` into a fused
+//! multiply-add; a body that wants one calls `mul_add`, which every build rounds once: the vector
+//! builds require the CPU's FMA instructions, and the plain build (the fallback for CPUs without
+//! them) computes it exactly in software on x86-64, slowly.
 
 /// One compiled build of a kernel body.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -14,9 +16,10 @@ pub(crate) enum Build {
         allow(dead_code, reason = "only the tests run a kernel's plain build")
     )]
     Plain,
-    /// 256-bit vectors (x86-64 with AVX2).
+    /// 256-bit vectors (x86-64 with AVX2 and FMA).
     Avx2,
-    /// 512-bit vectors (x86-64 with AVX-512F); the body is told it may use 16-lane batches.
+    /// 512-bit vectors (x86-64 with AVX-512F and FMA); the body is told it may use 16-lane
+    /// batches.
     Avx512,
 }
 
@@ -27,9 +30,9 @@ impl Build {
         match self {
             Build::Plain => true,
             #[cfg(target_arch = "x86_64")]
-            Build::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            Build::Avx2 => avx2_available(),
             #[cfg(target_arch = "x86_64")]
-            Build::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            Build::Avx512 => avx512_available(),
             #[cfg(not(target_arch = "x86_64"))]
             _ => false,
         }
@@ -51,13 +54,13 @@ pub(crate) trait Kernel {
 #[inline(always)]
 pub(crate) fn run<K: Kernel>(kernel: K) {
     #[cfg(target_arch = "x86_64")]
-    if K::WIDEST == Build::Avx512 && std::arch::is_x86_feature_detected!("avx512f") {
+    if K::WIDEST == Build::Avx512 && avx512_available() {
         // SAFETY: the CPU supports the feature the function is compiled for (checked above).
         unsafe { avx512(kernel) };
         return;
     }
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if avx2_available() {
         // SAFETY: as above.
         unsafe { avx2(kernel) };
         return;
@@ -86,9 +89,23 @@ pub(crate) fn run_as<K: Kernel>(build: Build, kernel: K) -> bool {
     true
 }
 
+/// Whether the CPU runs [`avx2`]'s build.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn avx2_available() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+}
+
+/// Whether the CPU runs [`avx512`]'s build.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn avx512_available() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma")
+}
+
 /// The AVX2 build.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 fn avx2<K: Kernel>(kernel: K) {
     kernel.body::<false>();
@@ -96,7 +113,7 @@ fn avx2<K: Kernel>(kernel: K) {
 
 /// The AVX-512 build.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,fma")]
 #[inline(never)]
 fn avx512<K: Kernel>(kernel: K) {
     kernel.body::<true>();

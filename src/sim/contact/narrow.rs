@@ -12,7 +12,7 @@ const MAX_SWEEP_STEPS: u32 = 64;
 
 /// Passes of the particle–triangle test per substep: pushing one triangle moves vertices it shares
 /// with its neighbours, so the pass repeats (Gauss-Seidel) until nothing moves, at most this often.
-const TRIANGLE_PASSES: u32 = 4;
+const TRIANGLE_PASSES: u32 = 8;
 
 /// The impulse the particles took from one collider over a step, and its moment.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

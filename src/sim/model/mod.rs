@@ -116,10 +116,12 @@ impl ClothModel {
             }
         }
         let id = |i: u32, j: u32| spec.index(i, j);
-        // Twelve colours by family and parity: rows of structural springs alternate by column
-        // (0, 1), columns by row (2, 3); both diagonals alternate by row (4–7); bend springs
-        // alternate by pairs of columns (8, 9) and pairs of rows (10, 11). Each colour is then a
-        // few long runs of regular index offset, which the XPBD kernel loads as whole vectors.
+        // Eighteen colours by family and position: rows of structural springs alternate by column
+        // (0, 1); columns and both diagonals take four colours each by row (2–5, 6–9, 10–13), so
+        // that one sweep carries a pull four rows down or up the cloth rather than two; bend
+        // springs alternate by pairs of columns (14, 15) and pairs of rows (16, 17). Each colour
+        // is then a few long runs of regular index offset, which the XPBD kernel loads as whole
+        // vectors.
         let mut pairs = Vec::new();
         let mut colors = Vec::new();
         let mut add = |a, b, kind, color| {
@@ -132,17 +134,17 @@ impl ClothModel {
                     add(id(i, j), id(i + 1, j), SpringKind::Structural, i % 2);
                 }
                 if j + 1 < ny {
-                    add(id(i, j), id(i, j + 1), SpringKind::Structural, 2 + j % 2);
+                    add(id(i, j), id(i, j + 1), SpringKind::Structural, 2 + j % 4);
                 }
                 if i + 1 < nx && j + 1 < ny {
-                    add(id(i, j), id(i + 1, j + 1), SpringKind::Shear, 4 + j % 2);
-                    add(id(i + 1, j), id(i, j + 1), SpringKind::Shear, 6 + j % 2);
+                    add(id(i, j), id(i + 1, j + 1), SpringKind::Shear, 6 + j % 4);
+                    add(id(i + 1, j), id(i, j + 1), SpringKind::Shear, 10 + j % 4);
                 }
                 if i + 2 < nx {
-                    add(id(i, j), id(i + 2, j), SpringKind::Bend, 8 + (i / 2) % 2);
+                    add(id(i, j), id(i + 2, j), SpringKind::Bend, 14 + (i / 2) % 2);
                 }
                 if j + 2 < ny {
-                    add(id(i, j), id(i, j + 2), SpringKind::Bend, 10 + (j / 2) % 2);
+                    add(id(i, j), id(i, j + 2), SpringKind::Bend, 16 + (j / 2) % 2);
                 }
             }
         }

@@ -340,9 +340,9 @@ impl Projections {
     /// Splits the runs from `first` to the end (one colour's) into two shares that touch
     /// disjoint particles, at the run boundary, or the boundary of a pair of batches inside a run
     /// (which is then split in two), nearest the middle of the colour's slots at which that holds.
-    /// Within a colour only padding slots can touch the other share's particles; at a run
-    /// boundary, padding at the end of a run that does is dropped (its run ends in single slots
-    /// instead). Returns the first run of the second share, or the end (no second share).
+    /// Within a colour only padding slots can touch the other share's particles; padding at the
+    /// end of a run that does is dropped (its run ends in single slots instead). Returns the
+    /// first run of the second share, or the end (no second share).
     fn cut(&mut self, first: usize, marks: &mut Marks) -> usize {
         let (Some(head), Some(last)) = (self.runs.get(first), self.runs.last()) else {
             return self.runs.len();
@@ -367,8 +367,15 @@ impl Projections {
             if shared.is_empty() {
                 return self.split_run(run, k);
             }
-            if self.runs[run].start as usize == k && self.drop_padding(first, &shared) {
-                return run;
+            // Dropping padding lays the slots out again: the cut keeps its place in its run.
+            let offset = k - self.runs[run].start as usize;
+            if self.drop_padding(first, &shared) {
+                let r = self.runs[run];
+                return match offset {
+                    0 => run,
+                    o if o < r.len as usize => self.split_run(run, r.start as usize + o),
+                    _ => run + 1,
+                };
             }
         }
         self.runs.len()
