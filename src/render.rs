@@ -127,6 +127,21 @@ pub(crate) fn write_mesh(
     normals: (&[Vec3], &[Vec3]),
     alpha: f32,
 ) -> Result<(), ClothError> {
+    // An entity that is only moved, not turned or scaled (the common case): the positions are
+    // shifted, and the normals, unit as every normals pass leaves them, are kept unless blended.
+    if world_to_local.matrix3 == Mat3A::IDENTITY {
+        let shift = world_to_local.translation;
+        write_attribute(mesh, Mesh::ATTRIBUTE_POSITION, positions, alpha, |p| {
+            p + shift
+        })?;
+        return if alpha >= 1.0 {
+            write_attribute(mesh, Mesh::ATTRIBUTE_NORMAL, normals, alpha, |n| n)
+        } else {
+            write_attribute(mesh, Mesh::ATTRIBUTE_NORMAL, normals, alpha, |n| {
+                n.normalize_or(Vec3A::Y)
+            })
+        };
+    }
     let normal_matrix: Mat3A = world_to_local.matrix3.inverse().transpose();
     write_attribute(mesh, Mesh::ATTRIBUTE_POSITION, positions, alpha, |p| {
         world_to_local.transform_point3a(p)
@@ -167,4 +182,64 @@ fn write_attribute(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bevy::math::Quat;
+
+    fn attribute(mesh: &Mesh, attribute: bevy::mesh::MeshVertexAttribute) -> Vec<Vec3> {
+        match mesh.try_attribute_option(attribute) {
+            Ok(Some(VertexAttributeValues::Float32x3(v))) => {
+                v.iter().map(|&a| Vec3::from(a)).collect()
+            }
+            _ => panic!("no {} buffer", attribute.name),
+        }
+    }
+
+    #[test]
+    fn a_moved_entity_and_a_turned_one_get_the_mesh_of_their_transform() {
+        let curr = [Vec3::new(0.1, 2.0, -0.3), Vec3::new(-1.0, 0.5, 0.25)];
+        let prev = [Vec3::new(0.0, 1.9, -0.3), Vec3::new(-1.0, 0.4, 0.2)];
+        let normals = [Vec3::new(0.6, 0.8, 0.0), Vec3::Z];
+        let normals_prev = [Vec3::Y, Vec3::X];
+        let moved = Affine3A::from_translation(Vec3::new(1.0, -2.0, 0.5));
+        let turned = Affine3A::from_scale_rotation_translation(
+            Vec3::new(1.0, 2.0, 0.5),
+            Quat::from_rotation_y(0.7),
+            Vec3::new(0.3, 0.0, -1.0),
+        );
+        for world_to_local in [moved, turned] {
+            for alpha in [1.0, 0.25] {
+                let mut mesh = Mesh::new(
+                    PrimitiveTopology::TriangleList,
+                    RenderAssetUsages::default(),
+                )
+                .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 2])
+                .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32; 3]; 2]);
+                let (p, n) = ((&prev[..], &curr[..]), (&normals_prev[..], &normals[..]));
+                write_mesh(&mut mesh, &world_to_local, p, n, alpha).unwrap();
+                let normal_matrix = world_to_local.matrix3.inverse().transpose();
+                let got = (
+                    attribute(&mesh, Mesh::ATTRIBUTE_POSITION),
+                    attribute(&mesh, Mesh::ATTRIBUTE_NORMAL),
+                );
+                for k in 0..2 {
+                    let position = world_to_local.transform_point3(prev[k].lerp(curr[k], alpha));
+                    let normal =
+                        normal_matrix * Vec3A::from(normals_prev[k].lerp(normals[k], alpha));
+                    let normal = Vec3::from(normal.normalize());
+                    assert!(
+                        (got.0[k] - position).length() < 1e-6,
+                        "{world_to_local:?} {k}"
+                    );
+                    assert!(
+                        (got.1[k] - normal).length() < 1e-6,
+                        "{world_to_local:?} {k}"
+                    );
+                }
+            }
+        }
+    }
 }
