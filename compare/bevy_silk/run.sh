@@ -2,7 +2,8 @@
 # bevy_cloth against bevy_silk 0.10 on the same cloth, in one run: a 1 m square of 64×64 particles
 # hanging from two corners at 60 Hz, each crate with its default settings, one thread each
 # (bevy_cloth: `cloth_cli bench` on `assets/scenes/silk_compare64.ron`, single-threaded executor,
-# a compute pool of one thread; bevy_silk: `src/main.rs` here, built without Bevy's threads).
+# Bevy's static-scene transform tracking off, a compute pool of one thread; bevy_silk: `src/main.rs`
+# here, built without Bevy's threads).
 # Rounds alternate the two; the last lines give the medians over the rounds (time, and the median
 # strain of the grid's rows and columns and of every constraint each crate has) and the ratio of
 # bevy_silk's step alone to bevy_cloth's whole App frame.
