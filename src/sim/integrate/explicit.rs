@@ -96,6 +96,9 @@ impl Explicit {
         let inv_h = 1.0 / h;
         let keep = (-s.settings.damping * h).exp();
         self.state.load(s.particles, &Order::default());
+        // The first substep's contacts sweep from where the step starts, through the opening
+        // half-drift: a thin collider crossed in that half would otherwise go unseen.
+        self.state.begin_substep(s.contacts);
         let (x, v, w) = (&mut self.state.x, &self.state.v, &s.particles.inv_mass);
         for (coord, vel) in [(&mut x.x, &v.x), (&mut x.y, &v.y), (&mut x.z, &v.z)] {
             for ((x, v), w) in coord.iter_mut().zip(vel).zip(w) {
@@ -110,9 +113,16 @@ impl Explicit {
             // along by the frame's unfelt motion up to there.
             if let Some(shift) = frame_shift(s.frame, carried_to, mid) {
                 self.state.carry(&shift, &s.particles.inv_mass, false);
+                if sub == 0 {
+                    // The sweeps leave the frame's motion out: the start goes with it.
+                    self.state
+                        .carry_starts(&shift, &s.particles.inv_mass, s.contacts);
+                }
             }
             carried_to = mid;
-            self.state.begin_substep(s.contacts);
+            if sub > 0 {
+                self.state.begin_substep(s.contacts);
+            }
             for pin in s.pins {
                 self.state
                     .x

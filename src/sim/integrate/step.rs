@@ -214,6 +214,19 @@ impl SoaState {
         }
     }
 
+    /// Carries the free particles' recorded substep starts (see [`Self::begin_substep`]) along
+    /// by `shift`, as [`Self::carry`] carries their positions.
+    pub fn carry_starts(&mut self, shift: &Shift, inv_mass: &[f32], contacts: &Contacts) {
+        if !contacts.is_active() {
+            return;
+        }
+        for (i, w) in inv_mass.iter().enumerate().take(self.d.len()) {
+            if *w > 0.0 {
+                self.d.set(i, shift.point(self.d.get(i)));
+            }
+        }
+    }
+
     /// Moves the pinned particles to their targets at the end of substep `[t0, t1]` (fractions
     /// of the step) of length `1/inv_h`, with the velocity of that motion.
     pub fn drive_pins(&mut self, pins: &[PinState], order: &Order, t: (f32, f32), inv_h: f32) {
