@@ -274,9 +274,17 @@ impl<const ACCUMULATE: bool> Kernel for SolveSprings<'_, ACCUMULATE> {
             lambda,
             inv_h2,
         } = self;
-        // SAFETY: the caller of `solve_springs`, which made `self`, has exclusive use of what
-        // `runs` touch.
-        unsafe { solve_springs_body::<ACCUMULATE, WIDE>(p, runs, x, lambda, inv_h2) };
+        // Fused multiply-adds by the CPU's instructions where it has them, else by the same
+        // rounding in plain arithmetic (a library call per lane would cost the plain build many
+        // times its time).
+        if simd::fma_in_hardware() {
+            // SAFETY: the caller of `solve_springs`, which made `self`, has exclusive use of what
+            // `runs` touch.
+            unsafe { solve_springs_body::<ACCUMULATE, true, WIDE>(p, runs, x, lambda, inv_h2) };
+        } else {
+            // SAFETY: as above.
+            unsafe { solve_springs_body::<ACCUMULATE, false, WIDE>(p, runs, x, lambda, inv_h2) };
+        }
     }
 }
 
@@ -309,7 +317,7 @@ fn array<const N: usize>(s: &[f32]) -> &[f32; N] {
 
 /// The body of [`solve_springs`], which states its safety contract.
 #[inline(always)]
-unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
+unsafe fn solve_springs_body<const ACCUMULATE: bool, const FUSED: bool, const WIDE: bool>(
     p: &Projections,
     runs: &[Run],
     x: Split,
@@ -335,7 +343,9 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
             if offset >= 4 * LANES {
                 // SAFETY: the batches' slots and particles are among those `runs` touch.
                 k = unsafe {
-                    solve_contiguous_run::<ACCUMULATE, { 4 * LANES }>(p, x, lambda, inv_h2, k, end)
+                    solve_contiguous_run::<ACCUMULATE, FUSED, { 4 * LANES }>(
+                        p, x, lambda, inv_h2, k, end,
+                    )
                 };
             }
             // Batches of 16 slots, paired as the layout says ([`Projections::solo`]).
@@ -344,12 +354,20 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
                     if p.solo[k] {
                         // SAFETY: as above.
                         unsafe {
-                            solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k)
+                            solve_contiguous_at::<ACCUMULATE, FUSED, WIDE_BATCH>(
+                                p, x, lambda, inv_h2, k,
+                            )
                         };
                     } else if let Some(first) = waiting.take() {
                         // SAFETY: as above.
                         unsafe {
-                            solve_contiguous_pair::<ACCUMULATE>(p, x, lambda, inv_h2, [first, k])
+                            solve_contiguous_pair::<ACCUMULATE, FUSED>(
+                                p,
+                                x,
+                                lambda,
+                                inv_h2,
+                                [first, k],
+                            )
                         };
                     } else {
                         waiting = Some(k);
@@ -364,18 +382,18 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
             // SAFETY: the batch's slots and particles are among those `runs` touch.
             unsafe {
                 match run.layout {
-                    Layout::Contiguous => {
-                        solve_contiguous::<ACCUMULATE, LANES>(x, inv_mass, a, b, batch, inv_h2)
-                    }
+                    Layout::Contiguous => solve_contiguous::<ACCUMULATE, FUSED, LANES>(
+                        x, inv_mass, a, b, batch, inv_h2,
+                    ),
                     Layout::Interleaved(1) => {
-                        solve_interleaved::<ACCUMULATE, 1>(x, inv_mass, a, batch, inv_h2)
+                        solve_interleaved::<ACCUMULATE, FUSED, 1>(x, inv_mass, a, batch, inv_h2)
                     }
                     Layout::Interleaved(_) => {
-                        solve_interleaved::<ACCUMULATE, 2>(x, inv_mass, a, batch, inv_h2)
+                        solve_interleaved::<ACCUMULATE, FUSED, 2>(x, inv_mass, a, batch, inv_h2)
                     }
-                    Layout::Scattered => {
-                        solve_gathered::<ACCUMULATE, LANES>(&p.a, &p.b, x, inv_mass, batch, inv_h2)
-                    }
+                    Layout::Scattered => solve_gathered::<ACCUMULATE, FUSED, LANES>(
+                        &p.a, &p.b, x, inv_mass, batch, inv_h2,
+                    ),
                 }
             }
             k += LANES;
@@ -384,12 +402,14 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
         for k in k..end {
             let batch = Batch::<1>::at(rest, compliance, lambda, k);
             // SAFETY: the slot and its particles are among those `runs` touch.
-            unsafe { solve_gathered::<ACCUMULATE, 1>(&p.a, &p.b, x, inv_mass, batch, inv_h2) };
+            unsafe {
+                solve_gathered::<ACCUMULATE, FUSED, 1>(&p.a, &p.b, x, inv_mass, batch, inv_h2)
+            };
         }
     }
     if let Some(k) = waiting {
         // SAFETY: as above.
-        unsafe { solve_contiguous_at::<ACCUMULATE, WIDE_BATCH>(p, x, lambda, inv_h2, k) };
+        unsafe { solve_contiguous_at::<ACCUMULATE, FUSED, WIDE_BATCH>(p, x, lambda, inv_h2, k) };
     }
 }
 
@@ -400,7 +420,7 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const WIDE: bool>(
 /// # Safety
 /// No other thread touches the batch's multipliers while it runs.
 #[inline(always)]
-unsafe fn project<const ACCUMULATE: bool, const N: usize>(
+unsafe fn project<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     s: &[[f32; N]; 6],
     d: &mut [[f32; N]; 6],
     wa: &[f32; N],
@@ -414,7 +434,7 @@ unsafe fn project<const ACCUMULATE: bool, const N: usize>(
     } else {
         [0.0; N]
     };
-    update::<ACCUMULATE, N>(
+    update::<ACCUMULATE, FUSED, N>(
         s,
         d,
         (wa, wb),
@@ -431,7 +451,7 @@ unsafe fn project<const ACCUMULATE: bool, const N: usize>(
 /// [`project`]'s arithmetic, lane by lane, with the batch's inverse masses, rest lengths and
 /// compliances, and its multipliers in `lambda` (read and written only with `ACCUMULATE`).
 #[inline(always)]
-fn update<const ACCUMULATE: bool, const N: usize>(
+fn update<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     s: &[[f32; N]; 6],
     d: &mut [[f32; N]; 6],
     (wa, wb): (&[f32; N], &[f32; N]),
@@ -446,7 +466,8 @@ fn update<const ACCUMULATE: bool, const N: usize>(
         let dy = (s[1][l] - s[4][l]) + (d[1][l] - d[4][l]);
         let dz = (s[2][l] - s[5][l]) + (d[2][l] - d[5][l]);
         // Fused multiply-adds: one rounding each, and fewer instructions on the kernel's path.
-        let len2 = dx.mul_add(dx, dy.mul_add(dy, dz * dz));
+        let fma = simd::mul_add::<FUSED>;
+        let len2 = fma(dx, dx, fma(dy, dy, dz * dz));
         let lam = lambda[l];
         let alpha = compliance[l] * inv_h2;
         let rest = rest[l];
@@ -464,12 +485,12 @@ fn update<const ACCUMULATE: bool, const N: usize>(
             lambda[l] = lam + scale * len;
         }
         let (sa, sb) = (scale * wa[l], scale * wb[l]);
-        d[0][l] = dx.mul_add(sa, d[0][l]);
-        d[1][l] = dy.mul_add(sa, d[1][l]);
-        d[2][l] = dz.mul_add(sa, d[2][l]);
-        d[3][l] = (-dx).mul_add(sb, d[3][l]);
-        d[4][l] = (-dy).mul_add(sb, d[4][l]);
-        d[5][l] = (-dz).mul_add(sb, d[5][l]);
+        d[0][l] = fma(dx, sa, d[0][l]);
+        d[1][l] = fma(dy, sa, d[1][l]);
+        d[2][l] = fma(dz, sa, d[2][l]);
+        d[3][l] = fma(-dx, sb, d[3][l]);
+        d[4][l] = fma(-dy, sb, d[4][l]);
+        d[5][l] = fma(-dz, sb, d[5][l]);
     }
 }
 
@@ -486,7 +507,7 @@ fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
 /// # Safety
 /// As [`solve_contiguous`], for the slots `k..end`.
 #[inline(always)]
-unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const N: usize>(
+unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     p: &Projections,
     x: Split,
     lambda: Column,
@@ -496,7 +517,7 @@ unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const N: usize>(
 ) -> usize {
     while k + N <= end {
         // SAFETY: the caller's contract.
-        unsafe { solve_contiguous_at::<ACCUMULATE, N>(p, x, lambda, inv_h2, k) };
+        unsafe { solve_contiguous_at::<ACCUMULATE, FUSED, N>(p, x, lambda, inv_h2, k) };
         k += N;
     }
     k
@@ -507,7 +528,7 @@ unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const N: usize>(
 /// # Safety
 /// As [`solve_contiguous`].
 #[inline(always)]
-unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const N: usize>(
+unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     p: &Projections,
     x: Split,
     lambda: Column,
@@ -517,7 +538,7 @@ unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const N: usize>(
     let batch = Batch::at(&p.rest, &p.compliance, lambda, k);
     let (a, b) = (p.a[k] as usize, p.b[k] as usize);
     // SAFETY: the caller's contract.
-    unsafe { solve_contiguous::<ACCUMULATE, N>(x, &p.inv_mass, a, b, batch, inv_h2) };
+    unsafe { solve_contiguous::<ACCUMULATE, FUSED, N>(x, &p.inv_mass, a, b, batch, inv_h2) };
 }
 
 /// Two contiguous batches of [`WIDE_BATCH`] slots, at slots `k[0]` and `k[1]`, projected as one
@@ -527,7 +548,7 @@ unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const N: usize>(
 /// # Safety
 /// As [`solve_contiguous`], for both batches.
 #[inline(always)]
-unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
+unsafe fn solve_contiguous_pair<const ACCUMULATE: bool, const FUSED: bool>(
     p: &Projections,
     x: Split,
     lambda: Column,
@@ -578,7 +599,7 @@ unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
         [0.0; 2 * N]
     };
     let (rest, compliance) = (slots(&p.rest), slots(&p.compliance));
-    update::<ACCUMULATE, { 2 * N }>(
+    update::<ACCUMULATE, FUSED, { 2 * N }>(
         &s,
         &mut d,
         (&wa, &wb),
@@ -611,7 +632,7 @@ unsafe fn solve_contiguous_pair<const ACCUMULATE: bool>(
 /// No other thread touches those particles' displacements or the batch's multipliers while it
 /// runs.
 #[inline(always)]
-unsafe fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
+unsafe fn solve_contiguous<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     x: Split,
     inv_mass: &[f32],
     ia: usize,
@@ -630,7 +651,7 @@ unsafe fn solve_contiguous<const ACCUMULATE: bool, const N: usize>(
     let mut d = ends(ia, ib, |c, i| unsafe { x.delta[c].load(i) });
     let (wa, wb) = (load(inv_mass, ia), load(inv_mass, ib));
     // SAFETY: the caller's contract.
-    unsafe { project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2) };
+    unsafe { project::<ACCUMULATE, FUSED, N>(&s, &mut d, &wa, &wb, batch, inv_h2) };
     for (c, coord) in x.delta.iter().enumerate() {
         // SAFETY: the caller's contract.
         unsafe {
@@ -662,7 +683,7 @@ fn ends<const N: usize>(
 /// # Safety
 /// As [`solve_contiguous`], for the window's particles.
 #[inline(always)]
-unsafe fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
+unsafe fn solve_interleaved<const ACCUMULATE: bool, const FUSED: bool, const D: usize>(
     x: Split,
     inv_mass: &[f32],
     window: usize,
@@ -698,7 +719,7 @@ unsafe fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
         (wa[l], wb[l]) = (win[6][a], win[6][b]);
     }
     // SAFETY: the caller's contract.
-    unsafe { project::<ACCUMULATE, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2) };
+    unsafe { project::<ACCUMULATE, FUSED, LANES>(&s, &mut d, &wa, &wb, batch, inv_h2) };
     for (c, coord) in delta.iter().enumerate() {
         let mut out = [0.0f32; 16];
         for l in 0..LANES {
@@ -715,7 +736,7 @@ unsafe fn solve_interleaved<const ACCUMULATE: bool, const D: usize>(
 /// # Safety
 /// As [`solve_contiguous`], for the batch's particles.
 #[inline(always)]
-unsafe fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
+unsafe fn solve_gathered<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     a: &[u32],
     b: &[u32],
     x: Split,
@@ -737,7 +758,7 @@ unsafe fn solve_gathered<const ACCUMULATE: bool, const N: usize>(
         (wa[l], wb[l]) = (inv_mass[a[l] as usize], inv_mass[b[l] as usize]);
     }
     // SAFETY: the caller's contract.
-    unsafe { project::<ACCUMULATE, N>(&s, &mut d, &wa, &wb, batch, inv_h2) };
+    unsafe { project::<ACCUMULATE, FUSED, N>(&s, &mut d, &wa, &wb, batch, inv_h2) };
     for l in 0..N {
         for (e, i) in [(0, a[l] as usize), (3, b[l] as usize)] {
             for c in 0..3 {
