@@ -275,8 +275,7 @@ impl<const ACCUMULATE: bool> Kernel for SolveSprings<'_, ACCUMULATE> {
             inv_h2,
         } = self;
         // Fused multiply-adds by the CPU's instructions where it has them, else by the same
-        // rounding in plain arithmetic (a library call per lane would cost the plain build many
-        // times its time).
+        // rounding in plain arithmetic rather than a library call per lane.
         if simd::fma_in_hardware() {
             // SAFETY: the caller of `solve_springs`, which made `self`, has exclusive use of what
             // `runs` touch.
