@@ -252,6 +252,26 @@ pub(super) unsafe fn solve_springs_in<const ACCUMULATE: bool>(
         .fold(true, |ran, r| ran & r)
 }
 
+/// [`solve_springs`] in the plain build with its fused multiply-adds in plain arithmetic, as a
+/// CPU without FMA runs it. For the tests that compare the builds.
+///
+/// # Safety
+/// As [`solve_springs`].
+#[cfg(test)]
+pub(super) unsafe fn solve_springs_unfused<const ACCUMULATE: bool>(
+    p: &Projections,
+    x: Split,
+    lambda: Column,
+    inv_h2: f32,
+) {
+    for c in 0..p.color_count() {
+        for share in [p.share(c, 0), p.share(c, 1)] {
+            // SAFETY: the caller's contract.
+            unsafe { solve_springs_body::<ACCUMULATE, false, false>(p, share, x, lambda, inv_h2) };
+        }
+    }
+}
+
 /// [`solve_springs`]'s arguments, as a [`Kernel`]. Made only by [`solve_springs`], whose caller
 /// promises the exclusive use of what `runs` touch.
 struct SolveSprings<'a, const ACCUMULATE: bool> {

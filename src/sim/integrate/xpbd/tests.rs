@@ -330,8 +330,9 @@ fn padding_slots_change_nothing() {
 }
 
 /// The displacements and multipliers after one sweep over `model`'s springs by the kernel's
-/// `build` (with `ACCUMULATE`, from nonzero multipliers), if the CPU has it, as bits.
-fn sweep_in<const ACCUMULATE: bool>(build: Build, model: &ClothModel) -> Option<Vec<u32>> {
+/// `build` (with `ACCUMULATE`, from nonzero multipliers), if the CPU has it, as bits. `None` for
+/// `build`: the plain build with its fused multiply-adds in plain arithmetic.
+fn sweep_in<const ACCUMULATE: bool>(build: Option<Build>, model: &ClothModel) -> Option<Vec<u32>> {
     let n = model.particle_count();
     let s = &model.springs;
     let mut p = Projections::new(model);
@@ -359,7 +360,24 @@ fn sweep_in<const ACCUMULATE: bool>(build: Build, model: &ClothModel) -> Option<
     // SAFETY: one thread, and the arrays are used through the columns only until the sweep
     // returns.
     let ran = unsafe {
-        kernel::solve_springs_in::<ACCUMULATE>(build, &p, x, Column::new(&mut lambda), 3600.0)
+        match build {
+            Some(build) => kernel::solve_springs_in::<ACCUMULATE>(
+                build,
+                &p,
+                x,
+                Column::new(&mut lambda),
+                3600.0,
+            ),
+            None => {
+                kernel::solve_springs_unfused::<ACCUMULATE>(
+                    &p,
+                    x,
+                    Column::new(&mut lambda),
+                    3600.0,
+                );
+                true
+            }
+        }
     };
     ran.then(|| {
         let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
@@ -385,16 +403,22 @@ fn every_build_of_the_spring_kernel_gives_the_same_bits() {
     ];
     let mut compared = 0;
     for model in &models {
+        let plain = (
+            sweep_in::<false>(Some(Build::Plain), model),
+            sweep_in::<true>(Some(Build::Plain), model),
+        );
+        // Without FMA instructions, as a CPU without them runs the plain build.
+        let unfused = (
+            sweep_in::<false>(None, model),
+            sweep_in::<true>(None, model),
+        );
+        assert!(plain == unfused, "the plain build differs without FMA");
         for build in [Build::Avx2, Build::Avx512] {
             let wide = (
-                sweep_in::<false>(build, model),
-                sweep_in::<true>(build, model),
+                sweep_in::<false>(Some(build), model),
+                sweep_in::<true>(Some(build), model),
             );
             if wide.0.is_some() {
-                let plain = (
-                    sweep_in::<false>(Build::Plain, model),
-                    sweep_in::<true>(Build::Plain, model),
-                );
                 assert!(wide == plain, "{build:?} differs from the plain build");
                 compared += 1;
             }
