@@ -21,7 +21,7 @@
 use crate::hash::{GOLDEN_GAMMA, mix64, unit_interval};
 use crate::sim::model::two_rows;
 use crate::sim::simd::{self, Build, Kernel};
-use crate::sim::soa::Soa;
+use crate::sim::soa::{Coordinate, Soa};
 use bevy::reflect::Reflect;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -181,11 +181,18 @@ impl TriangleWind<'_> {
 pub(crate) struct GridAero {
     nx: usize,
     ny: usize,
-    /// The positions and velocities, one array per coordinate.
+    /// The positions and velocities, one array per coordinate, with [`Self::lanes`] zero vectors
+    /// after the particles, so that a row's padded lanes read no further than that.
     x: Soa,
     v: Soa,
-    /// The inputs of one row of quads' first and second triangles.
+    /// The quads of a row, `nx − 1`, rounded up to whole vectors: every row is computed in
+    /// vectors, without a scalar tail. The padded lanes compute from the next row's values (or the
+    /// zeros after the last), and their results are never used.
+    lanes: usize,
+    /// The inputs and forces of one row of quads' first and second triangles.
     plates: [Plates; 2],
+    /// The winds at one row's first and second triangles, when they differ between triangles.
+    winds: [Soa; 2],
     /// The forces (times a third) of each quad's two triangles, `(a, c, b)` and `(b, c, d)`, on a
     /// grid of `(nx + 1) × (ny + 1)` slots: quad `(i, j)` at slot `(i + 1, j + 1)`, the first
     /// and last row and column zero, so that every vertex adds the same six slots whether or not
@@ -197,12 +204,13 @@ pub(crate) struct GridAero {
 }
 
 /// The inputs of a row of triangles, one array per coordinate: their edges `e₁ = p₁ − p₀`,
-/// `e₂ = p₂ − p₀` and relative winds `u` (see [`plate_force`]).
+/// `e₂ = p₂ − p₀` and relative winds `u` (see [`plate_force`]); and their forces `f`.
 #[derive(Debug, Clone)]
 struct Plates {
     e1: Soa,
     e2: Soa,
     u: Soa,
+    f: Soa,
 }
 
 impl GridAero {
@@ -212,17 +220,21 @@ impl GridAero {
     pub fn new(model: &crate::sim::ClothModel) -> Option<Self> {
         let (nx, ny) = model.canonical_grid()?;
         let slots = (nx + 1) * (ny + 1);
+        let lanes = (nx - 1).next_multiple_of(ROW_LANES);
         let plates = || Plates {
-            e1: Soa::new(nx - 1),
-            e2: Soa::new(nx - 1),
-            u: Soa::new(nx - 1),
+            e1: Soa::new(lanes),
+            e2: Soa::new(lanes),
+            u: Soa::new(lanes),
+            f: Soa::new(lanes),
         };
         Some(Self {
             nx,
             ny,
-            x: Soa::new(nx * ny),
-            v: Soa::new(nx * ny),
+            x: Soa::new(nx * ny + lanes),
+            v: Soa::new(nx * ny + lanes),
+            lanes,
             plates: [plates(), plates()],
+            winds: [Soa::new(lanes), Soa::new(lanes)],
             first: Soa::new(slots),
             second: Soa::new(slots),
             sums: Soa::new(nx * ny),
@@ -279,43 +291,42 @@ impl Kernel for GridAeroKernel<'_> {
             ny,
             x,
             v,
+            lanes,
             plates,
+            winds,
             first,
             second,
             sums,
         } = self.grid;
-        let (nx, ny, w) = (*nx, *ny, *nx + 1);
+        let (nx, ny, w, lanes) = (*nx, *ny, *nx + 1, *lanes);
         let scale = force_scale(self.params, 1.0 / 3.0);
         for j in 0..ny - 1 {
             // Quad (i, j) has the corners a = (i, j), b = (i + 1, j), c = (i, j + 1) and
             // d = (i + 1, j + 1); its triangles take them in the order (a, c, b) and (b, c, d),
             // as `TriangleLanes::gather` does.
             let (m, rows) = (nx - 1, j * (nx - 1));
-            match self.wind {
-                TriangleWind::Uniform(wind) => {
-                    row_inputs(x, v, (j * nx, nx), plates, |c, _| (wind[c], wind[c]));
-                }
+            let wind = match self.wind {
+                TriangleWind::Uniform(wind) => RowWind::Uniform(wind),
                 TriangleWind::Each(each) => {
                     let each = &each[2 * rows..2 * (rows + m)];
-                    row_inputs(x, v, (j * nx, nx), plates, |c, i| {
-                        (each[2 * i][c], each[2 * i + 1][c])
-                    });
+                    for (t, wind) in winds.iter_mut().enumerate() {
+                        for (i, (x, y, z)) in wind.iter_mut().take(m).enumerate() {
+                            (*x, *y, *z) = each[2 * i + t].into();
+                        }
+                    }
+                    RowWind::Each(winds)
                 }
-            }
+            };
+            row_inputs(x, v, (j * nx, nx, lanes), plates, wind);
             // The forces of row j's quads, into slot row j + 1, columns 1..nx.
             let s = (j + 1) * w + 1..(j + 1) * w + nx;
-            for (p, out) in plates.iter().zip([&mut *first, &mut *second]) {
-                let (fx, fy, fz) = (
-                    &mut out.x[s.clone()],
-                    &mut out.y[s.clone()],
-                    &mut out.z[s.clone()],
-                );
-                let m = fx.len();
-                let (e1, e2, u) = (&p.e1, &p.e2, &p.u);
-                let (e1x, e1y, e1z) = (&e1.x[..m], &e1.y[..m], &e1.z[..m]);
-                let (e2x, e2y, e2z) = (&e2.x[..m], &e2.y[..m], &e2.z[..m]);
-                let (ux, uy, uz) = (&u.x[..m], &u.y[..m], &u.z[..m]);
-                for i in 0..m {
+            for (p, out) in plates.iter_mut().zip([&mut *first, &mut *second]) {
+                let Plates { e1, e2, u, f } = p;
+                let (fx, fy, fz) = (&mut f.x[..lanes], &mut f.y[..lanes], &mut f.z[..lanes]);
+                let (e1x, e1y, e1z) = (&e1.x[..lanes], &e1.y[..lanes], &e1.z[..lanes]);
+                let (e2x, e2y, e2z) = (&e2.x[..lanes], &e2.y[..lanes], &e2.z[..lanes]);
+                let (ux, uy, uz) = (&u.x[..lanes], &u.y[..lanes], &u.z[..lanes]);
+                for i in 0..lanes {
                     [fx[i], fy[i], fz[i]] = plate_force(
                         [e1x[i], e1y[i], e1z[i]],
                         [e2x[i], e2y[i], e2z[i]],
@@ -323,6 +334,9 @@ impl Kernel for GridAeroKernel<'_> {
                         scale,
                     );
                 }
+                out.x[s.clone()].copy_from_slice(&fx[..m]);
+                out.y[s.clone()].copy_from_slice(&fy[..m]);
+                out.z[s.clone()].copy_from_slice(&fz[..m]);
             }
         }
         // Vertex (i, j) is d of quad (i − 1, j − 1) (its second triangle), c of (i, j − 1)
@@ -346,18 +360,29 @@ impl Kernel for GridAeroKernel<'_> {
     }
 }
 
+/// Lanes a [`GridAero`] row is rounded up to: a whole number of the widest vectors.
+const ROW_LANES: usize = 16;
+
+/// The winds at a row's triangles, for [`row_inputs`].
+#[derive(Clone, Copy)]
+enum RowWind<'a> {
+    /// The same at every triangle.
+    Uniform(Vec3),
+    /// At the first and the second triangle of each quad.
+    Each(&'a [Soa; 2]),
+}
+
 /// The inputs of the triangles of the row of quads whose corners `a` are particles
-/// `start..start + nx − 1` (rows of `nx` particles), into `plates`, with `wind(c, i)` the
-/// coordinate `c` of the winds at quad `i`'s two triangles. Quad `i` has the corners `a`,
-/// `b = a + 1`, `c = a + nx` and `d = c + 1`; its triangles take them in the order `(a, c, b)`
-/// and `(b, c, d)`, as `TriangleLanes::gather` does.
+/// `start..start + lanes` (rows of `nx` particles; the quads past `nx − 1` are padding), into
+/// `plates`. Quad `i` has the corners `a`, `b = a + 1`, `c = a + nx` and `d = c + 1`; its
+/// triangles take them in the order `(a, c, b)` and `(b, c, d)`, as `TriangleLanes::gather` does.
 #[inline(always)]
 fn row_inputs(
     x: &Soa,
     v: &Soa,
-    (start, nx): (usize, usize),
+    (start, nx, lanes): (usize, usize, usize),
     [p0, p1]: &mut [Plates; 2],
-    wind: impl Fn(usize, usize) -> (f32, f32),
+    wind: RowWind,
 ) {
     let coords = [
         (
@@ -379,22 +404,46 @@ fn row_inputs(
             [&mut p1.e1.z, &mut p1.e2.z, &mut p1.u.z],
         ),
     ];
-    for (c, (x, v, [e1, e2, u0], [f1, f2, u1])) in coords.into_iter().enumerate() {
-        let m = nx - 1;
-        let ((xa, xc), (va, vc)) = (two_rows(x, start, nx), two_rows(v, start, nx));
-        let (xa, xb, xc, xd) = (&xa[..m], &xa[1..], &xc[..m], &xc[1..]);
-        let (va, vb, vc, vd) = (&va[..m], &va[1..], &vc[..m], &vc[1..]);
-        let (e1, e2, u0) = (&mut e1[..m], &mut e2[..m], &mut u0[..m]);
-        let (f1, f2, u1) = (&mut f1[..m], &mut f2[..m], &mut u1[..m]);
-        for i in 0..m {
-            e1[i] = xc[i] - xa[i];
-            e2[i] = xb[i] - xa[i];
-            f1[i] = xc[i] - xb[i];
-            f2[i] = xd[i] - xb[i];
-            let (w0, w1) = wind(c, i);
-            u0[i] = ((w0 - va[i]) + (w0 - vc[i]) + (w0 - vb[i])) * (1.0 / 3.0);
-            u1[i] = ((w1 - vb[i]) + (w1 - vc[i]) + (w1 - vd[i])) * (1.0 / 3.0);
+    for (c, (x, v, first, second)) in coords.into_iter().enumerate() {
+        // Rows `a` and `c`, each one particle longer than the lanes (for `b` and `d`).
+        let rows = |v| two_rows(v, start, nx, lanes + 1);
+        // The coordinate chosen outside the loop over the row, so that it is a vector loop.
+        match wind {
+            RowWind::Uniform(w) => {
+                let w = w.to_array()[c];
+                row_coordinate(rows(x), rows(v), [first, second], lanes, |_| (w, w));
+            }
+            RowWind::Each([w0, w1]) => {
+                let (w0, w1) = (&w0.coordinate(c)[..lanes], &w1.coordinate(c)[..lanes]);
+                row_coordinate(rows(x), rows(v), [first, second], lanes, |i| (w0[i], w1[i]));
+            }
         }
+    }
+}
+
+/// One coordinate of [`row_inputs`]: from rows `a` and `c` of the positions and velocities
+/// (`lanes + 1` long), the first and second triangles' `e₁`, `e₂` and `u`, with `wind(i)` the
+/// winds at quad `i`'s two triangles.
+#[inline(always)]
+fn row_coordinate(
+    (xa, xc): (&[f32], &[f32]),
+    (va, vc): (&[f32], &[f32]),
+    [[e1, e2, u0], [f1, f2, u1]]: [[&mut Coordinate; 3]; 2],
+    lanes: usize,
+    wind: impl Fn(usize) -> (f32, f32),
+) {
+    let (xa, xb, xc, xd) = (&xa[..lanes], &xa[1..], &xc[..lanes], &xc[1..]);
+    let (va, vb, vc, vd) = (&va[..lanes], &va[1..], &vc[..lanes], &vc[1..]);
+    let (e1, e2, u0) = (&mut e1[..lanes], &mut e2[..lanes], &mut u0[..lanes]);
+    let (f1, f2, u1) = (&mut f1[..lanes], &mut f2[..lanes], &mut u1[..lanes]);
+    for i in 0..lanes {
+        e1[i] = xc[i] - xa[i];
+        e2[i] = xb[i] - xa[i];
+        f1[i] = xc[i] - xb[i];
+        f2[i] = xd[i] - xb[i];
+        let (w0, w1) = wind(i);
+        u0[i] = ((w0 - va[i]) + (w0 - vc[i]) + (w0 - vb[i])) * (1.0 / 3.0);
+        u1[i] = ((w1 - vb[i]) + (w1 - vc[i]) + (w1 - vd[i])) * (1.0 / 3.0);
     }
 }
 

@@ -153,6 +153,11 @@ impl Soa {
         }
     }
 
+    /// Coordinate `c` (0, 1, 2: x, y, z) of every vector.
+    pub fn coordinate(&self, c: usize) -> &[f32] {
+        [&self.x, &self.y, &self.z][c]
+    }
+
     /// Number of vectors.
     pub fn len(&self) -> usize {
         self.x.len()

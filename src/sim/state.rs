@@ -132,3 +132,39 @@ impl Energy {
         self.kinetic + self.gravitational + self.elastic
     }
 }
+
+/// The first of `v` with a coordinate that is not finite. Blocks of vectors are tested without
+/// a branch per value (a vector loop), and only a failing block is searched.
+pub(crate) fn first_not_finite(v: &[Vec3]) -> Option<usize> {
+    const BLOCK: usize = 64;
+    let flat: &[f32] = bytemuck::cast_slice(v);
+    let block = flat
+        .chunks(3 * BLOCK)
+        .position(|c| !c.iter().fold(true, |ok, x| ok & x.is_finite()))?;
+    let start = block * BLOCK;
+    v[start..]
+        .iter()
+        .position(|x| !x.is_finite())
+        .map(|i| start + i)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_vector_not_finite_is_found_in_any_block_and_coordinate() {
+        let n = 200;
+        assert_eq!(first_not_finite(&vec![Vec3::ONE; n]), None);
+        assert_eq!(first_not_finite(&[]), None);
+        for bad in [0, 1, 63, 64, 65, 130, 199] {
+            for (c, value) in [(0, f32::NAN), (1, f32::INFINITY), (2, f32::NEG_INFINITY)] {
+                let mut v = vec![Vec3::splat(-2.5); n];
+                v[bad][c] = value;
+                // A later one does not hide it.
+                v[n - 1].x = f32::NAN;
+                assert_eq!(first_not_finite(&v), Some(bad), "{bad}, coordinate {c}");
+            }
+        }
+    }
+}

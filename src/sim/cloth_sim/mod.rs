@@ -18,11 +18,12 @@ use super::settings::{
     AUTO_MAX_STRETCH, Integrator, MAX_SUBSTEPS, NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION,
     SolverSettings,
 };
-use super::state::{Energy, Particles, PinState, max_length};
+use super::state::{Energy, Particles, PinState, first_not_finite, max_length};
 use super::wind::{WindField, WindScratch};
 use crate::error::ClothError;
 
 mod adaptive;
+
 #[cfg(test)]
 mod tests;
 
@@ -860,8 +861,8 @@ impl ClothSim {
             *from = *to;
         }
         let p = &self.particles;
-        let not_finite = |v: &[Vec3]| v.iter().position(|x| !x.is_finite());
-        if let Some(particle) = not_finite(&p.positions).or_else(|| not_finite(&p.velocities)) {
+        let not_finite = first_not_finite(&p.positions).or_else(|| first_not_finite(&p.velocities));
+        if let Some(particle) = not_finite {
             return Err(ClothError::Diverged {
                 step: self.steps,
                 particle,

@@ -100,9 +100,9 @@ impl Kernel for Normals<'_> {
         for j in 0..ny - 1 {
             let start = j * nx;
             let ((x0, x1), (y0, y1), (z0, z1)) = (
-                two_rows(&x.x, start, nx),
-                two_rows(&x.y, start, nx),
-                two_rows(&x.z, start, nx),
+                two_rows(&x.x, start, nx, nx),
+                two_rows(&x.y, start, nx, nx),
+                two_rows(&x.z, start, nx, nx),
             );
             let s = (j + 1) * w + 1..(j + 1) * w + nx;
             let (f, g) = (&mut *self.first, &mut *self.second);
@@ -161,10 +161,10 @@ impl Kernel for Normals<'_> {
     }
 }
 
-/// Rows `start / n` and the next of an array of rows `n` long.
+/// `len` values from `start` in an array of rows `n` long, and the same in the next row.
 #[inline(always)]
-pub(crate) fn two_rows(v: &[f32], start: usize, n: usize) -> (&[f32], &[f32]) {
-    v[start..start + 2 * n].split_at(n)
+pub(crate) fn two_rows(v: &[f32], start: usize, n: usize, len: usize) -> (&[f32], &[f32]) {
+    (&v[start..start + len], &v[start + n..start + n + len])
 }
 
 /// One coordinate of the two slot rows around a row of vertices, `w` long each: the first and

@@ -110,9 +110,10 @@ impl Xpbd {
         if wind {
             let forces = s.wind.particle_forces();
             let order = self.layout.storage().order();
-            for (k, w) in self.layout.inv_mass.iter().enumerate() {
-                let f = forces[order.get(k).map_or(k, |&i| i as usize)];
-                self.wind_dv.set(k, f * (*w * h));
+            let dv = self.wind_dv.iter_mut();
+            for ((k, w), (x, y, z)) in self.layout.inv_mass.iter().enumerate().zip(dv) {
+                let f = forces[order.get(k).map_or(k, |&i| i as usize)] * (*w * h);
+                (*x, *y, *z) = (f.x, f.y, f.z);
             }
         }
         // Nothing happens to the state between the end of one substep and the start of the next
