@@ -260,16 +260,13 @@ impl GridAero {
         {
             return false;
         }
-        self.x.load(positions);
-        self.v.load(velocities);
         simd::run(GridAeroKernel {
             grid: self,
+            state: (positions, velocities),
             wind,
             params,
+            forces,
         });
-        for (f, s) in forces.iter_mut().zip(self.sums.iter()) {
-            *f += s;
-        }
         true
     }
 }
@@ -277,8 +274,10 @@ impl GridAero {
 /// [`GridAero::add_forces`]' arguments, as a [`Kernel`].
 struct GridAeroKernel<'a> {
     grid: &'a mut GridAero,
+    state: (&'a [Vec3], &'a [Vec3]),
     wind: TriangleWind<'a>,
     params: &'a AeroParams,
+    forces: &'a mut [Vec3],
 }
 
 impl Kernel for GridAeroKernel<'_> {
@@ -299,6 +298,9 @@ impl Kernel for GridAeroKernel<'_> {
             sums,
         } = self.grid;
         let (nx, ny, w, lanes) = (*nx, *ny, *nx + 1, *lanes);
+        // The copies in and out too, so that they are built for the same vector units.
+        x.load(self.state.0);
+        v.load(self.state.1);
         let scale = force_scale(self.params, 1.0 / 3.0);
         for j in 0..ny - 1 {
             // Quad (i, j) has the corners a = (i, j), b = (i + 1, j), c = (i, j + 1) and
@@ -356,6 +358,9 @@ impl Kernel for GridAeroKernel<'_> {
                     *o = 0.0 + gd[i] + fd[i + 1] + gd[i + 1] + fu[i] + gu[i] + fu[i + 1];
                 }
             }
+        }
+        for (f, s) in self.forces.iter_mut().zip(sums.iter()) {
+            *f += s;
         }
     }
 }

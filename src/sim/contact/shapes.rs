@@ -235,20 +235,22 @@ impl Shape {
 
 /// The axis-aligned bounding box `(min, max)` of `positions` (min > max when empty).
 pub fn bounds(positions: &[Vec3]) -> (Vec3, Vec3) {
-    // Eight independent running boxes, so the loop is not one long chain of dependent min/max.
-    let (chunks, rest) = positions.as_chunks::<8>();
-    let mut boxes = [(Vec3::INFINITY, Vec3::NEG_INFINITY); 8];
-    for chunk in chunks {
-        for ((lo, hi), p) in boxes.iter_mut().zip(chunk) {
-            (*lo, *hi) = (lo.min(*p), hi.max(*p));
+    // Eight vectors at a time as 24 values, each kept in its own running minimum and maximum
+    // (value `k` of a block is always coordinate `k mod 3`): a loop the compiler vectorizes.
+    const BLOCK: usize = 24;
+    let (blocks, rest) = bytemuck::cast_slice::<Vec3, f32>(positions).as_chunks::<BLOCK>();
+    let (mut lo, mut hi) = ([f32::INFINITY; BLOCK], [f32::NEG_INFINITY; BLOCK]);
+    for block in blocks {
+        for k in 0..BLOCK {
+            (lo[k], hi[k]) = (lo[k].min(block[k]), hi[k].max(block[k]));
         }
     }
-    boxes
-        .into_iter()
-        .chain(rest.iter().map(|p| (*p, *p)))
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
-            (lo.min(a), hi.max(b))
-        })
+    let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for k in 0..BLOCK {
+        (min[k % 3], max[k % 3]) = (min[k % 3].min(lo[k]), max[k % 3].max(hi[k]));
+    }
+    let rest = rest.as_chunks::<3>().0.iter().map(|p| Vec3::from_array(*p));
+    rest.fold((min, max), |(lo, hi), p| (lo.min(p), hi.max(p)))
 }
 
 /// World-space bounding box of the local box with centre `centre` and half size `half` at `pose`.

@@ -53,6 +53,30 @@ fn signed_distances_are_exact_and_normals_are_gradients() {
 }
 
 #[test]
+fn bounds_of_points_are_their_extremes_in_each_coordinate() {
+    for n in [0, 1, 7, 8, 9, 23, 100] {
+        let points: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let f = i as f32;
+                Vec3::new((f * 0.37).sin(), (f * 0.91).cos() * 2.0, f * 0.13 - 3.0)
+            })
+            .collect();
+        let (lo, hi) = bounds(&points);
+        if n == 0 {
+            assert!(lo.cmpgt(hi).all(), "empty: {lo} > {hi}");
+            continue;
+        }
+        for c in 0..3 {
+            let values = points.iter().map(|p| p[c]);
+            let (min, max) = values.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+            assert_eq!((lo[c], hi[c]), (min, max), "{n} points, coordinate {c}");
+        }
+    }
+}
+
+#[test]
 fn bounds_contain_the_shape() {
     let pose = Pose {
         rotation: Quat::from_euler(glam::EulerRot::XYZ, 0.3, 1.1, -0.4),
