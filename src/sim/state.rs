@@ -75,6 +75,31 @@ pub(crate) fn max_length(vectors: &[Vec3]) -> f32 {
         .sqrt()
 }
 
+/// The largest distance from `from` to `to` among the particles whose `weight` (inverse mass)
+/// is positive (0 for none).
+pub(crate) fn max_distance(from: &[Vec3], to: &[Vec3], weight: &[f32]) -> f32 {
+    let n = from.len().min(to.len()).min(weight.len());
+    let (from, to, weight) = (&from[..n], &to[..n], &weight[..n]);
+    // As in `max_length`: eight running maxima, and every particle's distance computed (a select,
+    // not a branch), so that the loop runs in vectors.
+    let squared = |k: usize| {
+        let d = from[k].distance_squared(to[k]);
+        if weight[k] > 0.0 { d } else { 0.0 }
+    };
+    let mut max = [0.0f32; 8];
+    let blocks = n / 8 * 8;
+    for k in (0..blocks).step_by(8) {
+        for (l, m) in max.iter_mut().enumerate() {
+            *m = m.max(squared(k + l));
+        }
+    }
+    (blocks..n)
+        .map(squared)
+        .chain(max)
+        .fold(0.0, f32::max)
+        .sqrt()
+}
+
 /// A target that moves from `from` to `to` over the step, at fraction `t` of it: `Vec3::lerp`,
 /// except that a coordinate that does not move is `from`'s exactly (the blend rounds it by an ulp
 /// at some `t`, which would give a still pin or target a speed).
@@ -151,6 +176,33 @@ pub(crate) fn first_not_finite(v: &[Vec3]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_largest_distance_counts_only_particles_with_weight() {
+        for n in [0, 1, 7, 8, 9, 40] {
+            let from: Vec<Vec3> = (0..n).map(|k| Vec3::splat(k as f32 * 0.1)).collect();
+            let to: Vec<Vec3> = (0..n)
+                .map(|k| from[k] + Vec3::new((k as f32).sin(), 0.5, -(k as f32 * 0.3).cos()))
+                .collect();
+            // Every third particle weightless, the farthest among them.
+            let mut weight: Vec<f32> = (0..n).map(|k| (k % 3) as f32).collect();
+            let mut to = to;
+            if n > 3 {
+                to[n / 3 * 3 - 3] += Vec3::splat(100.0);
+                weight[n / 3 * 3 - 3] = 0.0;
+            }
+            // The farthest with weight last (after the whole blocks of eight, for 9).
+            if n > 0 && weight[n - 1] > 0.0 {
+                to[n - 1] += Vec3::splat(50.0);
+            }
+            let expected = (0..n)
+                .filter(|&k| weight[k] > 0.0)
+                .map(|k| from[k].distance_squared(to[k]))
+                .fold(0.0, f32::max)
+                .sqrt();
+            assert_eq!(max_distance(&from, &to, &weight), expected, "{n} particles");
+        }
+    }
 
     #[test]
     fn the_first_vector_not_finite_is_found_in_any_block_and_coordinate() {

@@ -285,22 +285,30 @@ impl WindScratch {
         dt: f32,
         uniform: Option<Vec3>,
     ) {
-        for (((f, v), w), (sum, n)) in self
-            .particle_force
-            .iter_mut()
-            .zip(velocities)
-            .zip(inv_mass)
-            .zip(&self.wind_sum)
-        {
-            let mean = match uniform {
-                Some(wind) => wind,
-                None if *n > 0 => *sum / *n as f32,
-                None => continue,
+        // The factor is selected, not branched on, so that the loops run in vectors; a factor of
+        // 1 leaves a force's bits as they are.
+        let limit = |f: &mut Vec3, v: Vec3, w: f32, mean: Vec3| {
+            let relative_sq = (mean - v).length_squared();
+            let dv_sq = f.length_squared() * (w * dt) * (w * dt);
+            *f *= if dv_sq > relative_sq {
+                (relative_sq / dv_sq).sqrt()
+            } else {
+                1.0
             };
-            let relative_sq = (mean - *v).length_squared();
-            let dv_sq = f.length_squared() * (*w * dt) * (*w * dt);
-            if dv_sq > relative_sq {
-                *f *= (relative_sq / dv_sq).sqrt();
+        };
+        let forces = self.particle_force.iter_mut().zip(velocities).zip(inv_mass);
+        match uniform {
+            Some(wind) => {
+                for ((f, v), w) in forces {
+                    limit(f, *v, *w, wind);
+                }
+            }
+            None => {
+                for (((f, v), w), (sum, n)) in forces.zip(&self.wind_sum) {
+                    if *n > 0 {
+                        limit(f, *v, *w, *sum / *n as f32);
+                    }
+                }
             }
         }
     }

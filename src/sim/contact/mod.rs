@@ -73,6 +73,7 @@ use glam::{Vec3, Vec3A};
 
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
+use crate::sim::state::max_distance;
 pub(crate) use cloths::ClothContacts;
 pub use cloths::OtherCloth;
 pub(crate) use limits::Limits;
@@ -313,14 +314,7 @@ impl Contacts {
         if !self.dropped {
             return 0.0;
         }
-        let moved = start
-            .iter()
-            .zip(&*x)
-            .zip(inv_mass)
-            .filter(|(_, w)| **w > 0.0)
-            .map(|((a, b), _)| a.distance_squared(*b))
-            .fold(0.0, f32::max)
-            .sqrt();
+        let moved = max_distance(start, x, inv_mass);
         let (lo, hi) = bounds(start);
         let paths = (lo - Vec3::splat(moved), hi + Vec3::splat(moved));
         let (a, b) = self.reach_box;
