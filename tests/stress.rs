@@ -73,7 +73,7 @@ fn every_integrator_survives_100_stress_cases_in_tolerance_mode() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 18] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 23] = [
     (
         45762,
         13,
@@ -181,6 +181,36 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 18] = [
         4852,
         Verlet,
         "a falling particle crossed a thin box in a step's opening half-drift, which no sweep saw",
+    ),
+    (
+        1,
+        52,
+        Verlet,
+        "tethers projected once a step, over a whole step's overshoot, gave the cloth energy",
+    ),
+    (
+        1,
+        551,
+        Verlet,
+        "tethers projected once a step, over a whole step's overshoot, gave the cloth energy",
+    ),
+    (
+        1,
+        1566,
+        Verlet,
+        "tethers projected once a step, over a whole step's overshoot, gave the cloth energy",
+    ),
+    (
+        1,
+        733,
+        SymplecticEuler,
+        "tethers projected once a step, over a whole step's overshoot, gave the cloth energy",
+    ),
+    (
+        1,
+        1454,
+        SymplecticEuler,
+        "tethers projected once a step, over a whole step's overshoot, gave the cloth energy",
     ),
 ];
 

@@ -341,7 +341,8 @@ impl TargetLimits {
 /// Tethers (long-range attachments): each free particle stays within `1 + slack` times its
 /// geodesic rest distance (along the cloth's rest shape) from the nearest pinned particle, so a
 /// cloth hanging from its pins does not stretch however few iterations it runs. XPBD projects
-/// them after the springs in every substep; the force-based integrators at the end of each step.
+/// them after the springs in every substep; the force-based integrators with the contacts at the
+/// end of every substep.
 /// A tether's length is measured at rest, so slack 0 keeps the cloth from stretching along it at
 /// all, even where its springs alone would (they are stiff, not rigid).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]

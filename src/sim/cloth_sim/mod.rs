@@ -23,7 +23,6 @@ use super::wind::{WindField, WindScratch};
 use crate::error::ClothError;
 
 mod adaptive;
-
 #[cfg(test)]
 mod tests;
 

@@ -7,8 +7,8 @@
 //!   distance, times `1 + slack`, of the nearest pinned particle, so that stretch under a sudden
 //!   pull does not depend on how many iterations the springs get. XPBD projects them itself,
 //!   after the springs of every substep (`integrate/xpbd/tethers.rs`); for the other
-//!   integrators they act here once per step, at the end of its last substep: what a step ends
-//!   in (and shows) is within them.
+//!   integrators they act here, at the end of every substep (once per step, the projection back
+//!   over a whole step's overshoot let explicit integrators gain energy).
 //!
 //! Each limit is a one-sided distance constraint between the particle and a point that moves on
 //! its own (the target, interpolated across the step like a pin; the pinned anchor, already at
@@ -171,12 +171,11 @@ impl Limits {
     }
 
     /// Projects every free particle that has left its limits back onto them at the end of the
-    /// substep `[t0, t1]` (fractions of the step) of length `h`: its targets' every substep,
-    /// its tether at the end of the step's last substep (`t1 == 1`), unless the stepper projects
-    /// the tethers itself ([`ContactState::projects_tethers`]).
+    /// substep `[t0, t1]` (fractions of the step) of length `h`: its targets, and its tether
+    /// unless the stepper projects the tethers itself ([`ContactState::projects_tethers`]).
     pub fn resolve<S: ContactState>(&self, (t0, t1, h): (f32, f32, f32), state: &mut S) {
         let inv_h = 1.0 / h;
-        let tethers = if t1 >= 1.0 && !state.projects_tethers() {
+        let tethers = if !state.projects_tethers() {
             &self.tethers[..]
         } else {
             &[]
