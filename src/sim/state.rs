@@ -181,12 +181,11 @@ mod tests {
     fn the_largest_distance_counts_only_particles_with_weight() {
         for n in [0, 1, 7, 8, 9, 40] {
             let from: Vec<Vec3> = (0..n).map(|k| Vec3::splat(k as f32 * 0.1)).collect();
-            let to: Vec<Vec3> = (0..n)
+            let mut to: Vec<Vec3> = (0..n)
                 .map(|k| from[k] + Vec3::new((k as f32).sin(), 0.5, -(k as f32 * 0.3).cos()))
                 .collect();
             // Every third particle weightless, the farthest among them.
             let mut weight: Vec<f32> = (0..n).map(|k| (k % 3) as f32).collect();
-            let mut to = to;
             if n > 3 {
                 to[n / 3 * 3 - 3] += Vec3::splat(100.0);
                 weight[n / 3 * 3 - 3] = 0.0;
