@@ -349,6 +349,53 @@ mod tests {
     }
 
     #[test]
+    fn the_winds_velocity_change_over_a_step_stops_at_the_air_speed() {
+        // Light particles in a strong wind over a long step: uncapped, drag would carry them far
+        // past the air's own speed.
+        let spec = GridSpec::new(9, 5, 0.1).with_plane(GridPlane::Vertical);
+        let model = ClothModel::grid(&spec).unwrap();
+        let n = model.particle_count();
+        let velocities: Vec<Vec3> = (0..n)
+            .map(|k| Vec3::new((k as f32).sin(), 0.5, (k as f32 * 0.3).cos()))
+            .collect();
+        let (inv_mass, dt) = (vec![1000.0; n], 0.1);
+        let uniform = WindField {
+            velocity: Vec3::new(3.0, 0.0, 40.0),
+            air_density: crate::sim::aero::AIR_DENSITY,
+            ..Default::default()
+        };
+        let gusty = WindField {
+            gusts: Some(Gusts::default()),
+            ..uniform.clone()
+        };
+        for field in [uniform, gusty] {
+            let mut wind = WindScratch::new(&model);
+            let (x, v) = (&model.rest_positions, &velocities);
+            let triangles = &model.triangles;
+            wind.begin_step(Some(&field), (1.0, 0.5), x, v, (&inv_mass, dt), triangles);
+            let mut capped = 0;
+            for (k, f) in wind.particle_forces().iter().enumerate() {
+                let (sum, count) = wind.wind_sum[k];
+                let mean = if field.is_uniform() {
+                    field.velocity
+                } else {
+                    sum / count as f32
+                };
+                let (dv, relative) = (
+                    (*f * inv_mass[k] * dt).length(),
+                    mean.distance(velocities[k]),
+                );
+                assert!(
+                    dv <= relative * (1.0 + 1e-5),
+                    "particle {k}: {dv} past {relative}"
+                );
+                capped += usize::from(dv > relative * (1.0 - 1e-5));
+            }
+            assert!(capped > n / 2, "{capped} of {n} particles at the cap");
+        }
+    }
+
+    #[test]
     fn many_points_sampled_at_once_get_what_each_gets_alone() {
         let gusts = |seed| {
             Some(Gusts {

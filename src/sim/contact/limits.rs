@@ -7,8 +7,9 @@
 //!   distance, times `1 + slack`, of the nearest pinned particle, so that stretch under a sudden
 //!   pull does not depend on how many iterations the springs get. XPBD projects them itself,
 //!   after the springs of every substep (`integrate/xpbd/tethers.rs`); for the other
-//!   integrators they act here, at the end of every substep (once per step, the projection back
-//!   over a whole step's overshoot let explicit integrators gain energy).
+//!   integrators they act here, at the end of every substep, so that no particle overshoots a
+//!   tether by more than a substep's motion (projected back from a whole step's overshoot, an
+//!   explicit integrator's cloth gains energy).
 //!
 //! Each limit is a one-sided distance constraint between the particle and a point that moves on
 //! its own (the target, interpolated across the step like a pin; the pinned anchor, already at
