@@ -311,17 +311,21 @@ impl<const ACCUMULATE: bool> Kernel for SolveSprings<'_, ACCUMULATE> {
 struct Batch<'a, const N: usize> {
     rest: &'a [f32; N],
     compliance: &'a [f32; N],
+    /// [`Projections::weights`].
+    weights: [&'a [f32; N]; 2],
     lambda: Column<'a>,
     k: usize,
 }
 
 impl<'a, const N: usize> Batch<'a, N> {
-    /// Slots `k..k + N` (the runs never reach past the slots: a panic if they did).
+    /// Slots `k..k + N` of `p` (the runs never reach past the slots: a panic if they did).
     #[inline(always)]
-    fn at(rest: &'a [f32], compliance: &'a [f32], lambda: Column<'a>, k: usize) -> Self {
+    fn at(p: &'a Projections, lambda: Column<'a>, k: usize) -> Self {
+        let slots = |v: &'a [f32]| array(&v[k..k + N]);
         Self {
-            rest: array(&rest[k..k + N]),
-            compliance: array(&compliance[k..k + N]),
+            rest: slots(&p.rest),
+            compliance: slots(&p.compliance),
+            weights: [slots(&p.weights[0]), slots(&p.weights[1])],
             lambda,
             k,
         }
@@ -343,7 +347,10 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const FUSED: bool, const WI
     lambda: Column,
     inv_h2: f32,
 ) {
-    let (rest, compliance) = (&p.rest, &p.compliance);
+    assert!(
+        ACCUMULATE || p.weighted_for(inv_h2),
+        "the slots' weights are not set for this substep"
+    );
     let inv_mass = &p.inv_mass[..];
     // Every column cut to the particle count, so that one bounds check per batch covers them all.
     let x = x.cut(inv_mass.len());
@@ -396,7 +403,7 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const FUSED: bool, const WI
             }
         }
         while k + LANES <= end {
-            let batch = Batch::at(rest, compliance, lambda, k);
+            let batch = Batch::at(p, lambda, k);
             let (a, b) = (p.a[k] as usize, p.b[k] as usize);
             // SAFETY: the batch's slots and particles are among those `runs` touch.
             unsafe {
@@ -419,7 +426,7 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const FUSED: bool, const WI
         }
         // Whatever is left of the run, one slot at a time.
         for k in k..end {
-            let batch = Batch::<1>::at(rest, compliance, lambda, k);
+            let batch = Batch::<1>::at(p, lambda, k);
             // SAFETY: the slot and its particles are among those `runs` touch.
             unsafe {
                 solve_gathered::<ACCUMULATE, FUSED, 1>(&p.a, &p.b, x, inv_mass, batch, inv_h2)
@@ -453,31 +460,45 @@ unsafe fn project<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     } else {
         [0.0; N]
     };
-    update::<ACCUMULATE, FUSED, N>(
-        s,
-        d,
-        (wa, wb),
-        (batch.rest, batch.compliance),
-        &mut lambda,
-        inv_h2,
-    );
+    let slots = Slots {
+        rest: batch.rest,
+        compliance: batch.compliance,
+        weights: batch.weights,
+    };
+    update::<ACCUMULATE, FUSED, N>(s, d, (wa, wb), slots, &mut lambda, inv_h2);
     if ACCUMULATE {
         // SAFETY: the caller's contract.
         unsafe { batch.lambda.store(batch.k, &lambda) };
     }
 }
 
-/// [`project`]'s arithmetic, lane by lane, with the batch's inverse masses, rest lengths and
-/// compliances, and its multipliers in `lambda` (read and written only with `ACCUMULATE`).
+/// The per-slot constants [`update`] reads: rest lengths, compliances and
+/// [`Projections::weights`].
+struct Slots<'a, const N: usize> {
+    rest: &'a [f32; N],
+    compliance: &'a [f32; N],
+    weights: [&'a [f32; N]; 2],
+}
+
+/// [`project`]'s arithmetic, lane by lane, with the batch's inverse masses and constants, and its
+/// multipliers in `lambda` (read and written only with `ACCUMULATE`). Without `ACCUMULATE`, λ is
+/// 0 and the update is `w_a Δλ = (L - |d|) / |d| · w_a / (w_a + w_b + α̃)`, whose second factor
+/// the layout keeps per slot ([`Projections::weights`]): fewer operations per spring, and neither
+/// the inverse masses nor the compliances are read.
 #[inline(always)]
 fn update<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     s: &[[f32; N]; 6],
     d: &mut [[f32; N]; 6],
     (wa, wb): (&[f32; N], &[f32; N]),
-    (rest, compliance): (&[f32; N], &[f32; N]),
+    slots: Slots<'_, N>,
     lambda: &mut [f32; N],
     inv_h2: f32,
 ) {
+    let Slots {
+        rest,
+        compliance,
+        weights: [weight_a, weight_b],
+    } = slots;
     for l in 0..N {
         // The start vectors and the displacements are differenced separately, so that the
         // small displacements keep their precision.
@@ -487,23 +508,24 @@ fn update<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
         // Fused multiply-adds: one rounding each, and fewer instructions on the kernel's path.
         let fma = simd::mul_add::<FUSED>;
         let len2 = fma(dx, dx, fma(dy, dy, dz * dz));
-        let lam = lambda[l];
-        let alpha = compliance[l] * inv_h2;
         let rest = rest[l];
         let len = len2.sqrt();
-        let scale = (rest - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
         // A spring of (near) zero length has no direction and is skipped, and so is a padding
         // slot (rest length 0). A spring whose ends are both pinned (w = 0) gets a finite step
         // (α̃ > 0) that its zero inverse masses ignore.
-        let scale = if len2 > 1e-20 && rest > 0.0 {
-            scale
-        } else {
-            0.0
-        };
-        if ACCUMULATE {
+        let moves = len2 > 1e-20 && rest > 0.0;
+        let (sa, sb) = if ACCUMULATE {
+            let lam = lambda[l];
+            let alpha = compliance[l] * inv_h2;
+            let scale = (rest - len - alpha * lam) / ((wa[l] + wb[l] + alpha) * len);
+            let scale = if moves { scale } else { 0.0 };
             lambda[l] = lam + scale * len;
-        }
-        let (sa, sb) = (scale * wa[l], scale * wb[l]);
+            (scale * wa[l], scale * wb[l])
+        } else {
+            let strain = (rest - len) / len;
+            let strain = if moves { strain } else { 0.0 };
+            (strain * weight_a[l], strain * weight_b[l])
+        };
         d[0][l] = fma(dx, sa, d[0][l]);
         d[1][l] = fma(dy, sa, d[1][l]);
         d[2][l] = fma(dz, sa, d[2][l]);
@@ -554,7 +576,7 @@ unsafe fn solve_contiguous_at<const ACCUMULATE: bool, const FUSED: bool, const N
     inv_h2: f32,
     k: usize,
 ) {
-    let batch = Batch::at(&p.rest, &p.compliance, lambda, k);
+    let batch = Batch::at(p, lambda, k);
     let (a, b) = (p.a[k] as usize, p.b[k] as usize);
     // SAFETY: the caller's contract.
     unsafe { solve_contiguous::<ACCUMULATE, FUSED, N>(x, &p.inv_mass, a, b, batch, inv_h2) };
@@ -618,14 +640,13 @@ unsafe fn solve_contiguous_pair<const ACCUMULATE: bool, const FUSED: bool>(
         [0.0; 2 * N]
     };
     let (rest, compliance) = (slots(&p.rest), slots(&p.compliance));
-    update::<ACCUMULATE, FUSED, { 2 * N }>(
-        &s,
-        &mut d,
-        (&wa, &wb),
-        (&rest, &compliance),
-        &mut lam,
-        inv_h2,
-    );
+    let weights = [slots(&p.weights[0]), slots(&p.weights[1])];
+    let constants = Slots {
+        rest: &rest,
+        compliance: &compliance,
+        weights: [&weights[0], &weights[1]],
+    };
+    update::<ACCUMULATE, FUSED, { 2 * N }>(&s, &mut d, (&wa, &wb), constants, &mut lam, inv_h2);
     let half = |v: &[f32; 2 * N], h: usize| -> [f32; N] { *array(&v[h * N..(h + 1) * N]) };
     for (c, coord) in x.delta.iter().enumerate() {
         // SAFETY: the caller's contract.

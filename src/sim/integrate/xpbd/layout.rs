@@ -125,6 +125,12 @@ pub(super) struct Projections {
     pub(super) solo: Vec<bool>,
     pub rest: Vec<f32>,
     pub compliance: Vec<f32>,
+    /// Per slot, the shares of a spring's correction that its two ends take in a substep of one
+    /// iteration, `w_a / (w_a + w_b + α̃)` and `w_b / (w_a + w_b + α̃)` with `α̃ = α / h²`, for
+    /// the `1/h²` in `weighted_for` ([`Self::set_weights`]).
+    pub weights: [Vec<f32>; 2],
+    /// The `1/h²` that `weights` are for; `None` until they are set for the current constants.
+    pub(super) weighted_for: Option<f32>,
     pub runs: Vec<Run>,
     /// The runs of each colour, split in two shares for two threads.
     pub(super) colors: Vec<Color>,
@@ -231,6 +237,37 @@ impl Projections {
             let s = self.stored(i as u32) as usize;
             self.inv_mass[s] = *w;
         }
+        for w in &mut self.weights {
+            w.resize(self.a.len(), 0.0);
+        }
+        self.weighted_for = None;
+    }
+
+    /// Sets [`Self::weights`] for substeps with `1/h² = inv_h2`, unless they are set for it
+    /// already: one pass over the slots when the substep's length or the constants change, so
+    /// that a sweep of one iteration needs neither the inverse masses nor the compliances.
+    pub(super) fn set_weights(&mut self, inv_h2: f32) {
+        if self.weighted_for == Some(inv_h2) {
+            return;
+        }
+        let [weight_a, weight_b] = &mut self.weights;
+        let slots = self.a.iter().zip(&self.b).zip(&self.compliance);
+        for (((&a, &b), &c), (ca, cb)) in slots.zip(weight_a.iter_mut().zip(weight_b)) {
+            let (wa, wb) = (self.inv_mass[a as usize], self.inv_mass[b as usize]);
+            // Both ends pinned and no compliance: nothing moves.
+            let sum = wa + wb + c * inv_h2;
+            (*ca, *cb) = if sum > 0.0 {
+                (wa / sum, wb / sum)
+            } else {
+                (0.0, 0.0)
+            };
+        }
+        self.weighted_for = Some(inv_h2);
+    }
+
+    /// Whether [`Self::weights`] are set for `inv_h2`.
+    pub(super) fn weighted_for(&self, inv_h2: f32) -> bool {
+        self.weighted_for == Some(inv_h2)
     }
 
     /// Whether a step is worth sharing between two threads (see `team.rs`).

@@ -101,6 +101,10 @@ impl Xpbd {
             keep: (-s.settings.damping * h).exp(),
             gravity: (s.settings.gravity * h).to_array(),
         };
+        let accumulate = s.settings.iterations > 1;
+        if !accumulate {
+            self.layout.set_weights(inv_h2);
+        }
         self.state.load(s.particles, self.layout.storage());
         self.tethers
             .begin_step(s.pins, &self.state.x, self.layout.storage());
@@ -138,7 +142,6 @@ impl Xpbd {
                 self.state.d.set(i, target - self.state.x.get(i));
             }
             // λ starts at 0 each substep, so one iteration needs no multiplier storage.
-            let accumulate = s.settings.iterations > 1;
             if accumulate {
                 self.lambda.fill(0.0);
             }

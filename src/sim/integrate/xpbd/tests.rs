@@ -315,6 +315,7 @@ fn padding_slots_change_nothing() {
     p.compliance = vec![0.0; 8];
     p.inv_mass = vec![0.0; n];
     p.set_constants(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3], &vec![1.0; n]);
+    p.set_weights(3600.0);
     let mut lambda = vec![0.0; 8];
     let x = Split {
         start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
@@ -333,6 +334,15 @@ fn padding_slots_change_nothing() {
 /// `build` (with `ACCUMULATE`, from nonzero multipliers), if the CPU has it, as bits. `None` for
 /// `build`: the plain build with its fused multiply-adds in plain arithmetic.
 fn sweep_in<const ACCUMULATE: bool>(build: Option<Build>, model: &ClothModel) -> Option<Vec<u32>> {
+    sweep_from::<ACCUMULATE>(build, model, |k| 1e-4 * (k % 5) as f32)
+}
+
+/// [`sweep_in`], with the multipliers starting at `lambda(slot)`.
+fn sweep_from<const ACCUMULATE: bool>(
+    build: Option<Build>,
+    model: &ClothModel,
+    lambda: impl Fn(usize) -> f32,
+) -> Option<Vec<u32>> {
     let n = model.particle_count();
     let s = &model.springs;
     let mut p = Projections::new(model);
@@ -341,6 +351,7 @@ fn sweep_in<const ACCUMULATE: bool>(build: Option<Build>, model: &ClothModel) ->
         .map(|i| if i % 11 == 0 { 0.0 } else { 1e3 })
         .collect();
     p.set_constants(&s.rest, &stiffness, &inv_mass);
+    p.set_weights(3600.0);
     let mut start = Soa::new(n);
     let mut delta = Soa::new(n);
     for i in 0..n {
@@ -352,7 +363,7 @@ fn sweep_in<const ACCUMULATE: bool>(build: Option<Build>, model: &ClothModel) ->
             1e-3 * Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin()),
         );
     }
-    let mut lambda: Vec<f32> = (0..p.slot_count()).map(|k| 1e-4 * (k % 5) as f32).collect();
+    let mut lambda: Vec<f32> = (0..p.slot_count()).map(lambda).collect();
     let x = Split {
         start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
         delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
@@ -389,6 +400,64 @@ fn sweep_in<const ACCUMULATE: bool>(build: Option<Build>, model: &ClothModel) ->
         ]
         .concat()
     })
+}
+
+#[test]
+fn one_iteration_with_weights_per_slot_moves_as_the_multiplier_update_from_zero() {
+    // One iteration takes each end's share of the correction from the slot's weights; the update
+    // with multipliers computes `Δλ` and multiplies by the inverse masses, from λ = 0 the same
+    // step. They differ only in rounding: each correction rounds `L - |d|` to the last place of
+    // the spring's length (7.5e-9 m for the longest, 0.1 m), and the sweep carries that on.
+    // Pinned particles (w = 0) and stiffnesses from soft (α̃ far above w) to stiff are among the
+    // springs.
+    let models = [
+        ClothModel::grid(&GridSpec::new(40, 9, 0.05)).unwrap(),
+        ClothModel::disc(&crate::sim::DiscSpec::new(7, 6, 0.5)).unwrap(),
+    ];
+    for model in &models {
+        let n = 3 * model.particle_count();
+        let weights = sweep_from::<false>(Some(Build::Plain), model, |_| 0.0).unwrap();
+        let multipliers = sweep_from::<true>(Some(Build::Plain), model, |_| 0.0).unwrap();
+        let (mut largest, mut moved) = (0.0f32, 0.0f32);
+        for (w, m) in weights[..n].iter().zip(&multipliers[..n]) {
+            let (w, m) = (f32::from_bits(*w), f32::from_bits(*m));
+            largest = largest.max((w - m).abs());
+            moved = moved.max(m.abs());
+        }
+        assert!(moved > 1e-3, "the sweep moved the particles");
+        assert!(
+            largest < 4e-8,
+            "the two updates differ by {largest} m in a displacement"
+        );
+    }
+}
+
+#[test]
+fn the_slots_weights_follow_the_substep_and_the_masses() {
+    let model = ClothModel::grid(&GridSpec::new(40, 9, 0.05)).unwrap();
+    let (s, n) = (&model.springs, model.particle_count());
+    let stiffness: Vec<f32> = (0..s.len()).map(|k| 50.0 + (k % 7) as f32 * 1e3).collect();
+    let light = vec![1e3; n];
+    let pinned: Vec<f32> = (0..n).map(|i| if i < 40 { 0.0 } else { 1e3 }).collect();
+    let fresh = |inv_mass: &[f32], inv_h2: f32| {
+        let mut p = Projections::new(&model);
+        p.set_constants(&s.rest, &stiffness, inv_mass);
+        p.set_weights(inv_h2);
+        p.weights
+    };
+    let mut p = Projections::new(&model);
+    p.set_constants(&s.rest, &stiffness, &light);
+    p.set_weights(3600.0);
+    assert_eq!(p.weights, fresh(&light, 3600.0));
+    // Another substep length.
+    p.set_weights(900.0);
+    assert_eq!(p.weights, fresh(&light, 900.0));
+    assert_ne!(p.weights, fresh(&light, 3600.0));
+    // New masses (the first row pinned) at the same substep length.
+    p.set_constants(&s.rest, &stiffness, &pinned);
+    p.set_weights(900.0);
+    assert_eq!(p.weights, fresh(&pinned, 900.0));
+    assert_ne!(p.weights, fresh(&light, 900.0));
 }
 
 #[test]
