@@ -681,10 +681,10 @@ impl<S: ContactState> ContactState for Joined<'_, S> {
             self.own.set(i, x, v);
         }
     }
-    fn clearances(&self, near: Near, out: &mut [f32]) {
+    fn clearances(&self, near: Near, within: f32, out: &mut [f32]) {
         // Not used by the pair responses; the others' particles are always near.
         let n = self.n.min(out.len());
-        self.own.clearances(near, &mut out[..n]);
+        self.own.clearances(near, within, &mut out[..n]);
         out[n..].fill(f32::NEG_INFINITY);
     }
 }

@@ -139,9 +139,9 @@ impl ContactState for Vectors<'_> {
             touches[i] = Touch { normal, surface };
         }
     }
-    fn clearances(&self, near: Near, out: &mut [f32]) {
+    fn clearances(&self, near: Near, within: f32, out: &mut [f32]) {
         for ((o, x), s) in out.iter_mut().zip(&*self.x).zip(self.start) {
-            *o = near.distance(*x) - x.distance(*s);
+            *o = near.distance(*x) - x.distance(*s) - within;
         }
     }
 }
@@ -509,9 +509,22 @@ fn resolve_all<S: ContactState>(
 }
 
 /// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
-/// with `AHEAD` starting at `x` (and ending at `x + d`). A vector [`Kernel`] ([`simd`]).
-pub(crate) fn soa_clearances<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
-    simd::run(Clearances::<AHEAD> { x, d, near, out });
+/// with `AHEAD` starting at `x` (and ending at `x + d`), against `within`. A vector [`Kernel`]
+/// ([`simd`]).
+pub(crate) fn soa_clearances<const AHEAD: bool>(
+    x: &Soa,
+    d: &Soa,
+    (near, within): (Near, f32),
+    out: &mut [f32],
+) {
+    let within = within.max(0.0);
+    simd::run(Clearances::<AHEAD> {
+        x,
+        d,
+        near,
+        within,
+        out,
+    });
 }
 
 /// [`soa_clearances`]' arguments, as a [`Kernel`].
@@ -519,34 +532,58 @@ struct Clearances<'a, const AHEAD: bool> {
     x: &'a Soa,
     d: &'a Soa,
     near: Near,
+    within: f32,
     out: &'a mut [f32],
 }
 
 impl<const AHEAD: bool> Kernel for Clearances<'_, AHEAD> {
-    const WIDEST: Build = Build::Avx2;
+    const WIDEST: Build = Build::Avx512;
 
     #[inline(always)]
     fn body<const WIDE: bool>(self) {
-        clearances_body::<AHEAD>(self.x, self.d, self.near, self.out);
+        clearances_body::<AHEAD>(self.x, self.d, (self.near, self.within), self.out);
     }
 }
 
+/// The sign of `|e| − |d| − w` (`w ≥ 0`) from `e2 = |e|²` and `d2 = |d|²`, without square
+/// roots: `|e| ≤ w + |d|` holds where `q = |e|² − |d|² − w² ≤ 0`, and otherwise exactly where
+/// `q² ≤ 4 w² |d|²`.
 #[inline(always)]
-fn clearances_body<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f32]) {
+fn point_gap_sign(e2: f32, d2: f32, w2: f32) -> f32 {
+    let q = e2 - d2 - w2;
+    if q <= 0.0 { q } else { q * q - 4.0 * w2 * d2 }
+}
+
+/// The sign of `a − |d| − w` (`w ≥ 0`) from `a` and `d2 = |d|²`, without a square root: it is
+/// at most 0 where `a − w ≤ 0`, and otherwise exactly where `(a − w)² ≤ |d|²`.
+#[inline(always)]
+fn plane_gap_sign(a: f32, d2: f32, w: f32) -> f32 {
+    let q = a - w;
+    if q <= 0.0 { q } else { q * q - d2 }
+}
+
+#[inline(always)]
+fn clearances_body<const AHEAD: bool>(
+    x: &Soa,
+    d: &Soa,
+    (near, within): (Near, f32),
+    out: &mut [f32],
+) {
     let n = out.len().min(x.len()).min(d.len());
     let (x, y, z) = (&x.x[..n], &x.y[..n], &x.z[..n]);
     let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);
-    let moved = |i: usize| (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+    let moved2 = |i: usize| dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i];
     let end = |x: &[f32], d: &[f32], i: usize| if AHEAD { x[i] + d[i] } else { x[i] };
     match near {
         Near::Point(c) => {
+            let w2 = within * within;
             for (i, o) in out[..n].iter_mut().enumerate() {
                 let (ex, ey, ez) = (
                     end(x, dx, i) - c.x,
                     end(y, dy, i) - c.y,
                     end(z, dz, i) - c.z,
                 );
-                *o = (ex * ex + ey * ey + ez * ez).sqrt() - moved(i);
+                *o = point_gap_sign(ex * ex + ey * ey + ez * ez, moved2(i), w2);
             }
         }
         Near::Plane(c, normal) => {
@@ -554,7 +591,7 @@ fn clearances_body<const AHEAD: bool>(x: &Soa, d: &Soa, near: Near, out: &mut [f
                 let along = (end(x, dx, i) - c.x) * normal.x
                     + (end(y, dy, i) - c.y) * normal.y
                     + (end(z, dz, i) - c.z) * normal.z;
-                *o = along - moved(i);
+                *o = plane_gap_sign(along, moved2(i), within);
             }
         }
     }

@@ -158,9 +158,12 @@ pub(crate) trait ContactState {
     /// surface there moved at `surface`, for a stepper that holds contacts in its next solve
     /// (implicit Euler); others forget it.
     fn touched(&mut self, _i: usize, _normal: Vec3, _surface: Vec3) {}
-    /// For every particle, `near.distance(x) − |x − start|` into `out`: a lower bound on its
-    /// distance from `near`'s point or plane all along its path over the substep.
-    fn clearances(&self, near: Near, out: &mut [f32]);
+    /// For every particle, a value into `out` that is at most 0 exactly where its clearance
+    /// `near.distance(x) − |x − start|`, a lower bound on its distance from `near`'s point or
+    /// plane all along its path over the substep, is at most `within` (≥ 0), up to rounding; NaN
+    /// counts as near. Only the sign is meant, so a kernel may compare squares and take no
+    /// square root.
+    fn clearances(&self, near: Near, within: f32, out: &mut [f32]);
     /// Calls `f(i, start, position)` for every stored particle `i`, in storage order: one pass
     /// over the whole state (a stepper overrides it with a loop over its own arrays).
     fn paths(&self, mut f: impl FnMut(usize, Vec3, Vec3))
@@ -333,13 +336,12 @@ fn collide_particles<S: ContactState, D: Fn(Vec3) -> (f32, Vec3)>(
             // Rounding in the exact test is far below this slack (relative to the coordinates).
             let slack = 1e-5 * (pose1.translation.abs().max_element() + radius + travel + 1.0);
             let skip = radius + c.collider.margin + travel + slack;
-            state.clearances(near, clearance);
-            // Sixteen clearances compared at a time (vector code), then the few close ones visited.
+            state.clearances(near, skip, clearance);
+            // Sixteen signs tested at a time (vector code), then the few close ones visited.
             for (k, chunk) in clearance.chunks(16).enumerate() {
-                let mut close = chunk
-                    .iter()
-                    .enumerate()
-                    .fold(0u32, |m, (l, &gap)| m | (u32::from(gap <= skip) << l));
+                let mut close = chunk.iter().enumerate().fold(0u32, |m, (l, &gap)| {
+                    m | (u32::from(gap <= 0.0 || gap.is_nan()) << l)
+                });
                 while close != 0 {
                     let i = 16 * k + close.trailing_zeros() as usize;
                     close &= close - 1;

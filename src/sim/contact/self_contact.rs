@@ -3270,8 +3270,8 @@ mod tests {
         fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
             self.inner.set(i, x, v);
         }
-        fn clearances(&self, near: crate::sim::contact::Near, out: &mut [f32]) {
-            self.inner.clearances(near, out);
+        fn clearances(&self, near: crate::sim::contact::Near, within: f32, out: &mut [f32]) {
+            self.inner.clearances(near, within, out);
         }
     }
 

@@ -361,7 +361,7 @@ impl ContactState for Exact<'_> {
     fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
         self.0.set(i, x, v);
     }
-    fn clearances(&self, _: Near, out: &mut [f32]) {
+    fn clearances(&self, _: Near, _: f32, out: &mut [f32]) {
         out.fill(f32::NEG_INFINITY);
     }
 }
@@ -554,8 +554,8 @@ fn the_catch_up_resolves_dropped_colliders_a_particle_outran() {
     assert_eq!(x[0], Vec3::new(0.0, -0.04, 0.0));
 }
 
-/// The clearances of 103 particles (a partial last batch) from `near`, by the kernel's `build`
-/// (`AHEAD` as the kernel's), if the CPU has it.
+/// The clearances' signs of 103 particles (a partial last batch) from `near` against 0.05 m, by
+/// the kernel's `build` (`AHEAD` as the kernel's), if the CPU has it.
 fn clearances_in<const AHEAD: bool>(build: Build, near: Near) -> Option<Vec<u32>> {
     let n = 103;
     let mut x = Soa::new(n);
@@ -570,9 +570,71 @@ fn clearances_in<const AHEAD: bool>(build: Build, near: Near) -> Option<Vec<u32>
         x: &x,
         d: &d,
         near,
+        within: 0.05,
         out: &mut out,
     };
     simd::run_as(build, kernel).then(|| out.iter().map(|c| c.to_bits()).collect())
+}
+
+#[test]
+fn the_clearance_kernels_sign_is_the_clearance_test_without_square_roots() {
+    // Particles near a point and a plane, some inside, some grazing, some far, moving up to
+    // 0.3 m; the sign against `within` must be the test on `distance(end) − |end − start|`
+    // wherever that clearance is not within rounding of `within`.
+    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut uniform = |lo: f32, hi: f32| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        lo + (hi - lo) * (seed >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let n = 4000;
+    let (mut x, mut d) = (Soa::new(n), Soa::new(n));
+    for i in 0..n {
+        let at = Vec3::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0), uniform(-1.0, 1.0));
+        let moved = Vec3::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0), uniform(-1.0, 1.0));
+        // A few particles that do not move at all.
+        let moved = if i % 37 == 0 {
+            Vec3::ZERO
+        } else {
+            0.15 * moved
+        };
+        x.set(i, at);
+        d.set(i, moved);
+    }
+    let nears = [
+        Near::Point(Vec3::new(0.1, -0.2, 0.05)),
+        Near::Plane(Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.6, 0.8, 0.0)),
+    ];
+    let mut out = vec![0.0; n];
+    let (mut close, mut far) = (0, 0);
+    for near in nears {
+        for within in [0.0, 0.05, 0.4] {
+            for ahead in [false, true] {
+                if ahead {
+                    soa_clearances::<true>(&x, &d, (near, within), &mut out);
+                } else {
+                    soa_clearances::<false>(&x, &d, (near, within), &mut out);
+                }
+                for (i, &sign) in out.iter().enumerate() {
+                    let (at, moved) = (x.get(i), d.get(i));
+                    let end = if ahead { at + moved } else { at };
+                    let clearance = near.distance(end) - moved.length();
+                    if (clearance - within).abs() < 1e-5 {
+                        continue;
+                    }
+                    let near_it = clearance <= within;
+                    assert_eq!(
+                        sign <= 0.0 || sign.is_nan(),
+                        near_it,
+                        "particle {i}, {near:?}, within {within}: clearance {clearance}"
+                    );
+                    (close, far) = (close + usize::from(near_it), far + usize::from(!near_it));
+                }
+            }
+        }
+    }
+    assert!(close > 2000 && far > 2000, "{close} near, {far} not");
 }
 
 #[test]

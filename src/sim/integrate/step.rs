@@ -329,8 +329,8 @@ impl ContactState for SoaContacts<'_> {
         s.x.set(i, x);
         s.v.set(i, v);
     }
-    fn clearances(&self, near: Near, out: &mut [f32]) {
-        soa_clearances::<false>(&self.state.x, &self.state.d, near, out);
+    fn clearances(&self, near: Near, within: f32, out: &mut [f32]) {
+        soa_clearances::<false>(&self.state.x, &self.state.d, (near, within), out);
     }
     // Inlined, so that the caller's running sums stay in registers.
     #[inline(always)]

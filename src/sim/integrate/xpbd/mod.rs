@@ -403,8 +403,8 @@ impl ContactState for AheadOfEnd<'_> {
             k => self.touched[k as usize - 1].1 = v,
         }
     }
-    fn clearances(&self, near: Near, out: &mut [f32]) {
-        soa_clearances::<true>(self.x, self.d, near, out);
+    fn clearances(&self, near: Near, within: f32, out: &mut [f32]) {
+        soa_clearances::<true>(self.x, self.d, (near, within), out);
     }
     // Inlined, so that the caller's running sums stay in registers.
     #[inline(always)]
