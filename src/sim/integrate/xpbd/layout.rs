@@ -15,6 +15,7 @@ use crate::sim::integrate::step::Order;
 use crate::sim::model::Springs;
 use crate::sim::model::{ClothModel, GridSpec};
 use crate::sim::runs;
+use crate::sim::simd::{self, Build, Kernel};
 
 /// Springs projected together by the vector kernel. Within one colour no two springs share a
 /// particle, so a batch gives exactly the sequential Gauss-Seidel result.
@@ -129,6 +130,9 @@ pub(super) struct Projections {
     /// iteration, `w_a / (w_a + w_b + α̃)` and `w_b / (w_a + w_b + α̃)` with `α̃ = α / h²`, for
     /// the `1/h²` in `weighted_for` ([`Self::set_weights`]).
     pub weights: [Vec<f32>; 2],
+    /// Per slot, its two ends' inverse masses, set with the constants, so that setting the
+    /// weights reads contiguous values.
+    pub(super) ends_inv_mass: [Vec<f32>; 2],
     /// The `1/h²` that `weights` are for; `None` until they are set for the current constants.
     pub(super) weighted_for: Option<f32>,
     pub runs: Vec<Run>,
@@ -240,6 +244,9 @@ impl Projections {
         for w in &mut self.weights {
             w.resize(self.a.len(), 0.0);
         }
+        let inv_mass = &self.inv_mass;
+        self.ends_inv_mass =
+            [&self.a, &self.b].map(|e| e.iter().map(|&i| inv_mass[i as usize]).collect());
         self.weighted_for = None;
     }
 
@@ -251,17 +258,13 @@ impl Projections {
             return;
         }
         let [weight_a, weight_b] = &mut self.weights;
-        let slots = self.a.iter().zip(&self.b).zip(&self.compliance);
-        for (((&a, &b), &c), (ca, cb)) in slots.zip(weight_a.iter_mut().zip(weight_b)) {
-            let (wa, wb) = (self.inv_mass[a as usize], self.inv_mass[b as usize]);
-            // Both ends pinned and no compliance: nothing moves.
-            let sum = wa + wb + c * inv_h2;
-            (*ca, *cb) = if sum > 0.0 {
-                (wa / sum, wb / sum)
-            } else {
-                (0.0, 0.0)
-            };
-        }
+        let [wa, wb] = &self.ends_inv_mass;
+        simd::run(Weigh {
+            inv_mass: (wa, wb),
+            compliance: &self.compliance,
+            inv_h2,
+            out: (weight_a, weight_b),
+        });
         self.weighted_for = Some(inv_h2);
     }
 
@@ -622,6 +625,39 @@ impl Projections {
             }
             Some(s) => Err(format!("spring {s} is in no slot")),
             None => Ok(()),
+        }
+    }
+}
+
+/// [`Projections::set_weights`]' arguments, as a vector [`Kernel`]: each slot's ends' inverse
+/// masses and compliance, and where its weights go (the same bits in every build).
+struct Weigh<'a> {
+    inv_mass: (&'a [f32], &'a [f32]),
+    compliance: &'a [f32],
+    inv_h2: f32,
+    out: (&'a mut [f32], &'a mut [f32]),
+}
+
+impl Kernel for Weigh<'_> {
+    const WIDEST: Build = Build::Avx512;
+
+    #[inline(always)]
+    fn body<const WIDE: bool>(self) {
+        let Self {
+            inv_mass: (wa, wb),
+            compliance,
+            inv_h2,
+            out: (weight_a, weight_b),
+        } = self;
+        let slots = wa.iter().zip(wb).zip(compliance);
+        for (((&wa, &wb), &c), (ca, cb)) in slots.zip(weight_a.iter_mut().zip(weight_b)) {
+            let sum = wa + wb + c * inv_h2;
+            // Both ends pinned and no compliance: nothing moves.
+            (*ca, *cb) = if sum > 0.0 {
+                (wa / sum, wb / sum)
+            } else {
+                (0.0, 0.0)
+            };
         }
     }
 }
