@@ -461,6 +461,39 @@ fn the_slots_weights_follow_the_substep_and_the_masses() {
 }
 
 #[test]
+fn every_build_of_the_slots_weights_gives_the_same_bits() {
+    // Pinned particles (w = 0), both ends pinned, and compliances from stiff to soft, over a
+    // slot count that leaves a partial last vector.
+    let model = ClothModel::grid(&GridSpec::new(37, 9, 0.05)).unwrap();
+    let (s, n) = (&model.springs, model.particle_count());
+    let stiffness: Vec<f32> = (0..s.len()).map(|k| 0.5 + (k % 7) as f32 * 1e3).collect();
+    let inv_mass: Vec<f32> = (0..n)
+        .map(|i| {
+            if i < 37 || i % 13 == 0 {
+                0.0
+            } else {
+                1e3 / (1 + i % 5) as f32
+            }
+        })
+        .collect();
+    let weights = |build| {
+        let mut p = Projections::new(&model);
+        p.set_constants(&s.rest, &stiffness, &inv_mass);
+        p.set_weights_in(build, 3600.0).then(|| {
+            let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            [bits(&p.weights[0]), bits(&p.weights[1])]
+        })
+    };
+    let plain = weights(Build::Plain).unwrap();
+    assert!(plain[0].contains(&0) && plain[0].iter().any(|&w| w != 0));
+    for build in [Build::Avx2, Build::Avx512] {
+        if let Some(wide) = weights(build) {
+            assert_eq!(wide, plain, "{build:?} against the plain build");
+        }
+    }
+}
+
+#[test]
 fn every_build_of_the_spring_kernel_gives_the_same_bits() {
     // Stored in grid order (contiguous runs; on AVX-512 two batches at once, and four where
     // the rows, 40 particles apart, allow), in their own order (interleaved row runs), and a
