@@ -366,17 +366,21 @@ impl ContactState for Exact<'_> {
     }
 }
 
-#[test]
-fn the_clearance_skip_changes_no_contact() {
-    // Particles scattered around each shape, some inside, some grazing it, some far, moving
-    // up to 0.6 m in the substep; colliders at rest, translating and rotating.
-    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-    let mut uniform = |lo: f32, hi: f32| {
+/// Reproducible draws uniform in `[lo, hi)` (xorshift from `seed`, which must not be 0).
+fn uniform_draws(mut seed: u64) -> impl FnMut(f32, f32) -> f32 {
+    move |lo, hi| {
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
         lo + (hi - lo) * (seed >> 40) as f32 / (1u64 << 24) as f32
-    };
+    }
+}
+
+#[test]
+fn the_clearance_skip_changes_no_contact() {
+    // Particles scattered around each shape, some inside, some grazing it, some far, moving
+    // up to 0.6 m in the substep; colliders at rest, translating and rotating.
+    let mut uniform = uniform_draws(0x2545_f491_4f6c_dd1d);
     let n = 3000;
     let start: Vec<Vec3> = (0..n)
         .map(|_| Vec3::new(uniform(-1.1, 1.1), uniform(-1.1, 1.1), uniform(-1.1, 1.1)))
@@ -581,13 +585,7 @@ fn the_clearance_kernels_sign_is_the_clearance_test_without_square_roots() {
     // Particles near a point and a plane, some inside, some grazing, some far, moving up to
     // 0.3 m; the sign against `within` must be the test on `distance(end) − |end − start|`
     // wherever that clearance is not within rounding of `within`.
-    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut uniform = |lo: f32, hi: f32| {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        lo + (hi - lo) * (seed >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut uniform = uniform_draws(0x9e37_79b9_7f4a_7c15);
     let n = 4000;
     let (mut x, mut d) = (Soa::new(n), Soa::new(n));
     for i in 0..n {

@@ -309,10 +309,7 @@ impl<const ACCUMULATE: bool> Kernel for SolveSprings<'_, ACCUMULATE> {
 
 /// The per-slot constants of the batch at slots `k..k + N`, and where its multipliers live.
 struct Batch<'a, const N: usize> {
-    rest: &'a [f32; N],
-    compliance: &'a [f32; N],
-    /// [`Projections::weights`].
-    weights: [&'a [f32; N]; 2],
+    slots: Slots<'a, N>,
     lambda: Column<'a>,
     k: usize,
 }
@@ -323,9 +320,11 @@ impl<'a, const N: usize> Batch<'a, N> {
     fn at(p: &'a Projections, lambda: Column<'a>, k: usize) -> Self {
         let slots = |v: &'a [f32]| array(&v[k..k + N]);
         Self {
-            rest: slots(&p.rest),
-            compliance: slots(&p.compliance),
-            weights: [slots(&p.weights[0]), slots(&p.weights[1])],
+            slots: Slots {
+                rest: slots(&p.rest),
+                compliance: slots(&p.compliance),
+                weights: [slots(&p.weights[0]), slots(&p.weights[1])],
+            },
             lambda,
             k,
         }
@@ -460,19 +459,14 @@ unsafe fn project<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     } else {
         [0.0; N]
     };
-    let slots = Slots {
-        rest: batch.rest,
-        compliance: batch.compliance,
-        weights: batch.weights,
-    };
-    update::<ACCUMULATE, FUSED, N>(s, d, (wa, wb), slots, &mut lambda, inv_h2);
+    update::<ACCUMULATE, FUSED, N>(s, d, (wa, wb), batch.slots, &mut lambda, inv_h2);
     if ACCUMULATE {
         // SAFETY: the caller's contract.
         unsafe { batch.lambda.store(batch.k, &lambda) };
     }
 }
 
-/// The per-slot constants [`update`] reads: rest lengths, compliances and
+/// The per-slot constants of a batch that [`update`] reads: rest lengths, compliances and
 /// [`Projections::weights`].
 struct Slots<'a, const N: usize> {
     rest: &'a [f32; N],

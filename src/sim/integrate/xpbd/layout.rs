@@ -257,32 +257,27 @@ impl Projections {
         if self.weighted_for == Some(inv_h2) {
             return;
         }
+        simd::run(self.weigh(inv_h2));
+        self.weighted_for = Some(inv_h2);
+    }
+
+    /// [`Self::set_weights`]' pass for `inv_h2`, as a [`Kernel`] to run.
+    fn weigh(&mut self, inv_h2: f32) -> Weigh<'_> {
         let [weight_a, weight_b] = &mut self.weights;
         let [wa, wb] = &self.ends_inv_mass;
-        simd::run(Weigh {
+        Weigh {
             inv_mass: (wa, wb),
             compliance: &self.compliance,
             inv_h2,
             out: (weight_a, weight_b),
-        });
-        self.weighted_for = Some(inv_h2);
+        }
     }
 
     /// [`Self::set_weights`] in `build`, from scratch, if the CPU has it; returns whether it ran.
     /// For the test that compares the builds.
     #[cfg(test)]
     pub(super) fn set_weights_in(&mut self, build: Build, inv_h2: f32) -> bool {
-        let [weight_a, weight_b] = &mut self.weights;
-        let [wa, wb] = &self.ends_inv_mass;
-        let ran = simd::run_as(
-            build,
-            Weigh {
-                inv_mass: (wa, wb),
-                compliance: &self.compliance,
-                inv_h2,
-                out: (weight_a, weight_b),
-            },
-        );
+        let ran = simd::run_as(build, self.weigh(inv_h2));
         self.weighted_for = ran.then_some(inv_h2);
         ran
     }
