@@ -379,6 +379,19 @@ impl Contacts {
         }
     }
 
+    /// Moves the free particles' (`inv_mass > 0`) recorded starts ([`Self::begin_substep`]) by
+    /// `motion`, as a stepper carries the particles along by their frame's unfelt motion: the
+    /// swept tests and friction then leave that motion out, as the cloth does not feel it.
+    pub fn carry_starts(&mut self, inv_mass: &[f32], motion: impl Fn(Vec3) -> Vec3) {
+        if self.is_active() {
+            for (start, w) in self.start.iter_mut().zip(inv_mass) {
+                if *w > 0.0 {
+                    *start = motion(*start);
+                }
+            }
+        }
+    }
+
     /// [`Self::resolve_state`] for positions `x` and velocities `v` in the particles' own order,
     /// which started the substep where [`Self::begin_substep`] recorded. With `touches`, each
     /// particle a collider pushed gets its [`Touch`] there (the others are left as they were).

@@ -75,9 +75,12 @@ impl Explicit {
             self.compute_forces(s);
             self.kick_drift_all(&s.particles.inv_mass, h, keep, h);
             // The frame's unfelt motion over the substep, so that the next forces see the free
-            // particles and the pins at the same time.
+            // particles and the pins at the same time. The substep's start goes with it: the
+            // contacts' sweeps and friction leave that motion out.
             if let Some(shift) = frame_shift(s.frame, t0, t1) {
                 self.state.carry(&shift, &s.particles.inv_mass, false);
+                self.state
+                    .carry_starts(&shift, &s.particles.inv_mass, s.contacts);
             }
             self.state
                 .drive_pins(s.pins, &Order::default(), (t0, t1), inv_h);
@@ -134,7 +137,10 @@ impl Explicit {
             self.kick_drift_all(&s.particles.inv_mass, h, keep, if last { half } else { h });
             if last {
                 if let Some(shift) = frame_shift(s.frame, mid, 1.0) {
+                    // As above, the start with the particles.
                     self.state.carry(&shift, &s.particles.inv_mass, false);
+                    self.state
+                        .carry_starts(&shift, &s.particles.inv_mass, s.contacts);
                 }
                 self.state
                     .drive_pins(s.pins, &Order::default(), (t0, t1), inv_h);

@@ -439,6 +439,7 @@ impl Implicit {
             }
             if let Some(shift) = shift {
                 shift.carry(inv_mass, x, v);
+                contacts.carry_starts(inv_mass, |p| shift.point(p));
                 // The next substep's first guess turns with the velocities.
                 for (dv, w) in s.dv.iter_mut().zip(inv_mass.iter()) {
                     if *w > 0.0 {
