@@ -8,7 +8,7 @@ export CARGO_INCREMENTAL=0 CARGO_TERM_COLOR=never
 log=target/test-all.log
 mkdir -p target
 : > "$log"
-step() { echo; echo "==> $*"; }
+step() { echo; echo "==> $* (at ${SECONDS} s)"; }
 # Free disk and memory, at the start and again if a step fails (a full disk or an out-of-memory
 # linker shows up in CI only as a failed link).
 resources() { df -h . ; free -g | sed -n 1,2p; }
@@ -22,8 +22,17 @@ step "cargo clippy (all targets, all features, -D warnings)"
 cargo clippy --all-targets --all-features -- -D warnings
 # All features: the examples need the renderer anyway, so one build of Bevy serves the tests, the
 # examples and the screenshots (a plain `cargo test` stays headless and is quicker for development).
+# The two long suites that no feature changes run once, in the headless pass below: the stress
+# suite (the solver alone) and self-collision (headless apps of the solver's plugin).
 step "cargo test (all features)"
-cargo test --all-features 2>&1 | tee -a "$log"
+once=(stress self_collision)
+tests=()
+for file in tests/*.rs; do
+  name=$(basename "$file" .rs)
+  [[ " ${once[*]} " == *" $name "* ]] || tests+=(--test "$name")
+done
+cargo test --all-features --lib "${tests[@]}" 2>&1 | tee -a "$log"
+cargo test --all-features --doc 2>&1 | tee -a "$log"
 # Without features: what `cargo test` builds for a game that does not use avian stays free of it.
 step "cargo test (no features: headless, without avian)"
 if cargo tree -e normal --prefix none | grep -q '^avian3d '; then
