@@ -37,6 +37,17 @@ impl<'a> Read<'a> {
     fn get(self, i: usize) -> f32 {
         self.0[i]
     }
+
+    /// Copies `N` values starting at `i`, without a bounds test.
+    ///
+    /// # Safety
+    /// `i + N` is at most the length.
+    #[inline(always)]
+    unsafe fn load_unchecked<const N: usize>(self, i: usize) -> [f32; N] {
+        debug_assert!(i + N <= self.0.len());
+        // SAFETY: in bounds (the caller's contract).
+        unsafe { self.0.as_ptr().add(i).cast::<[f32; N]>().read_unaligned() }
+    }
 }
 
 /// A column of `f32` (a coordinate of the displacements, or the multipliers) that the threads of
@@ -103,6 +114,30 @@ impl<'a> Column<'a> {
     pub unsafe fn store<const N: usize>(self, i: usize, values: &[f32; N]) {
         self.check(i, N);
         // SAFETY: in bounds (checked) and within the borrow; no other thread touches them.
+        unsafe { self.ptr.add(i).cast::<[f32; N]>().write_unaligned(*values) }
+    }
+
+    /// [`Self::load`] without the bounds test.
+    ///
+    /// # Safety
+    /// As [`Self::load`], and `i + N` is at most the length.
+    #[inline(always)]
+    unsafe fn load_unchecked<const N: usize>(self, i: usize) -> [f32; N] {
+        debug_assert!(i + N <= self.len);
+        // SAFETY: in bounds and within the borrow; no other thread writes there (the caller's
+        // contract).
+        unsafe { self.ptr.add(i).cast::<[f32; N]>().read_unaligned() }
+    }
+
+    /// [`Self::store`] without the bounds test.
+    ///
+    /// # Safety
+    /// As [`Self::store`], and `i + N` is at most the length.
+    #[inline(always)]
+    unsafe fn store_unchecked<const N: usize>(self, i: usize, values: &[f32; N]) {
+        debug_assert!(i + N <= self.len);
+        // SAFETY: in bounds and within the borrow; no other thread touches them (the caller's
+        // contract).
         unsafe { self.ptr.add(i).cast::<[f32; N]>().write_unaligned(*values) }
     }
 
@@ -401,15 +436,20 @@ unsafe fn solve_springs_body<const ACCUMULATE: bool, const FUSED: bool, const WI
                 }
             }
         }
+        if run.layout == Layout::Contiguous {
+            // Every whole batch of the run: only a tail is left.
+            // SAFETY: the run's slots and particles are among those `runs` touch.
+            k = unsafe {
+                solve_contiguous_run::<ACCUMULATE, FUSED, LANES>(p, x, lambda, inv_h2, k, end)
+            };
+        }
         while k + LANES <= end {
             let batch = Batch::at(p, lambda, k);
-            let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+            let a = p.a[k] as usize;
             // SAFETY: the batch's slots and particles are among those `runs` touch.
             unsafe {
                 match run.layout {
-                    Layout::Contiguous => solve_contiguous::<ACCUMULATE, FUSED, LANES>(
-                        x, inv_mass, a, b, batch, inv_h2,
-                    ),
+                    Layout::Contiguous => unreachable!("a contiguous run's batches are streamed"),
                     Layout::Interleaved(1) => {
                         solve_interleaved::<ACCUMULATE, FUSED, 1>(x, inv_mass, a, batch, inv_h2)
                     }
@@ -539,23 +579,82 @@ fn load<const N: usize>(v: &[f32], i: usize) -> [f32; N] {
 /// `end` (the run's end); returns the first slot left. The run's two ends must be at least `N`
 /// particles apart, so that a batch's particles are distinct.
 ///
+/// In a contiguous run slot `k + m` joins particles `a + m` and `b + m`, with `a` and `b` those
+/// of slot `k` ([`Layout::Contiguous`]), so one bounds test covers the whole run and its batches
+/// are streamed, without looking up their particles, layout or bounds one by one. The arithmetic
+/// is [`update`]'s, as for a batch on its own.
+///
 /// # Safety
-/// As [`solve_contiguous`], for the slots `k..end`.
+/// As [`solve_contiguous`], for the slots `k..end`, which are part of one contiguous run (the
+/// particles touched are those the layout gives the slots).
 #[inline(always)]
 unsafe fn solve_contiguous_run<const ACCUMULATE: bool, const FUSED: bool, const N: usize>(
     p: &Projections,
     x: Split,
     lambda: Column,
     inv_h2: f32,
-    mut k: usize,
+    k: usize,
     end: usize,
 ) -> usize {
-    while k + N <= end {
-        // SAFETY: the caller's contract.
-        unsafe { solve_contiguous_at::<ACCUMULATE, FUSED, N>(p, x, lambda, inv_h2, k) };
-        k += N;
+    let count = end.saturating_sub(k) / N * N;
+    if count == 0 {
+        return k;
     }
-    k
+    let (a, b) = (p.a[k] as usize, p.b[k] as usize);
+    let inv_mass = &p.inv_mass[..];
+    // The one test for every access below.
+    let n = inv_mass.len();
+    let slots = [&p.rest, &p.compliance, &p.weights[0], &p.weights[1]];
+    assert!(
+        a.max(b) + count <= n
+            && x.start.iter().all(|c| c.0.len() == n)
+            && x.delta.iter().all(|c| c.len == n)
+            && slots.iter().all(|v| k + count <= v.len())
+            && (!ACCUMULATE || k + count <= lambda.len),
+        "a run past the particles or the slots"
+    );
+    let mut m = 0;
+    while m < count {
+        let (ia, ib, i) = (a + m, b + m, k + m);
+        // SAFETY: every index is within the run, in bounds (tested above); the caller has
+        // exclusive use of what the run touches.
+        unsafe {
+            let s = ends(ia, ib, |c, j| x.start[c].load_unchecked(j));
+            let mut d = ends(ia, ib, |c, j| x.delta[c].load_unchecked(j));
+            let (wa, wb) = (slot_of::<N>(inv_mass, ia), slot_of::<N>(inv_mass, ib));
+            let mut lam = if ACCUMULATE {
+                lambda.load_unchecked::<N>(i)
+            } else {
+                [0.0; N]
+            };
+            let constants = Slots {
+                rest: slot_of(&p.rest, i),
+                compliance: slot_of(&p.compliance, i),
+                weights: [slot_of(&p.weights[0], i), slot_of(&p.weights[1], i)],
+            };
+            update::<ACCUMULATE, FUSED, N>(&s, &mut d, (wa, wb), constants, &mut lam, inv_h2);
+            for (c, coord) in x.delta.iter().enumerate() {
+                coord.store_unchecked(ia, &d[c]);
+                coord.store_unchecked(ib, &d[c + 3]);
+            }
+            if ACCUMULATE {
+                lambda.store_unchecked(i, &lam);
+            }
+        }
+        m += N;
+    }
+    k + count
+}
+
+/// `N` values of `v` from `i` on, without a bounds test.
+///
+/// # Safety
+/// `i + N` is at most `v`'s length.
+#[inline(always)]
+unsafe fn slot_of<const N: usize>(v: &[f32], i: usize) -> &[f32; N] {
+    debug_assert!(i + N <= v.len());
+    // SAFETY: in bounds (the caller's contract).
+    unsafe { &*v.as_ptr().add(i).cast::<[f32; N]>() }
 }
 
 /// The contiguous batch of `N` slots at slot `k`.
