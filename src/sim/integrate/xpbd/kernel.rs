@@ -44,9 +44,8 @@ impl<'a> Read<'a> {
     /// `i + N` is at most the length.
     #[inline(always)]
     unsafe fn load_unchecked<const N: usize>(self, i: usize) -> [f32; N] {
-        debug_assert!(i + N <= self.0.len());
-        // SAFETY: in bounds (the caller's contract).
-        unsafe { self.0.as_ptr().add(i).cast::<[f32; N]>().read_unaligned() }
+        // SAFETY: the caller's contract.
+        unsafe { *slot_of(self.0, i) }
     }
 }
 

@@ -330,6 +330,44 @@ fn padding_slots_change_nothing() {
     }
 }
 
+#[test]
+#[should_panic(expected = "past the particles")]
+fn a_contiguous_run_past_the_particles_panics() {
+    // A run of 16 springs, its second ends moved to particles 20..36 of 32 after the constants
+    // are set: the streamed run's one bounds test (or, on AVX-512, the batch's) must stop it.
+    let n = 32;
+    let (start, mut delta) = (Soa::new(n), Soa::new(n));
+    let p = &mut Projections {
+        a: (0..16).collect(),
+        b: (16..32).collect(),
+        spring: (0..16).map(Some).collect(),
+        solo: vec![true; 16],
+        runs: vec![Run {
+            layout: Layout::Contiguous,
+            start: 0,
+            len: 16,
+        }],
+        springs: 16,
+        ..Projections::default()
+    };
+    p.rest = vec![0.0; 16];
+    p.compliance = vec![0.0; 16];
+    p.inv_mass = vec![0.0; n];
+    p.set_constants(&[0.5; 16], &[1e3; 16], &vec![1.0; n]);
+    p.set_weights(3600.0);
+    for b in &mut p.b {
+        *b += 4;
+    }
+    let mut lambda = vec![0.0; 16];
+    let x = Split {
+        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
+        delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
+    };
+    // SAFETY: one thread, and the arrays are used through the columns only until the sweep
+    // returns.
+    unsafe { solve_springs::<false>(p, &p.runs, x, Column::new(&mut lambda), 3600.0) };
+}
+
 /// The displacements and multipliers after one sweep over `model`'s springs by the kernel's
 /// `build` (with `ACCUMULATE`, from nonzero multipliers), if the CPU has it, as bits. `None` for
 /// `build`: the plain build with its fused multiply-adds in plain arithmetic.
