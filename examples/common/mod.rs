@@ -6,7 +6,8 @@
 //! the picture is the same on every machine; after that many frames the window is saved and the app
 //! exits. Simulated time starts only after [`START_FRAME`] frames (the renderer needs a few to
 //! compile its pipelines), so that with `BEVY_CLOTH_SCREENSHOT_START=path/to/start.png` the window
-//! is also saved in the scene's starting pose, for a check to see what moved.
+//! is also saved in the scene's starting pose, for a check to see what moved. Between the two
+//! pictures only the frames next to them are drawn (see [`RENDERED_AROUND`]).
 
 use std::time::Duration;
 
@@ -35,6 +36,12 @@ struct ScreenshotMode {
 
 /// Frames the screenshot mode holds simulated time still for, and saves the starting pose at.
 const START_FRAME: u32 = 30;
+
+/// Frames after the starting pose's screenshot, and before the final one, that the screenshot mode
+/// renders. In between, the cameras are switched off: nothing the examples draw depends on earlier
+/// frames (no temporal effects), so the final picture is the same, and under a software renderer
+/// drawing the frames nobody sees is most of an example's run.
+const RENDERED_AROUND: u32 = 3;
 
 impl Plugin for ExamplePlugin {
     fn build(&self, app: &mut App) {
@@ -119,6 +126,8 @@ fn take_screenshot(
     mode: Res<ScreenshotMode>,
     mut time: ResMut<Time<Virtual>>,
     mut frame: Local<u32>,
+    mut cameras: Query<(Entity, &mut Camera)>,
+    mut switched_off: Local<Vec<Entity>>,
 ) {
     *frame += 1;
     if *frame == START_FRAME {
@@ -129,7 +138,23 @@ fn take_screenshot(
         }
         time.unpause();
     }
-    if *frame != START_FRAME + mode.frames {
+    let last = START_FRAME + mode.frames;
+    if *frame == START_FRAME + RENDERED_AROUND && *frame + RENDERED_AROUND < last {
+        for (entity, mut camera) in &mut cameras {
+            if camera.is_active {
+                camera.is_active = false;
+                switched_off.push(entity);
+            }
+        }
+    }
+    if *frame + RENDERED_AROUND == last {
+        for entity in switched_off.drain(..) {
+            if let Ok((_, mut camera)) = cameras.get_mut(entity) {
+                camera.is_active = true;
+            }
+        }
+    }
+    if *frame != last {
         return;
     }
     let path = mode.path.clone();
