@@ -450,6 +450,8 @@ pub fn run(
     scenes: &[AccuracyScene],
     out_dir: &Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    // Before the run writes its files into the checkout.
+    let commit = commit();
     let configs = sweep(quick);
     let default = SolverSettings::default();
     let min_time = Duration::from_millis(if quick { 60 } else { 300 });
@@ -592,7 +594,7 @@ pub fn run(
          at {MAX_SUBSTEPS} substeps) list their mean substeps per frame and the integrator of \
          their last step.\n",
         if quick { " --quick" } else { "" },
-        commit(),
+        commit,
         cpu(),
         std::thread::available_parallelism().map_or(1, |n| n.get()),
     )?;
