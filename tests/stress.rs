@@ -73,7 +73,7 @@ fn every_integrator_survives_100_stress_cases_in_tolerance_mode() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 23] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 24] = [
     (
         45762,
         13,
@@ -211,6 +211,12 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 23] = [
         1454,
         SymplecticEuler,
         "tethers projected once a step, over a whole step's overshoot, gave the cloth energy",
+    ),
+    (
+        20261124,
+        5300,
+        Xpbd,
+        "a stiff, undamped cloth shaken by its pins beat past 8 times the drive's speed (bounded)",
     ),
 ];
 
