@@ -48,8 +48,9 @@ pub const CLEARANCE_TOLERANCE: f32 = 1e-3;
 /// drivers feed without running away (found by this suite): single light particles whip faster
 /// than the rest; a box swept at half its thickness per substep through a soft cloth of light
 /// particles gives it an rms speed of about twice the box's; and a stiff, undamped cloth shaken by
-/// its pins near a resonance of its XPBD solve (seed 20261124, case 5300: springs stretched up to
-/// 300-fold) beats, its energy rising and falling over seconds, with peaks up to 9 times the drive.
+/// its pins faster than its XPBD iterations carry the motion across it (seed 20261124, case 5300:
+/// springs stretched up to 300-fold) beats, its energy rising and falling over seconds, with peaks
+/// up to 9 times the drive.
 pub const RUNAWAY_SPEED_FACTOR: f64 = 10.0;
 
 /// How big the cases may get.
@@ -713,8 +714,9 @@ fn run_steps(
         if e.kinetic > energy_bound {
             result.outcome = fail(format!(
                 "kinetic energy {:.3e} J is beyond the whole cloth at {RUNAWAY_SPEED_FACTOR} times \
-                 every driving speed ({kinetic_bound:.3e} J) plus the energy its contacts added ({contact_work:.3e} J), \
-                 times a symplectic integrator's inflation ({inflation:.2})",
+                 every driving speed ({kinetic_bound:.3e} J) plus the energy its contacts added \
+                 ({contact_work:.3e} J), times a symplectic integrator's inflation \
+                 ({inflation:.2})",
                 e.kinetic
             ));
             return;
