@@ -73,7 +73,7 @@ fn every_integrator_survives_100_stress_cases_in_tolerance_mode() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 24] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 25] = [
     (
         45762,
         13,
@@ -217,6 +217,12 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 24] = [
         5300,
         Xpbd,
         "a stiff, undamped cloth shaken by its pins beat past 8 times the drive's speed (bounded)",
+    ),
+    (
+        20261124,
+        9751,
+        Verlet,
+        "the tunnelling check took a step of an overstretched cloth for one substep; it ran two",
     ),
 ];
 

@@ -627,6 +627,9 @@ fn run_steps(
             ..Environment::default()
         };
         start_positions.copy_from_slice(sim.positions());
+        // The substeps this step takes: the count depends on the state (an overstretched cloth
+        // takes more), and tolerance mode reports what it ran (a rejected step runs again).
+        let planned = sim.substeps_for(case.dt);
         if let Err(e) = sim.step_in(case.dt, &env) {
             result.outcome = match e {
                 ClothError::Unstable { .. } | ClothError::Diverged { .. } if past_bound => {
@@ -666,7 +669,8 @@ fn run_steps(
         if let Some(c) = &collider
             && let Some(shape) = c.shape.primitive()
         {
-            let one_substep = result.substeps == 1;
+            let ran = sim.accuracy_report().map_or(planned, |r| r.substeps);
+            let one_substep = ran == 1;
             for (i, (x, x0)) in sim.positions().iter().zip(&start_positions).enumerate() {
                 if pinned.contains(&(i as u32)) {
                     continue;
