@@ -139,7 +139,8 @@ pub struct StressResult {
     pub case: StressCase,
     /// How it ended.
     pub outcome: StressOutcome,
-    /// Substeps per step actually taken (raised by `auto_substeps` for explicit integrators).
+    /// Substeps the first step took (raised by `auto_substeps` for explicit integrators; a later
+    /// step takes more while a spring is stretched far from rest).
     pub substeps: u32,
     /// `h ω_max`: the substep times the Gershgorin bound on the highest spring frequency.
     pub h_omega: f32,
