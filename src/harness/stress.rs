@@ -44,13 +44,11 @@ pub const CLEARANCE_TOLERANCE: f32 = 1e-3;
 
 /// With something driving the cloth, its kinetic energy may not exceed the whole cloth moving at
 /// this many times the sum of every driving speed (a runaway check). A runaway grows
-/// exponentially and passes any such bound; what the factor must leave room for is motion the
-/// drivers feed without running away (found by this suite): single light particles whip faster
-/// than the rest; a box swept at half its thickness per substep through a soft cloth of light
-/// particles gives it an rms speed of about twice the box's; and a stiff, undamped cloth shaken by
-/// its pins faster than its XPBD iterations carry the motion across it (seed 20261124, case 5300:
-/// springs stretched up to 300-fold) beats, its energy rising and falling over seconds, with peaks
-/// up to 9 times the drive.
+/// exponentially and passes any such bound; the factor leaves room for motion the drivers feed
+/// without running away, which this suite has found: single light particles whipping faster than
+/// the rest, a box swept through a soft cloth of light particles stretching its springs, and a
+/// stiff, undamped cloth shaken by its pins faster than XPBD's iterations carry the motion across
+/// it, whose energy beats (BENCHMARKS.md, "Stress suite").
 pub const RUNAWAY_SPEED_FACTOR: f64 = 10.0;
 
 /// How big the cases may get.

@@ -286,6 +286,44 @@ fn contacts_ahead_of_the_end_pass_match_contacts_after_it() {
     );
 }
 
+/// One contiguous run of `slots` slots over `n` particles, its first ends particles `0..slots`
+/// and its second ends `16..16 + slots`, the first `springs` slots springs and the rest padding
+/// (rest length 0, stiffness 1e3, unit masses), weighted for substeps of 1/60 s.
+fn contiguous_run(n: usize, slots: u32, springs: u32) -> Projections {
+    let mut p = Projections {
+        a: (0..slots).collect(),
+        b: (16..16 + slots).collect(),
+        spring: (0..slots).map(|m| (m < springs).then_some(m)).collect(),
+        solo: vec![true; slots as usize],
+        runs: vec![Run {
+            layout: Layout::Contiguous,
+            start: 0,
+            len: slots,
+        }],
+        springs: springs as usize,
+        ..Projections::default()
+    };
+    p.rest = vec![0.0; slots as usize];
+    p.compliance = vec![0.0; slots as usize];
+    p.inv_mass = vec![0.0; n];
+    let springs = springs as usize;
+    p.set_constants(&vec![0.5; springs], &vec![1e3; springs], &vec![1.0; n]);
+    p.set_weights(3600.0);
+    p
+}
+
+/// One sweep of `p`'s runs from positions `start`, updating the displacements `delta`.
+fn sweep_runs(p: &Projections, start: &Soa, delta: &mut Soa) {
+    let mut lambda = vec![0.0; p.a.len()];
+    let x = Split {
+        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
+        delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
+    };
+    // SAFETY: one thread, and the arrays are used through the columns only until the sweep
+    // returns.
+    unsafe { solve_springs::<false>(p, &p.runs, x, Column::new(&mut lambda), 3600.0) };
+}
+
 #[test]
 fn padding_slots_change_nothing() {
     // A contiguous run of three springs, padded to a batch of eight.
@@ -299,31 +337,7 @@ fn padding_slots_change_nothing() {
         delta.set(i, Vec3::splat(1e-3 * i as f32));
     }
     let before = delta.clone();
-    let p = &mut Projections {
-        a: (0..8).collect(),
-        b: (16..24).collect(),
-        spring: (0..8).map(|m| (m < 3).then_some(m)).collect(),
-        runs: vec![Run {
-            layout: Layout::Contiguous,
-            start: 0,
-            len: 8,
-        }],
-        springs: 3,
-        ..Projections::default()
-    };
-    p.rest = vec![0.0; 8];
-    p.compliance = vec![0.0; 8];
-    p.inv_mass = vec![0.0; n];
-    p.set_constants(&[0.5, 0.5, 0.5], &[1e3, 1e3, 1e3], &vec![1.0; n]);
-    p.set_weights(3600.0);
-    let mut lambda = vec![0.0; 8];
-    let x = Split {
-        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
-        delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
-    };
-    // SAFETY: one thread, and the arrays are used through the columns only until the sweep
-    // returns.
-    unsafe { solve_springs::<false>(p, &p.runs, x, Column::new(&mut lambda), 3600.0) };
+    sweep_runs(&contiguous_run(n, 8, 3), &start, &mut delta);
     for i in 0..n {
         let moved = delta.get(i) != before.get(i);
         assert_eq!(moved, matches!(i, 0..3 | 16..19), "particle {i}");
@@ -336,36 +350,11 @@ fn a_contiguous_run_past_the_particles_panics() {
     // A run of 16 springs, its second ends moved to particles 20..36 of 32 after the constants
     // are set: the streamed run's one bounds test (or, on AVX-512, the batch's) must stop it.
     let n = 32;
-    let (start, mut delta) = (Soa::new(n), Soa::new(n));
-    let p = &mut Projections {
-        a: (0..16).collect(),
-        b: (16..32).collect(),
-        spring: (0..16).map(Some).collect(),
-        solo: vec![true; 16],
-        runs: vec![Run {
-            layout: Layout::Contiguous,
-            start: 0,
-            len: 16,
-        }],
-        springs: 16,
-        ..Projections::default()
-    };
-    p.rest = vec![0.0; 16];
-    p.compliance = vec![0.0; 16];
-    p.inv_mass = vec![0.0; n];
-    p.set_constants(&[0.5; 16], &[1e3; 16], &vec![1.0; n]);
-    p.set_weights(3600.0);
+    let mut p = contiguous_run(n, 16, 16);
     for b in &mut p.b {
         *b += 4;
     }
-    let mut lambda = vec![0.0; 16];
-    let x = Split {
-        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
-        delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
-    };
-    // SAFETY: one thread, and the arrays are used through the columns only until the sweep
-    // returns.
-    unsafe { solve_springs::<false>(p, &p.runs, x, Column::new(&mut lambda), 3600.0) };
+    sweep_runs(&p, &Soa::new(n), &mut Soa::new(n));
 }
 
 /// The displacements and multipliers after one sweep over `model`'s springs by the kernel's
