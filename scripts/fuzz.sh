@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzzes the OBJ parser, the RON scene parser and the mesh builders (issue 7) with cargo-fuzz
+# Fuzzes the OBJ parser, the RON scene parser and the mesh builders with cargo-fuzz
 # (libFuzzer): each target for SECONDS seconds (default 240), starting from the committed seeds in
 # fuzz/seeds/<target> plus whatever fuzz/corpus/<target> has gathered. A crash stops the run and
 # leaves its input in fuzz/artifacts/<target>/; reproduce it with

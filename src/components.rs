@@ -614,7 +614,8 @@ pub struct ClothSubdivision {
 pub enum SubdivisionTarget {
     /// The cloth simulates its own mesh; after each step its particles are the control points of
     /// a subdivision surface that is rendered. The simulation keeps its size: each step only adds
-    /// the stencil evaluation and normals of the refined surface (BENCHMARKS.md has the costs).
+    /// the stencil evaluation and normals of the refined surface (`benches/subdivision.rs`
+    /// times the evaluation).
     /// Changing the level only rebuilds the render mesh.
     #[default]
     Render,

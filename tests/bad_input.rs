@@ -1,4 +1,4 @@
-//! Bad input everywhere it enters the crate (issue 7): solver settings, grid specs, meshes (for the
+//! Bad input everywhere it enters the crate: solver settings, grid specs, meshes (for the
 //! simulation and for subdivision), OBJ text, RON scenes, colliders, wind and pins. Each class of
 //! bad input gets a typed error whose message names the field or problem and where it is; in the
 //! ECS a bad cloth is reported once and skipped while the others keep running. Headless.

@@ -391,8 +391,9 @@ fn bad_targets_are_errors_that_change_nothing() {
 /// that the curtain settles into one shape. (Hanging in its plane, a curtain that sags buckles
 /// out of it either way and rounding alone decides which; lightly damped, it swings so that
 /// rounding differences grow by orders of magnitude within the run. Either would hide what is
-/// measured here; BENCHMARKS.md, "Character cloth", has the figures.) Implicit Euler gets enough conjugate-gradient iterations to
-/// converge, so that its first guess, not the frame, does not decide the result.
+/// measured here; CHANGELOG.md, 2026-11-24, has the figures.) Implicit Euler gets enough
+/// conjugate-gradient iterations to converge, so that its first guess, not the frame, does not
+/// decide the result.
 fn ride_settings(integrator: Integrator, inertia: Inertia) -> SolverSettings {
     SolverSettings {
         integrator,
@@ -530,7 +531,7 @@ fn with_no_linear_inertia_a_frame_sliding_over_a_floor_changes_nothing() {
         (Integrator::Xpbd, 1e-3),
         (Integrator::ImplicitEuler, 1e-3),
         // The explicit integrators' runs on the floor part by rounding that the contacts grow,
-        // as much at 5 cm/s as at 5 m/s (BENCHMARKS.md, "Character cloth"); friction that felt
+        // as much at 5 cm/s as at 5 m/s (CHANGELOG.md, 2026-12-01); friction that felt
         // the frame's motion parts them by far more.
         (Integrator::SymplecticEuler, 1e-2),
         (Integrator::Verlet, 1e-2),
@@ -583,7 +584,7 @@ fn with_no_angular_inertia_a_turning_frame_changes_nothing_but_the_pins_chords()
         );
         // Pins travel straight between their targets at the ends of a step while the frame
         // turns along an arc, so they cut inside it; the cloth's answer shrinks as the turn
-        // rate squared (BENCHMARKS.md, "Character cloth").
+        // rate squared (CHANGELOG.md, 2026-11-24).
         assert!(
             gap <= 2e-3,
             "{}: {gap} m from the still frame's run",

@@ -287,7 +287,7 @@ fn every_simulated_example_moves_its_cloth() {
     // Each example is pictured in its starting pose (simulated time held still until then) and
     // 1.5 s later. A cloth that never moved leaves the scene as it was (the light and camera do
     // not move; the character's camera follows it). Each simulated example changes several times
-    // the 3% asked for (BENCHMARKS.md, "Screenshot checks"); subdivision_compare, which
+    // the 3% asked for (CHANGELOG.md, 2026-11-24); subdivision_compare, which
     // simulates nothing, is left out.
     for name in [
         "hanging_cloth",

@@ -54,7 +54,7 @@ pub fn heightfield_mesh(
 /// off. On a machine with few cores, the multi-threaded executor's handing of each system to a
 /// worker thread and back can cost more than a small cloth's whole step, and the tracking
 /// (`StaticTransformOptimizations`) hands a task to the compute pool and back every frame, which
-/// only pays in scenes with many still entities under parents (BENCHMARKS.md, issue 25). A
+/// only pays in scenes with many still entities under parents. A
 /// query's parallel iteration still uses the compute pool where it has more than one thread.
 pub fn use_single_threaded_frame(app: &mut App) {
     let mut schedules = app

@@ -28,7 +28,7 @@ pub(super) const WIDE_BATCH: usize = 2 * LANES;
 
 /// Fewest slots for which a step is shared between two threads (see
 /// [`Projections::worth_sharing`]): below it, handing phases between threads costs more than the
-/// second thread gains (measured in BENCHMARKS.md).
+/// second thread gains (measured; see CHANGELOG.md, 2026-11-23).
 const SHARED_MIN_SLOTS: usize = 20_000;
 
 /// How the particles of a [`Run`]'s slots are laid out in memory.
