@@ -3,6 +3,7 @@
 //! ```text
 //! cargo run --release --example cloth_cli -- simulate assets/scenes/hanging.ron --frames 120 --output out.json
 //! cargo run --release --example cloth_cli -- bench assets/scenes/hanging.ron --frames 600
+//! cargo run --release --example cloth_cli -- benchmarks
 //! cargo run --release --example cloth_cli -- subdivide in.obj --level 2 --rule tuned --output out.obj
 //! cargo run --release --example cloth_cli -- analysis
 //! cargo run --release --example cloth_cli -- work-precision --quick
@@ -16,13 +17,16 @@ use std::time::Instant;
 use bevy::prelude::*;
 use bevy_cloth::harness::reference::REFERENCE_TOLERANCE;
 use bevy_cloth::harness::scenes::AccuracyScene;
-use bevy_cloth::harness::try_headless_app;
 use bevy_cloth::prelude::*;
-use bevy_cloth::scene::ClothScene;
-use bevy_cloth::sim::{ClothSim, SpringKind};
 use bevy_cloth::subdivision::{parse_obj, refine_positions, write_obj};
 use clap::{Parser, Subcommand};
 
+#[path = "cloth_cli/bench.rs"]
+mod bench;
+#[path = "cloth_cli/benchmarks.rs"]
+mod benchmarks;
+#[path = "cloth_cli/machine.rs"]
+mod machine;
 #[path = "cloth_cli/plot.rs"]
 mod plot;
 #[path = "cloth_cli/stress.rs"]
@@ -137,6 +141,22 @@ enum Command {
         /// Seed of the stress suite.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+    },
+    /// Time every scene file in a folder on both of Bevy's executors, several rounds, and write
+    /// the table of current figures (BENCHMARKS.md) with the machine, commit and date.
+    Benchmarks {
+        /// Folder of scene files (RON).
+        #[arg(long, default_value = "assets/scenes")]
+        scenes: PathBuf,
+        /// Timed frames per scene and executor in each round.
+        #[arg(long, default_value_t = 600)]
+        frames: u32,
+        /// Rounds (scenes and executors alternate within each).
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Output file.
+        #[arg(long, default_value = "BENCHMARKS.md")]
+        output: PathBuf,
     },
     /// Run time against error of every integrator on the accuracy scenes (solver only, against an
     /// f64 reference): writes work-precision.md, .json and .png into the output folder.
@@ -276,88 +296,6 @@ fn state_hashes(cases: u64, frames: u32, seed: u64) -> Result<(), Box<dyn std::e
     Ok(())
 }
 
-/// A headless app with the scene's cloth built and at rest.
-fn load(path: &PathBuf) -> Result<(App, Entity, ClothScene), ClothError> {
-    let (app, entities, scene) = load_copies(path, 1)?;
-    Ok((app, entities[0], scene))
-}
-
-/// A headless app with `copies` of the scene (each moved 1000 m further along +X, so that they
-/// never meet) built and at rest.
-fn load_copies(path: &PathBuf, copies: u32) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
-    let scene = ClothScene::load(path)?;
-    let mut app = try_headless_app(scene.dt)?;
-    let mut entities = Vec::new();
-    for k in 0..copies.max(1) {
-        let mut copy = scene.clone();
-        copy.translation.x += 1000.0 * k as f32;
-        for c in &mut copy.colliders {
-            c.translation.x += 1000.0 * k as f32;
-        }
-        entities.push(copy.spawn(app.world_mut())?);
-    }
-    app.update();
-    for e in &entities {
-        if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
-            return Err(e.clone());
-        }
-    }
-    Ok((app, entities, scene))
-}
-
-/// Runs `frames` updates (one fixed step each), returning the wall time of each in milliseconds.
-fn run(app: &mut App, entity: Entity, frames: u32) -> Result<Vec<f64>, ClothError> {
-    Ok(run_counting_sleep(app, &[entity], frames)?.0)
-}
-
-/// [`run`] for several cloths; also counts the cloth-frames skipped asleep.
-fn run_counting_sleep(
-    app: &mut App,
-    entities: &[Entity],
-    frames: u32,
-) -> Result<(Vec<f64>, u32), ClothError> {
-    let mut times = Vec::with_capacity(frames as usize);
-    let mut slept = 0;
-    for _ in 0..frames {
-        let t = Instant::now();
-        app.update();
-        times.push(t.elapsed().as_secs_f64() * 1e3);
-        for e in entities {
-            if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
-                return Err(e.clone());
-            }
-            let state = app.world().get::<ClothState>(*e);
-            slept += state.is_some_and(|s| s.sim().slept_last_step()) as u32;
-        }
-    }
-    Ok((times, slept))
-}
-
-/// Median, 10th and 90th percentile, min and max.
-fn stats(times: &mut [f64]) -> serde_json::Value {
-    times.sort_by(f64::total_cmp);
-    let q = |f: f64| times[((times.len() - 1) as f64 * f).round() as usize];
-    serde_json::json!({
-        "median_ms": q(0.5), "p10_ms": q(0.1), "p90_ms": q(0.9),
-        "min_ms": q(0.0), "max_ms": q(1.0),
-    })
-}
-
-/// Median of `|length / rest - 1|` over the springs of `kinds` (structural: a grid's row and
-/// column edges; shear: its diagonals; bend: its springs that skip one particle).
-fn median_strain(sim: &ClothSim, kinds: &[SpringKind]) -> f64 {
-    let mut strain: Vec<f64> = kinds
-        .iter()
-        .flat_map(|&kind| sim.strains(kind))
-        .map(|s| f64::from(s.abs()))
-        .collect();
-    if strain.is_empty() {
-        return f64::NAN;
-    }
-    strain.sort_by(f64::total_cmp);
-    strain[strain.len() / 2]
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     match Cli::parse().command {
         Command::Simulate {
@@ -365,9 +303,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             frames,
             output,
         } => {
-            let (mut app, entity, parsed) = load(&scene)?;
+            let (mut app, entity, parsed) = bench::load(&scene)?;
             let start = Instant::now();
-            let mut times = run(&mut app, entity, frames)?;
+            let mut times = bench::run(&mut app, entity, frames)?;
             let total = start.elapsed().as_secs_f64() * 1e3;
             let state = app
                 .world()
@@ -381,7 +319,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "time_s": frames as f64 * parsed.dt as f64,
                 "particles": positions.len(),
                 "positions": positions,
-                "timing": { "total_ms": total, "per_frame": stats(&mut times) },
+                "timing": { "total_ms": total, "per_frame": bench::stats(&mut times) },
             });
             std::fs::write(&output, serde_json::to_string_pretty(&json)?)?;
             eprintln!(
@@ -413,48 +351,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .build()
                 });
             }
-            let (mut app, entities, parsed) = load_copies(&scene, copies)?;
-            if single_threaded {
-                bevy_cloth::harness::use_single_threaded_frame(&mut app);
-            }
-            run_counting_sleep(&mut app, &entities, 10)?;
-            let (mut times, slept) = run_counting_sleep(&mut app, &entities, frames)?;
-            let state = app
-                .world()
-                .get::<ClothState>(entities[0])
-                .ok_or("cloth was not built")?;
-            let sim = state.sim();
-            let solves = sim.model().springs.len() as f64
-                * sim.substeps_for(parsed.dt) as f64
-                * parsed.solver.iterations as f64
-                * entities.len() as f64;
-            let mut line = stats(&mut times);
-            let median_s = line["median_ms"].as_f64().unwrap_or(f64::NAN) * 1e-3;
-            line["scene"] = scene.display().to_string().into();
-            line["frames"] = frames.into();
-            line["copies"] = entities.len().into();
-            line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
-            line["executor"] = if single_threaded { "single" } else { "multi" }.into();
-            line["particles"] = state.positions().len().into();
-            line["springs"] = sim.model().springs.len().into();
-            line["substeps"] = sim.substeps_for(parsed.dt).into();
-            line["integrator"] = sim.active_integrator().name().into();
-            if let Some(r) = sim.accuracy_report() {
-                line["tolerance_mode"] = serde_json::json!({
-                    "tolerance_m_per_s": r.tolerance, "estimate_m_per_s": r.error_rate,
-                    "estimates": r.estimates, "rejected": r.rejected, "at_cap": r.at_cap,
-                    "at_floor": r.at_floor,
-                });
-            }
-            line["constraint_solves_per_s"] = (solves / median_s).round().into();
-            // Each family: which of them holds more of an unconverged solve's residual depends
-            // on the order they are projected in.
-            line["median_structural_strain"] = median_strain(sim, &[SpringKind::Structural]).into();
-            line["median_shear_strain"] = median_strain(sim, &[SpringKind::Shear]).into();
-            line["median_bend_strain"] = median_strain(sim, &[SpringKind::Bend]).into();
-            // All springs pooled, as the bevy_silk harness pools all of its sticks.
-            line["median_spring_strain"] = median_strain(sim, &SpringKind::ALL).into();
-            line["cloth_frames_asleep"] = slept.into();
+            let line = bench::bench_scene(&scene, frames, copies, single_threaded)?;
             println!("{line}");
         }
         Command::Stress {
@@ -496,6 +393,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             frames,
             seed,
         } => state_hashes(cases, frames, seed)?,
+        Command::Benchmarks {
+            scenes,
+            frames,
+            runs,
+            output,
+        } => benchmarks::run(&scenes, frames, runs, &output)?,
         Command::WorkPrecision {
             quick,
             tolerance,

@@ -14,6 +14,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use super::machine::{commit, cpu};
 use bevy_cloth::harness::reference::{ReferenceProblem, ReferenceSolution};
 use bevy_cloth::harness::scenes::{AccuracyScene, relative_max_error, relative_rms_error};
 use bevy_cloth::sim::{Accuracy, Integrator, MAX_SUBSTEPS, SolverSettings};
@@ -812,34 +813,4 @@ pub fn run(
         out_dir.display()
     );
     Ok(())
-}
-
-/// The checkout's commit (`git describe --always --dirty`), so that a reader can tell which code
-/// the figures are from.
-fn commit() -> String {
-    std::process::Command::new("git")
-        .args(["describe", "--always", "--dirty"])
-        .output()
-        .ok()
-        .filter(|out| out.status.success())
-        .and_then(|out| String::from_utf8(out.stdout).ok())
-        .map_or_else(|| "an unknown commit".into(), |c| c.trim().to_string())
-}
-
-/// The CPU's name, family and model as Linux reports them: the timings are this machine's.
-fn cpu() -> String {
-    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
-    let field = |key: &str| {
-        info.lines()
-            .filter_map(|l| l.split_once(':'))
-            .find(|(k, _)| k.trim() == key)
-            .map(|(_, v)| v.trim().to_string())
-    };
-    match (field("model name"), field("cpu family"), field("model")) {
-        (Some(name), Some(family), Some(model)) => {
-            format!("{name} (family {family}, model {model})")
-        }
-        (Some(name), ..) => name,
-        _ => "an unknown CPU".into(),
-    }
 }

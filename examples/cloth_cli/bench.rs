@@ -1,0 +1,147 @@
+//! A scene timed frame by frame through the whole plugin in a headless App: what `bench`
+//! prints and `benchmarks` tabulates, and the loading and frame loop `simulate` shares.
+
+use std::path::Path;
+use std::time::Instant;
+
+use bevy::prelude::*;
+use bevy_cloth::harness::try_headless_app;
+use bevy_cloth::prelude::*;
+use bevy_cloth::scene::ClothScene;
+use bevy_cloth::sim::{ClothSim, SpringKind};
+
+/// A headless app with the scene's cloth built and at rest.
+pub fn load(path: &Path) -> Result<(App, Entity, ClothScene), ClothError> {
+    let (app, entities, scene) = load_copies(path, 1)?;
+    Ok((app, entities[0], scene))
+}
+
+/// A headless app with `copies` of the scene (each moved 1000 m further along +X, so that they
+/// never meet) built and at rest.
+fn load_copies(path: &Path, copies: u32) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
+    let scene = ClothScene::load(path)?;
+    let mut app = try_headless_app(scene.dt)?;
+    let mut entities = Vec::new();
+    for k in 0..copies.max(1) {
+        let mut copy = scene.clone();
+        copy.translation.x += 1000.0 * k as f32;
+        for c in &mut copy.colliders {
+            c.translation.x += 1000.0 * k as f32;
+        }
+        entities.push(copy.spawn(app.world_mut())?);
+    }
+    app.update();
+    for e in &entities {
+        if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
+            return Err(e.clone());
+        }
+    }
+    Ok((app, entities, scene))
+}
+
+/// Runs `frames` updates (one fixed step each), returning the wall time of each in milliseconds.
+pub fn run(app: &mut App, entity: Entity, frames: u32) -> Result<Vec<f64>, ClothError> {
+    Ok(run_counting_sleep(app, &[entity], frames)?.0)
+}
+
+/// [`run`] for several cloths; also counts the cloth-frames skipped asleep.
+fn run_counting_sleep(
+    app: &mut App,
+    entities: &[Entity],
+    frames: u32,
+) -> Result<(Vec<f64>, u32), ClothError> {
+    let mut times = Vec::with_capacity(frames as usize);
+    let mut slept = 0;
+    for _ in 0..frames {
+        let t = Instant::now();
+        app.update();
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        for e in entities {
+            if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
+                return Err(e.clone());
+            }
+            let state = app.world().get::<ClothState>(*e);
+            slept += state.is_some_and(|s| s.sim().slept_last_step()) as u32;
+        }
+    }
+    Ok((times, slept))
+}
+
+/// Median, 10th and 90th percentile, min and max.
+pub fn stats(times: &mut [f64]) -> serde_json::Value {
+    times.sort_by(f64::total_cmp);
+    let q = |f: f64| times[((times.len() - 1) as f64 * f).round() as usize];
+    serde_json::json!({
+        "median_ms": q(0.5), "p10_ms": q(0.1), "p90_ms": q(0.9),
+        "min_ms": q(0.0), "max_ms": q(1.0),
+    })
+}
+
+/// Median of `|length / rest - 1|` over the springs of `kinds` (structural: a grid's row and
+/// column edges; shear: its diagonals; bend: its springs that skip one particle).
+fn median_strain(sim: &ClothSim, kinds: &[SpringKind]) -> f64 {
+    let mut strain: Vec<f64> = kinds
+        .iter()
+        .flat_map(|&kind| sim.strains(kind))
+        .map(|s| f64::from(s.abs()))
+        .collect();
+    if strain.is_empty() {
+        return f64::NAN;
+    }
+    strain.sort_by(f64::total_cmp);
+    strain[strain.len() / 2]
+}
+
+/// Times `frames` frames of `copies` of the scene (after 10 warm-up frames) on Bevy's
+/// multi-threaded executor, or its single-threaded one with static-scene transform tracking off
+/// (`harness::use_single_threaded_frame`), and returns the JSON line `bench` prints.
+pub fn bench_scene(
+    scene: &Path,
+    frames: u32,
+    copies: u32,
+    single_threaded: bool,
+) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+    let (mut app, entities, parsed) = load_copies(scene, copies)?;
+    if single_threaded {
+        bevy_cloth::harness::use_single_threaded_frame(&mut app);
+    }
+    run_counting_sleep(&mut app, &entities, 10)?;
+    let (mut times, slept) = run_counting_sleep(&mut app, &entities, frames)?;
+    let state = app
+        .world()
+        .get::<ClothState>(entities[0])
+        .ok_or("cloth was not built")?;
+    let sim = state.sim();
+    let solves = sim.model().springs.len() as f64
+        * sim.substeps_for(parsed.dt) as f64
+        * parsed.solver.iterations as f64
+        * entities.len() as f64;
+    let mut line = stats(&mut times);
+    let median_s = line["median_ms"].as_f64().unwrap_or(f64::NAN) * 1e-3;
+    line["scene"] = scene.display().to_string().into();
+    line["frames"] = frames.into();
+    line["copies"] = entities.len().into();
+    line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
+    line["executor"] = if single_threaded { "single" } else { "multi" }.into();
+    line["particles"] = state.positions().len().into();
+    line["springs"] = sim.model().springs.len().into();
+    line["substeps"] = sim.substeps_for(parsed.dt).into();
+    line["integrator"] = sim.active_integrator().name().into();
+    if let Some(r) = sim.accuracy_report() {
+        line["tolerance_mode"] = serde_json::json!({
+            "tolerance_m_per_s": r.tolerance, "estimate_m_per_s": r.error_rate,
+            "estimates": r.estimates, "rejected": r.rejected, "at_cap": r.at_cap,
+            "at_floor": r.at_floor,
+        });
+    }
+    line["constraint_solves_per_s"] = (solves / median_s).round().into();
+    // Each family: which of them holds more of an unconverged solve's residual depends
+    // on the order they are projected in.
+    line["median_structural_strain"] = median_strain(sim, &[SpringKind::Structural]).into();
+    line["median_shear_strain"] = median_strain(sim, &[SpringKind::Shear]).into();
+    line["median_bend_strain"] = median_strain(sim, &[SpringKind::Bend]).into();
+    // All springs pooled, as the bevy_silk harness pools all of its sticks.
+    line["median_spring_strain"] = median_strain(sim, &SpringKind::ALL).into();
+    line["cloth_frames_asleep"] = slept.into();
+    Ok(line)
+}

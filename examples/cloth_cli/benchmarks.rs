@@ -1,0 +1,260 @@
+//! `benchmarks`: every scene file in a folder timed through the whole plugin on both of Bevy's
+//! executors, written as the current figures of `BENCHMARKS.md` with machine, commit and date.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::bench::bench_scene;
+use super::machine;
+
+/// The scene the others are compared with in the table's last column.
+const REFERENCE_SCENE: &str = "grid64.ron";
+
+/// One scene's frames on one executor in one round.
+struct Timing {
+    median_ms: f64,
+    p10_ms: f64,
+    p90_ms: f64,
+    asleep: u64,
+}
+
+/// What a scene's runs report about its cloth (the same in every run).
+struct SceneFacts {
+    particles: u64,
+    springs: u64,
+    substeps: u64,
+    integrator: String,
+}
+
+struct SceneRows {
+    path: PathBuf,
+    facts: Option<SceneFacts>,
+    /// Per round: single-threaded, multi-threaded.
+    rounds: Vec<[Timing; 2]>,
+}
+
+/// Times every `.ron` scene in `scenes` (sorted by name) for `frames` frames, `runs` rounds
+/// (scenes and executors alternate within a round, so that a slow minute of a shared machine
+/// spreads over all of them), and writes the report to `output`.
+pub fn run(
+    scenes: &Path,
+    frames: u32,
+    runs: u32,
+    output: &Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    // Before the run writes its file into the checkout.
+    let commit = machine::commit();
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(scenes)
+        .map_err(|e| format!("cannot read {}: {e}", scenes.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        return Err(format!("no .ron scene in {}", scenes.display()).into());
+    }
+    let mut rows: Vec<SceneRows> = paths
+        .into_iter()
+        .map(|path| SceneRows {
+            path,
+            facts: None,
+            rounds: Vec::new(),
+        })
+        .collect();
+    let started = std::time::Instant::now();
+    for round in 0..runs.max(1) {
+        for row in &mut rows {
+            let mut pair = Vec::with_capacity(2);
+            for single_threaded in [true, false] {
+                let line = bench_scene(&row.path, frames, 1, single_threaded)?;
+                let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);
+                let count = |key: &str| line[key].as_u64().unwrap_or(0);
+                row.facts.get_or_insert_with(|| SceneFacts {
+                    particles: count("particles"),
+                    springs: count("springs"),
+                    substeps: count("substeps"),
+                    integrator: line["integrator"].as_str().unwrap_or("?").to_string(),
+                });
+                pair.push(Timing {
+                    median_ms: number("median_ms"),
+                    p10_ms: number("p10_ms"),
+                    p90_ms: number("p90_ms"),
+                    asleep: count("cloth_frames_asleep"),
+                });
+                eprintln!(
+                    "round {}/{runs}, {} ({}): {:.3} ms ({:.0} s so far)",
+                    round + 1,
+                    row.path.display(),
+                    if single_threaded { "single" } else { "multi" },
+                    number("median_ms"),
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            let multi = pair.pop().expect("two timings");
+            let single = pair.pop().expect("two timings");
+            row.rounds.push([single, multi]);
+        }
+    }
+    let report = render(&rows, frames, runs.max(1), &commit);
+    std::fs::write(output, report)?;
+    eprintln!("wrote {}", output.display());
+    Ok(())
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    match values.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => values[n / 2],
+        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+    }
+}
+
+/// Median over the rounds, with the rounds' range when there are several.
+fn fmt_spread(values: Vec<f64>) -> String {
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mid = median(values.clone());
+    if values.len() > 1 {
+        format!("**{mid:.3}** ({lo:.3}–{hi:.3})")
+    } else {
+        format!("**{mid:.3}**")
+    }
+}
+
+/// The scene file's opening comment, joined into one line.
+fn description(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines()
+        .map_while(|l| l.trim_start().strip_prefix("//"))
+        .map(str::trim)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+}
+
+fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
+    let reference = rows.iter().find(|r| file_name(&r.path) == REFERENCE_SCENE);
+    let mut out = String::new();
+    let w = &mut out;
+    let _ = writeln!(w, "# Benchmarks\n");
+    let _ = writeln!(
+        w,
+        "Current figures only, written by one command (this file is its output; edit the \
+         command, not the file):\n\n```sh\ncargo run --release --example cloth_cli -- \
+         benchmarks\n```\n\nCommit {commit}, {date}, on {cpu} with {threads} threads ({rustc}). \
+         Past figures and what changed them: [CHANGELOG.md](CHANGELOG.md) and git.\n",
+        date = machine::date(),
+        cpu = machine::cpu(),
+        threads = machine::threads(),
+        rustc = machine::rustc(),
+    );
+    let _ = writeln!(
+        w,
+        "## The whole App frame of each scene\n\n\
+         Each scene file in `assets/scenes/`, run through the whole plugin in a headless App: one \
+         fixed step per frame (the solver's substeps, render positions and normals, the mesh \
+         write and Bevy's own schedules). A row is what\n`cargo run --release --example cloth_cli \
+         -- bench assets/scenes/SCENE --frames {frames} [--single-threaded]`\nmeasures: \
+         milliseconds per frame, the median of {frames} frames after 10 warm-up frames, on Bevy's \
+         single-threaded executor (static-scene transform tracking off, as \
+         `harness::use_single_threaded_frame` sets it) and on its default multi-threaded one. \
+         {runs} rounds alternate the scenes and executors; a cell is the median of the rounds' \
+         medians with their range in brackets, and a ratio is the median of the ratios taken \
+         within each round. Machines like this one are shared and noisy: compare ratios, not \
+         times from different runs.\n"
+    );
+    let _ = writeln!(
+        w,
+        "| scene | particles | springs | integrator × substeps | single-threaded frame (ms) | \
+         multi-threaded frame (ms) | multi / single | single ÷ {REFERENCE_SCENE} | frames asleep |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|---|---:|---:|---:|---:|---:|");
+    for row in rows {
+        let facts = row.facts.as_ref();
+        let single: Vec<f64> = row.rounds.iter().map(|r| r[0].median_ms).collect();
+        let multi: Vec<f64> = row.rounds.iter().map(|r| r[1].median_ms).collect();
+        let ratio = median(
+            row.rounds
+                .iter()
+                .map(|r| r[1].median_ms / r[0].median_ms)
+                .collect(),
+        );
+        let relative = reference.map(|reference| {
+            median(
+                row.rounds
+                    .iter()
+                    .zip(&reference.rounds)
+                    .map(|(r, q)| r[0].median_ms / q[0].median_ms)
+                    .collect(),
+            )
+        });
+        let asleep: u64 = row.rounds.iter().map(|r| r[0].asleep + r[1].asleep).sum();
+        let _ = writeln!(
+            w,
+            "| `{}` | {} | {} | {} × {} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
+            file_name(&row.path),
+            facts.map_or(0, |f| f.particles),
+            facts.map_or(0, |f| f.springs),
+            facts.map_or("?", |f| f.integrator.as_str()),
+            facts.map_or(0, |f| f.substeps),
+            fmt_spread(single),
+            fmt_spread(multi),
+            relative.map_or("–".into(), |r| format!("{r:.2}")),
+            2 * frames as usize * row.rounds.len(),
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\nThe 10th and 90th percentiles of each scene's frames, single-threaded, in the round \
+         with the median time:\n"
+    );
+    let _ = writeln!(w, "| scene | p10 (ms) | median (ms) | p90 (ms) |");
+    let _ = writeln!(w, "|---|---:|---:|---:|");
+    for row in rows {
+        let mut order: Vec<&[Timing; 2]> = row.rounds.iter().collect();
+        order.sort_by(|a, b| a[0].median_ms.total_cmp(&b[0].median_ms));
+        if let Some(t) = order.get(order.len() / 2).map(|r| &r[0]) {
+            let _ = writeln!(
+                w,
+                "| `{}` | {:.3} | {:.3} | {:.3} |",
+                file_name(&row.path),
+                t.p10_ms,
+                t.median_ms,
+                t.p90_ms
+            );
+        }
+    }
+    let _ = writeln!(w, "\n## The scenes\n");
+    for row in rows {
+        let _ = writeln!(
+            w,
+            "- `{}`: {}",
+            file_name(&row.path),
+            description(&row.path)
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\n## Other measurements and their commands\n\n\
+         These take longer or compare code rather than scenes; each writes or prints its own \
+         figures:\n\n\
+         | what | command | where the figures go |\n|---|---|---|\n\
+         | run time against error of every integrator and of tolerance mode, against an f64 \
+         reference | `cargo run --release --example cloth_cli -- work-precision` | \
+         [docs/work-precision.md](docs/work-precision.md), explained in \
+         [docs/accuracy.md](docs/accuracy.md) |\n\
+         | the stress suite: seeded random cloths at the limits of every setting, every \
+         integrator | `cargo run --release --example cloth_cli -- stress --cases 10000 --seed S` \
+         | its table, printed |\n\
+         | the solver step, subdivision, the paper's scene and avian, as micro-benchmarks \
+         | `cargo bench --bench step`, `--bench subdivision`, `--bench pipeline`, \
+         `--features avian --bench avian` | criterion's report in `target/criterion/` |\n\
+         | bevy_silk 0.10 on the same cloth | `compare/bevy_silk/run.sh 5 600` | printed |"
+    );
+    out
+}
