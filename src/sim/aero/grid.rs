@@ -1,8 +1,10 @@
-//! [`add_aero_forces`](super::add_aero_forces) for the canonical grid, row by row over one array per coordinate
+//! [`add_aero_forces`] for the canonical grid, row by row over one array per coordinate
 //! ([`GridAero`]), with the same bits as the triangle-by-triangle path. The force of each triangle
 //! is `plate`'s; nothing here samples the wind.
 
 use super::plate::{AeroParams, force_scale, plate_force};
+#[cfg(doc)]
+use super::triangles::add_aero_forces;
 use crate::sim::model::two_rows;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::{Coordinate, Soa};
@@ -28,7 +30,7 @@ impl TriangleWind<'_> {
     }
 }
 
-/// [`add_aero_forces`](super::add_aero_forces) for the canonical grid ([`ClothModel::grid`]), row by row over one array
+/// [`add_aero_forces`] for the canonical grid ([`ClothModel::grid`]), row by row over one array
 /// per coordinate instead of triangle by triangle, whose scattered three-float reads and writes
 /// no vector unit helps with. Every triangle's force is [`plate_force`] of the same inputs, and
 /// every vertex adds its triangles' forces in triangle order, so the result is the same, bit for
@@ -100,7 +102,7 @@ impl GridAero {
     }
 
     /// Adds the aerodynamic force of every triangle, a third to each of its vertices, to `forces`
-    /// (as [`add_aero_forces`](super::add_aero_forces) does, with the same bits when `forces` starts at zero). Returns
+    /// (as [`add_aero_forces`] does, with the same bits when `forces` starts at zero). Returns
     /// `false`, adding nothing, unless `positions`, `velocities` and `forces` have one entry per
     /// particle and `wind` one per triangle.
     pub fn add_forces(

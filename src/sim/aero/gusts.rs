@@ -2,6 +2,8 @@
 //! downstream ([`Gusts`]); its sampler for many points of one time ([`GustSampler`]); and the table
 //! that interpolates it between knots in phase for a cloth's triangles ([`GustTable`]).
 
+#[cfg(doc)]
+use super::noise::value_noise;
 use super::noise::{FractalNoise, channel_seed};
 use super::plate::MIN_SPEED_SQ;
 use crate::hash::{mix64, unit_interval};
@@ -83,7 +85,7 @@ impl Gusts {
     ///
     /// The noise is evaluated at the phase `time − position·b̂ / |base|`, so a point a distance `d`
     /// downstream sees the same gust `d / |base|` later. The speed is `|base| (1 + strength·g)`
-    /// with `g ∈ [−1, 1]` a normalised sum of three octaves of [`value_noise`](super::value_noise) and two sines of
+    /// with `g ∈ [−1, 1]` a normalised sum of three octaves of [`value_noise`] and two sines of
     /// incommensurate frequency. The direction is `b̂ + turbulence·w`, renormalised, where `w` is
     /// perpendicular to `base` with components from two further noise channels; the speed is not
     /// affected by the wobble.

@@ -17,11 +17,17 @@
 //! but `GridAero`'s scratch, once, when it is made; nothing holds state from one step to the next
 //! (a [`GustSampler`] notes the noise cells it last used, a `GustTable` its knots, both for one
 //! step).
+//!
+//! `plate` holds the force model and its formula; `triangles` applies it to a triangle list and
+//! `grid` to the canonical grid, row by row, with the same bits; `gusts` is the gust field, on
+//! `noise`'s value noise.
 
 mod grid;
 mod gusts;
 mod noise;
 mod plate;
+#[cfg(test)]
+mod tests;
 mod triangles;
 
 pub(crate) use grid::{GridAero, TriangleWind};

@@ -1,6 +1,6 @@
-//! Smooth, seeded 1-D value noise ([`value_noise`]) and its three-octave sum ([`FractalNoise`]), the
-//! randomness under the gusts. Pure functions of a seed and a parameter: no state but the lattice
-//! cell each octave last blended.
+//! Smooth, seeded 1-D value noise ([`value_noise`]) and its three-octave sum
+//! ([`FractalNoise`]), the randomness under the gusts. Pure functions of a seed and a parameter:
+//! no state but the lattice cell each octave last blended.
 
 use crate::hash::{GOLDEN_GAMMA, mix64, unit_interval};
 

@@ -1,4 +1,4 @@
-//! The columns XPBD's spring kernel works on, and who may do what with them: a [`ReadColumn`] column is
+//! The columns XPBD's spring kernel works on, and who may do what with them: a [`ReadColumn`] is
 //! shared and only read (the substep's start positions), a [`Column`] is written by both threads
 //! of a shared sweep, each only at the particles and slots of its own share of a colour, so its
 //! loads and stores are `unsafe` and every caller names the share that makes them exclusive

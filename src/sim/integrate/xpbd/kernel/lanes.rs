@@ -1,7 +1,7 @@
-//! The lane arithmetic of XPBD's spring kernel: a batch's constants ([`Batch`], [`SlotConstants`]), the
-//! lane-wise update ([`update`]), and the batches that gather their lanes from the columns and
-//! scatter them back: contiguous, interleaved and scattered ones. Which batches run in which order
-//! is the sweep's (`kernel/mod.rs`).
+//! The lane arithmetic of XPBD's spring kernel: a batch's constants ([`Batch`],
+//! [`SlotConstants`]), the lane-wise update ([`update`]), and the batches that gather their lanes
+//! from the columns and scatter them back: contiguous, interleaved and scattered ones. Which
+//! batches run in which order is the sweep's (`kernel/mod.rs`).
 
 #[cfg(doc)]
 use super::super::layout::Layout;
