@@ -1,6 +1,8 @@
 use super::*;
+use crate::error::ClothError;
 use crate::sim::GridSpec;
 use crate::sim::Stiffness;
+use crate::sim::settings::MAX_SUBSTEPS;
 
 fn sim(nx: u32, settings: SolverSettings) -> ClothSim {
     ClothSim::new(

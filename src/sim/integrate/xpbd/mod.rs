@@ -3,7 +3,8 @@
 //! iteration by coloured Gauss-Seidel, and takes the velocity from the displacement.
 //!
 //! - `layout.rs` lays the springs out for the vector kernel ([`Projections`]),
-//! - `kernel.rs` projects them ([`Sweep`]),
+//! - `kernel/` projects them ([`Sweep`]): the sweep in `mod.rs`, its columns in `columns.rs`, the
+//!   lane arithmetic in `lanes.rs`,
 //! - `team.rs` shares a large cloth's sweeps and particle passes with a second thread,
 //! - `tethers.rs` projects the tethers after the sweeps ([`Tethered`]),
 //! - this file drives the substeps: the particle passes, pins, wind and contacts.
@@ -27,7 +28,7 @@ use crate::sim::model::ClothModel;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 use crate::sim::state::{Energy, pin_motion};
-use kernel::{Column, Read, Split, Sweep};
+use kernel::{Column, ReadColumn, SplitPositions, Sweep};
 use layout::{LANES, Projections};
 use team::{Lead, share};
 pub use team::{ScopedThread, Spread};
@@ -184,11 +185,11 @@ impl Xpbd {
         let [dx, dy, dz] = [&mut delta.x, &mut delta.y, &mut delta.z];
         let sweep = Sweep {
             p: &self.layout,
-            x: Split {
+            x: SplitPositions {
                 start: [
-                    Read::new(&start.x),
-                    Read::new(&start.y),
-                    Read::new(&start.z),
+                    ReadColumn::new(&start.x),
+                    ReadColumn::new(&start.y),
+                    ReadColumn::new(&start.z),
                 ],
                 delta: [Column::new(dx), Column::new(dy), Column::new(dz)],
             },

@@ -315,8 +315,8 @@ fn contiguous_run(n: usize, slots: u32, springs: u32) -> Projections {
 /// One sweep of `p`'s runs from positions `start`, updating the displacements `delta`.
 fn sweep_runs(p: &Projections, start: &Soa, delta: &mut Soa) {
     let mut lambda = vec![0.0; p.a.len()];
-    let x = Split {
-        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
+    let x = SplitPositions {
+        start: [&start.x, &start.y, &start.z].map(|v| ReadColumn::new(v)),
         delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
     };
     // SAFETY: one thread, and the arrays are used through the columns only until the sweep
@@ -391,8 +391,8 @@ fn sweep_from<const ACCUMULATE: bool>(
         );
     }
     let mut lambda: Vec<f32> = (0..p.slot_count()).map(lambda).collect();
-    let x = Split {
-        start: [&start.x, &start.y, &start.z].map(|v| Read::new(v)),
+    let x = SplitPositions {
+        start: [&start.x, &start.y, &start.z].map(|v| ReadColumn::new(v)),
         delta: [&mut delta.x, &mut delta.y, &mut delta.z].map(|v| Column::new(v)),
     };
     // SAFETY: one thread, and the arrays are used through the columns only until the sweep

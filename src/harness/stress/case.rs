@@ -1,0 +1,194 @@
+//! What a stress case is: its limits ([`StressLimits`]), its drawn parameters ([`StressCase`],
+//! [`StressCollider`]), its variants, and how it becomes a cloth (shrunk to the work budget) and
+//! drives it (pins, collider). Drawing the parameters is `draw`; stepping and checking is `run`.
+
+use glam::{Quat, Vec3};
+
+use crate::error::ClothError;
+use crate::sim::{
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Friction, GridSpec, Pose,
+    SelfCollision, SolverSettings,
+};
+
+/// How big the cases may get.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StressLimits {
+    /// Largest grid side, particles.
+    pub max_side: u32,
+    /// Most particle-substeps per case (particles × substeps × steps, the cap's substeps in
+    /// tolerance mode); larger cases are shrunk.
+    pub max_work: f64,
+    /// Simulated time per case, s.
+    pub duration: f32,
+}
+
+impl Default for StressLimits {
+    /// Up to 128×128 particles and 10⁷ particle-substeps (tens of milliseconds in a release
+    /// build for XPBD), half a second each.
+    fn default() -> Self {
+        Self {
+            max_side: 128,
+            max_work: 1e7,
+            duration: 0.5,
+        }
+    }
+}
+
+/// A collider of a case and how it moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StressCollider {
+    /// Its shape.
+    pub shape: ColliderShape,
+    /// Position at the start, m.
+    pub start: Vec3,
+    /// Constant velocity, m/s.
+    pub velocity: Vec3,
+    /// Rotation (fixed).
+    pub rotation: Quat,
+}
+
+/// One drawn case (everything needed to rerun it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StressCase {
+    /// Seed of the suite.
+    pub seed: u64,
+    /// Index of the case within the suite.
+    pub index: u64,
+    /// Solver settings (integrator, substeps, stiffness, mass, damping).
+    pub settings: SolverSettings,
+    /// Particles along each side of the square grid.
+    pub side: u32,
+    /// Side length of the cloth, m.
+    pub size: f32,
+    /// Fixed time step, s.
+    pub dt: f32,
+    /// Number of steps.
+    pub steps: u32,
+    /// Largest ratio of neighbouring particle masses.
+    pub mass_ratio: f32,
+    /// Pinned corners (0 to 4).
+    pub pins: Vec<u32>,
+    /// Peak speed of the pins' oscillation, m/s (0: fixed pins).
+    pub pin_speed: f32,
+    /// The collider, if any.
+    pub collider: Option<StressCollider>,
+    /// Mean wind, m/s (zero: no air at all).
+    pub wind: Vec3,
+    /// Whether the wind is gusty.
+    pub gusts: bool,
+}
+
+/// The first `count` (at most 4) corners of a `side`×`side` grid, as pinned particles.
+pub(super) fn corner_pins(side: u32, count: usize) -> Vec<u32> {
+    [0, side - 1, side * (side - 1), side * side - 1]
+        .into_iter()
+        .take(count)
+        .collect()
+}
+
+impl StressCase {
+    /// Where a pin that started at `start` should be at time `t`: all pins oscillate together
+    /// (a rigid motion the cloth can follow) with peak speed `pin_speed`, amplitude 0.2 m, along
+    /// a diagonal.
+    pub(super) fn pin_target(&self, start: Vec3, t: f32) -> Vec3 {
+        if self.pin_speed <= 0.0 {
+            return start;
+        }
+        let amplitude = 0.2;
+        let omega = self.pin_speed / amplitude;
+        start + Vec3::new(1.0, 1.0, 0.5).normalize() * amplitude * (omega * t).sin()
+    }
+
+    pub(super) fn collider_at(&self, t0: f32, t1: f32) -> Option<Collider> {
+        self.collider.map(|c| Collider {
+            start: Pose {
+                rotation: c.rotation,
+                translation: c.start + c.velocity * t0,
+            },
+            end: Pose {
+                rotation: c.rotation,
+                translation: c.start + c.velocity * t1,
+            },
+            ..Collider::fixed(
+                c.shape,
+                Pose::from_translation(Vec3::ZERO),
+                Friction::default(),
+                0.005,
+            )
+        })
+    }
+
+    /// The same case with self-collision on, its thickness a quarter of the drawn grid's
+    /// spacing (a cloth shrunk to the work budget is coarser, so its thickness stays below that).
+    pub fn with_self_collision(mut self) -> Self {
+        let spacing = self.size / (self.side.max(2) - 1) as f32;
+        self.settings.self_collision = SelfCollision {
+            enabled: true,
+            thickness: 0.25 * spacing,
+            ..Default::default()
+        };
+        self
+    }
+
+    /// The same case in tolerance mode ([`Accuracy`]): `tolerance` relative to the cloth's size
+    /// per second, at most the default cap of substeps; the drawn integrator and substeps are
+    /// then only where the controller starts.
+    pub fn with_tolerance(mut self, tolerance: f32) -> Self {
+        self.settings.accuracy = Accuracy {
+            tolerance: Some(tolerance),
+            ..Default::default()
+        };
+        self
+    }
+
+    pub(super) fn isolated(&self) -> bool {
+        self.pin_speed == 0.0
+            && self.wind == Vec3::ZERO
+            && self.collider.is_none_or(|c| c.velocity == Vec3::ZERO)
+    }
+
+    /// The cloth, shrunk (fewer particles) until it fits the work budget.
+    pub(super) fn build(
+        &self,
+        limits: &StressLimits,
+    ) -> Result<(ClothSim, StressCase), ClothError> {
+        let mut case = self.clone();
+        loop {
+            let sim = self.build_side(case.side)?;
+            // In tolerance mode the controller may take up to its cap of substeps per step.
+            let substeps = match self.settings.accuracy.tolerance {
+                Some(_) => self.settings.accuracy.max_substeps,
+                None => sim.substeps_for(case.dt),
+            };
+            let work = (case.side * case.side) as f64 * substeps as f64 * case.steps as f64;
+            if work <= limits.max_work || case.side <= 2 {
+                return Ok((sim, case));
+            }
+            let shrink = (limits.max_work / work).sqrt();
+            case.side = ((case.side as f64 * shrink).floor() as u32).clamp(2, case.side - 1);
+            case.pins = corner_pins(case.side, self.pins.len());
+        }
+    }
+
+    fn build_side(&self, side: u32) -> Result<ClothSim, ClothError> {
+        let mut model =
+            ClothModel::grid(&GridSpec::new(side, side, self.size / (side - 1) as f32))?;
+        if self.mass_ratio > 1.0 {
+            // Alternating heavy and light particles in a checkerboard, with smooth variation on
+            // top: neighbours differ by up to `mass_ratio`.
+            let m = self.settings.particle_mass;
+            let masses = (0..side * side)
+                .map(|i| {
+                    let (x, y) = (i % side, i / side);
+                    if (x + y) % 2 == 0 {
+                        m * self.mass_ratio
+                    } else {
+                        m
+                    }
+                })
+                .collect();
+            model = model.with_particle_masses(masses)?;
+        }
+        ClothSim::new(model, self.settings, |p| p + Vec3::new(0.0, 1.0, 0.0))
+    }
+}

@@ -1,0 +1,149 @@
+//! Building a [`ClothSim`] and applying its settings: stiffness, masses, pins' inverse masses,
+//! the frequency bound, self-contacts and the steppers, all derived once, never inside a step.
+
+use glam::Vec3;
+
+use super::sleep::Sleep;
+use super::watchdog::Runaway;
+use super::{ClothSim, adaptive};
+use crate::error::ClothError;
+use crate::sim::contact::{Contacts, SelfContacts};
+use crate::sim::forces::{SpringSet, max_frequency_bound};
+use crate::sim::integrate::Steppers;
+use crate::sim::model::ClothModel;
+use crate::sim::settings::{Integrator, SolverSettings};
+use crate::sim::state::Particles;
+use crate::sim::wind::WindScratch;
+
+impl ClothSim {
+    /// Creates a cloth at rest, its particles at `model.rest_positions` mapped by `to_world`.
+    pub fn new(
+        model: ClothModel,
+        settings: SolverSettings,
+        to_world: impl Fn(Vec3) -> Vec3,
+    ) -> Result<Self, ClothError> {
+        settings.validate()?;
+        // The steppers' vector kernels and threads rely on a consistent model (indices in range,
+        // a proper colouring, a truthful grid): checked here, where every model enters.
+        model.validate()?;
+        let n = model.particle_count();
+        let positions: Vec<Vec3> = model.rest_positions.iter().map(|p| to_world(*p)).collect();
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(ClothError::InvalidMesh {
+                what: format!("vertex {i} has a non-finite world position"),
+            });
+        }
+        let springs = model.springs.len();
+        let mut sim = Self {
+            particles: Particles {
+                positions,
+                velocities: vec![Vec3::ZERO; n],
+                mass: vec![0.0; n],
+                inv_mass: vec![0.0; n],
+            },
+            stiffness: vec![0.0; springs],
+            steppers: Steppers::default(),
+            omega_max: 0.0,
+            longest_spring: model.springs.rest.iter().copied().fold(0.0, f32::max),
+            active: settings.integrator,
+            contacts: Contacts::new(n, model.max_edge_length()),
+            wind: WindScratch::new(&model),
+            pins: Vec::new(),
+            model,
+            settings,
+            steps: 0,
+            sleep: Sleep::default(),
+            contact_work: None,
+            step_start: Vec::with_capacity(n),
+            runaway: Runaway::default(),
+            frame: None,
+            adaptive: None,
+        };
+        sim.apply_settings();
+        Ok(sim)
+    }
+
+    /// Replaces the settings, after validating them. Cheap (one pass over springs and particles);
+    /// intended for runtime edits, not for calling every step.
+    pub fn set_settings(&mut self, settings: SolverSettings) -> Result<(), ClothError> {
+        settings.validate()?;
+        self.settings = settings;
+        self.apply_settings();
+        self.wake();
+        Ok(())
+    }
+
+    /// Recomputes everything derived from settings, masses and pins: per-spring stiffness,
+    /// inverse masses, the frequency bound, and the steppers the integrator may run (their
+    /// layouts, constants and scratch, [`Steppers::prepare`]). Runs at construction and on edits,
+    /// never inside a step.
+    pub(super) fn apply_settings(&mut self) {
+        let s = &self.model.springs;
+        for (k, kind) in self.stiffness.iter_mut().zip(&s.kind) {
+            *k = self.settings.stiffness.of(*kind);
+        }
+        let p = &mut self.particles;
+        for (i, (m, w)) in p.mass.iter_mut().zip(&mut p.inv_mass).enumerate() {
+            *m = self.model.mass_of(i, self.settings.particle_mass);
+            *w = 1.0 / *m;
+        }
+        for pin in &self.pins {
+            p.inv_mass[pin.particle as usize] = 0.0;
+        }
+        let pinned: Vec<bool> = p.inv_mass.iter().map(|w| *w == 0.0).collect();
+        let limits = self.contacts.limits_mut();
+        limits.set_settings(self.settings.targets);
+        limits.set_tethers(
+            self.settings.tethers,
+            (&self.model.triangles, &self.model.rest_positions),
+            &pinned,
+        );
+        let mut scratch = vec![0.0; self.particles.positions.len()];
+        self.omega_max =
+            max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
+        self.prepare_self_contacts();
+        // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.
+        let integrator = if self.settings.accuracy.tolerance.is_some() {
+            Integrator::Auto
+        } else {
+            self.settings.integrator
+        };
+        self.steppers.prepare(
+            integrator,
+            &self.model,
+            (&self.stiffness, &self.particles.inv_mass),
+            self.contacts.limits(),
+        );
+        self.active = self.choose_integrator(1.0 / 60.0);
+        // The copy tolerance mode estimates on is made of this cloth without its own copy.
+        self.adaptive = None;
+        self.adaptive = adaptive::Adaptive::new(self).map(Box::new);
+        if let Some(a) = &self.adaptive {
+            self.active = a.report().integrator;
+        }
+    }
+
+    /// Builds the self-contacts' topology and exempt pairs when self-collision is turned on or its
+    /// thickness changes, and drops them when it is turned off.
+    pub(super) fn prepare_self_contacts(&mut self) {
+        let c = self.settings.self_collision;
+        if !c.enabled {
+            self.contacts.set_self_contacts(None);
+            return;
+        }
+        if self.contacts.self_contacts().map(|s| s.settings()) == Some((c.thickness, c.friction)) {
+            return;
+        }
+        self.contacts.set_self_contacts(Some(SelfContacts::new(
+            &self.model.triangles,
+            &self.model.rest_positions,
+            c.thickness,
+            c.friction,
+        )));
+    }
+
+    /// The springs with their current stiffness, for the force kernel.
+    pub(super) fn spring_set(&self) -> SpringSet<'_> {
+        SpringSet::new(&self.model.springs, &self.stiffness)
+    }
+}
