@@ -51,7 +51,7 @@ pub(crate) use step::step_cloths;
 /// In [`PostUpdate`], after transform propagation and before asset events (so that bounds and GPU
 /// buffers follow the same frame), chained:
 /// - [`Build`](Self::Build): build new or replaced cloths, and report failures (each once, as
-///   [`ClothInvalid`]).
+///   [`ClothInvalid`](crate::ClothInvalid)).
 /// - [`Writeback`](Self::Writeback): write positions and normals into each cloth's `Mesh` in place,
 ///   interpolated between the last two steps when [`ClothConfig::interpolate`] is on.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
