@@ -1,0 +1,405 @@
+//! Building cloths (in [`ClothSystems::Build`](super::ClothSystems::Build)): skins adopted, new,
+//! replaced and edited cloths built and validated (simulation, attachment to targets, render
+//! side), and failures reported once as [`ClothInvalid`].
+
+use bevy::asset::{Assets, Handle};
+use bevy::ecs::prelude::*;
+use bevy::log::{error, warn};
+use bevy::math::Vec3;
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+use bevy::mesh::{Mesh, Mesh3d};
+use bevy::transform::components::GlobalTransform;
+
+use super::edits::{apply_pins, run_settings};
+use super::mesh::refresh_render;
+use super::poses::pose_of;
+use crate::components::{
+    Cloth, ClothConfig, ClothFrame, ClothInvalid, ClothPins, ClothSkin, ClothSource, ClothState,
+    ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL, RenderSubdivision,
+    SubdivisionTarget, TargetWeights,
+};
+use crate::error::{ClothError, count_in};
+use crate::render;
+use crate::sim::{ClothModel, ClothSim, GridNormals, compute_normals};
+use crate::skin::{Attachment, influences_from_mesh, weights_from_mesh};
+use crate::subdivision::Subdivider;
+
+/// A cloth spawned on a skinned mesh keeps the skin for its targets ([`ClothSkin`]); the
+/// renderer must not skin the simulated mesh again.
+pub(super) fn adopt_skins(
+    mut commands: Commands,
+    cloths: Query<(Entity, &SkinnedMesh), With<Cloth>>,
+) {
+    for (entity, skinned) in &cloths {
+        commands
+            .entity(entity)
+            .remove::<SkinnedMesh>()
+            .insert(ClothSkin {
+                joints: skinned.joints.clone(),
+                inverse_bindposes: skinned.inverse_bindposes.clone(),
+            });
+    }
+}
+
+type BuildQuery<'a> = (
+    Entity,
+    (Ref<'a, Cloth>, Ref<'a, ClothConfig>, Ref<'a, ClothPins>),
+    &'a GlobalTransform,
+    Option<Ref<'a, ClothSubdivision>>,
+    (
+        Option<Ref<'a, ClothTargets>>,
+        Option<Ref<'a, ClothSkin>>,
+        Option<&'a ClothFrame>,
+    ),
+    Option<&'a mut ClothState>,
+    Has<ClothInvalid>,
+);
+
+/// What building a cloth reads besides its own components: mesh assets (and where new meshes
+/// go), the skins' inverse bind poses, and joints' global transforms.
+struct BuildInputs<'a, 'w, 's> {
+    meshes: &'a mut Assets<Mesh>,
+    bindposes: &'a Assets<SkinnedMeshInverseBindposes>,
+    globals: &'a Query<'w, 's, &'static GlobalTransform>,
+}
+
+/// Builds new and replaced cloths (and invalid ones that were edited), and turns failures into
+/// [`ClothInvalid`], logged once per failure.
+pub(super) fn build_cloths(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    bindposes: Res<Assets<SkinnedMeshInverseBindposes>>,
+    mut cloths: Query<BuildQuery>,
+    globals: Query<&'static GlobalTransform>,
+) {
+    for (
+        entity,
+        (cloth, config, pins),
+        transform,
+        subdivision,
+        (targets, skin, frame),
+        mut state,
+        invalid,
+    ) in &mut cloths
+    {
+        let subdivision_changed = match (&subdivision, &state) {
+            (Some(s), _) => s.is_changed(),
+            (None, Some(state)) => state.subdivision.is_some() || state.particle_map.is_some(),
+            (None, None) => false,
+        };
+        // Targets added, edited or removed, or a skin: the cloth is rebuilt.
+        let targets_changed = targets.as_ref().is_some_and(|t| t.is_changed())
+            || skin.as_ref().is_some_and(|s| s.is_changed())
+            || targets.is_none() && state.as_ref().is_some_and(|s| s.attachment.is_some());
+        let edited = cloth.is_changed()
+            || config.is_changed()
+            || pins.is_changed()
+            || subdivision_changed
+            || targets_changed;
+        let failure = state
+            .as_mut()
+            .filter(|s| s.failure.is_some())
+            .and_then(|s| s.failure.take());
+        // New, replaced, waiting for its mesh asset, or edited after being invalid; or its
+        // subdivision changed while (or to) refining the simulation itself.
+        let refines_sim = |s: &ClothSubdivision| s.target == SubdivisionTarget::Simulation;
+        let rebuild = match &state {
+            Some(state) => {
+                cloth.is_changed()
+                    || targets_changed
+                    || subdivision_changed
+                        && (state.particle_map.is_some()
+                            || subdivision.as_deref().is_some_and(refines_sim))
+            }
+            None => !invalid || edited,
+        };
+        let subdivision = subdivision.as_deref();
+        let mut inputs = BuildInputs {
+            meshes: &mut meshes,
+            bindposes: &bindposes,
+            globals: &globals,
+        };
+        let result = match (failure, state) {
+            (Some(e), _) => Err(e),
+            (None, _) if rebuild => build_state(
+                (&cloth, &config, &pins),
+                subdivision,
+                (targets.as_deref(), skin.as_deref(), frame),
+                transform,
+                &mut inputs,
+            )
+            .map(|built| {
+                if let Some((state, mesh)) = built {
+                    commands
+                        .entity(entity)
+                        .remove::<ClothInvalid>()
+                        .insert((state, Mesh3d(mesh)));
+                }
+            }),
+            (None, Some(mut state)) if subdivision_changed => {
+                rebuild_render(&mut state, subdivision, None, inputs.meshes).map(|mesh| {
+                    commands.entity(entity).insert(Mesh3d(mesh));
+                })
+            }
+            (None, _) => Ok(()),
+        };
+        if let Err(e) = result {
+            error!("cloth {entity}: {e}; the cloth is skipped until it is edited");
+            commands
+                .entity(entity)
+                .remove::<ClothState>()
+                .insert(ClothInvalid(e));
+        }
+    }
+}
+
+/// Builds the simulation and mesh of a cloth. `Ok(None)` means its mesh asset (or its skin's
+/// inverse bind poses) is not loaded yet.
+fn build_state(
+    (cloth, config, pins): (&Cloth, &ClothConfig, &ClothPins),
+    subdivision: Option<&ClothSubdivision>,
+    (targets, skin, frame): (
+        Option<&ClothTargets>,
+        Option<&ClothSkin>,
+        Option<&ClothFrame>,
+    ),
+    transform: &GlobalTransform,
+    inputs: &mut BuildInputs,
+) -> Result<Option<(ClothState, Handle<Mesh>)>, ClothError> {
+    let meshes = &mut *inputs.meshes;
+    let source_mesh = match &cloth.source {
+        ClothSource::Mesh(handle) => meshes.get(handle),
+        _ => None,
+    };
+    let (model, user_mesh) = match (&cloth.source, source_mesh) {
+        (ClothSource::Grid(spec), _) => (ClothModel::grid(spec)?, None),
+        (ClothSource::Mesh(_), None) => return Ok(None),
+        (ClothSource::Mesh(_), Some(source)) => {
+            let model = render::model_from_mesh(source)?;
+            if model.triangles.len() > 3 && shares_no_vertex(&model.triangles) {
+                warn!(
+                    "a cloth mesh shares no vertex between its triangles, so its triangles move \
+                     apart; was it exported without normals (Bevy's glTF loader then splits \
+                     every vertex) or unwelded?"
+                );
+            }
+            (model, Some(render::prepare_user_mesh(source.clone())))
+        }
+        (ClothSource::Model(shared), _) => {
+            shared.model().validate()?;
+            (shared.model().clone(), None)
+        }
+    };
+    let (model, user_mesh, particle_map, mass_scale) =
+        match subdivision.filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation) {
+            None => (model, user_mesh, None, 1.0),
+            Some(sub) => {
+                check_level(sub)?;
+                if targets.is_some() {
+                    return Err(ClothError::InvalidTargets {
+                        what: "a cloth with targets is simulated at its own resolution \
+                               (subdivide its render mesh instead)"
+                            .into(),
+                    });
+                }
+                let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
+                // The user's mesh no longer matches the particles: render the refined model.
+                (
+                    refined.model,
+                    None,
+                    Some(refined.particle_map),
+                    refined.mass_scale,
+                )
+            }
+        };
+    let attachment = match targets {
+        None => None,
+        Some(targets) => {
+            let skin = match skin {
+                None => None,
+                Some(skin) => match inputs.bindposes.get(&skin.inverse_bindposes) {
+                    Some(bind) => Some((skin, &bind[..])),
+                    None => return Ok(None),
+                },
+            };
+            let mut attachment = build_attachment(&model, targets, source_mesh, skin)?;
+            let joints = skin.map_or(&[][..], |(s, _)| &s.joints[..]);
+            let globals = inputs.globals;
+            attachment.update(&transform.affine(), |j| {
+                globals.get(*joints.get(j)?).ok().map(|g| g.affine())
+            });
+            Some(attachment)
+        }
+    };
+    let meshes = &mut *inputs.meshes;
+    let mut sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
+        transform.transform_point(p)
+    })?;
+    // The reference frame starts where it is now.
+    let frame = frame.map_or(Some(*transform), |f| inputs.globals.get(f.0).ok().copied());
+    if let Some(frame) = frame {
+        sim.move_frame(pose_of(&frame));
+    }
+    if let Some(a) = &attachment {
+        sim.set_targets(&a.limited().collect::<Vec<_>>())?;
+    }
+    let mut state = ClothState {
+        sim,
+        mesh: Handle::default(),
+        subdivision: None,
+        grid_normals: None,
+        particle_map,
+        mass_scale,
+        render_prev: Vec::new(),
+        render_curr: Vec::new(),
+        normals_prev: Vec::new(),
+        normals_curr: Vec::new(),
+        pin_targets: Vec::new(),
+        attachment,
+        target_pins: Vec::new(),
+        failure: None,
+        dirty: true,
+        at_rest: false,
+    };
+    apply_pins(&mut state, pins, transform)?;
+    let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
+    Ok(Some((state, mesh)))
+}
+
+/// Whether no vertex is used by more than one of the `triangles` (a mesh split into loose
+/// triangles).
+fn shares_no_vertex(triangles: &[u32]) -> bool {
+    let mut seen = vec![false; triangles.iter().max().map_or(0, |&m| m as usize + 1)];
+    triangles
+        .iter()
+        .all(|&v| !std::mem::replace(&mut seen[v as usize], true))
+}
+
+/// The weighted particles of a cloth with `targets`, from its model and (for weights or a skin
+/// read from it) its source mesh, skinned by `skin` and its inverse bind poses when given.
+fn build_attachment(
+    model: &ClothModel,
+    targets: &ClothTargets,
+    source: Option<&Mesh>,
+    skin: Option<(&ClothSkin, &[bevy::math::Mat4])>,
+) -> Result<Attachment, ClothError> {
+    let n = model.particle_count();
+    let from_mesh = |what: &str| {
+        source.ok_or_else(|| ClothError::InvalidTargets {
+            what: format!("{what} needs a cloth made from a mesh asset"),
+        })
+    };
+    let weights = match &targets.weights {
+        TargetWeights::Values(w) => w.clone(),
+        TargetWeights::Color(channel) => weights_from_mesh(
+            from_mesh("weights from vertex colours")?,
+            None,
+            *channel as usize,
+        )?,
+        TargetWeights::Attribute(name) => {
+            weights_from_mesh(from_mesh("weights from a vertex attribute")?, Some(name), 0)?
+        }
+    };
+    if weights.len() != n {
+        return Err(ClothError::InvalidTargets {
+            what: format!("{} weights for a cloth of {n} particles", weights.len()),
+        });
+    }
+    // A negative weight leaves the particle free; NaN is refused by the attachment.
+    let weights: Vec<Option<f32>> = weights
+        .iter()
+        .map(|&w| (w.is_nan() || w >= 0.0).then_some(w))
+        .collect();
+    let mut normals = vec![Vec3::ZERO; n];
+    compute_normals(&model.rest_positions, &model.triangles, &mut normals);
+    let skin = match skin {
+        None => None,
+        Some((skin, bind)) => {
+            let influences = influences_from_mesh(from_mesh("a skin")?)?;
+            if bind.len() != skin.joints.len() {
+                return Err(ClothError::InvalidTargets {
+                    what: format!(
+                        "the skin has {} joints but {} inverse bind poses",
+                        skin.joints.len(),
+                        bind.len()
+                    ),
+                });
+            }
+            Some((influences, bind))
+        }
+    };
+    Attachment::new(&weights, (&model.rest_positions, &normals), skin)
+}
+
+/// Checks a subdivision level against [`MAX_CLOTH_SUBDIVISION_LEVEL`].
+fn check_level(sub: &ClothSubdivision) -> Result<(), ClothError> {
+    count_in(
+        "subdivision.level",
+        sub.level,
+        0,
+        MAX_CLOTH_SUBDIVISION_LEVEL,
+    )
+}
+
+/// Sets up the render side of a cloth (subdivision stencils, buffers, a new mesh asset) for its
+/// current particles, and returns the mesh handle. Unsubdivided, the cloth renders into `user_mesh`
+/// when given (a copy of the user's source mesh, keeping all its attributes).
+fn rebuild_render(
+    state: &mut ClothState,
+    subdivision: Option<&ClothSubdivision>,
+    user_mesh: Option<Mesh>,
+    meshes: &mut Assets<Mesh>,
+) -> Result<Handle<Mesh>, ClothError> {
+    let model = state.sim.model();
+    let render_level = |s: &&ClothSubdivision| s.level > 0 && s.target == SubdivisionTarget::Render;
+    state.subdivision = match subdivision.filter(render_level) {
+        None => None,
+        Some(sub) => {
+            check_level(sub)?;
+            let subdivider =
+                Subdivider::new(&model.control_mesh()?, sub.level, sub.rule, sub.boundary)?;
+            let n = subdivider.refined_vertex_count();
+            Some(RenderSubdivision {
+                subdivider,
+                positions: vec![Vec3::ZERO; n],
+                normals: vec![Vec3::Y; n],
+            })
+        }
+    };
+    state.grid_normals = match state.subdivision {
+        None => GridNormals::new(model),
+        Some(_) => None,
+    };
+    let mesh = match (&state.subdivision, user_mesh) {
+        (None, Some(user_mesh)) => user_mesh,
+        (None, None) => render::mesh_for_model(model),
+        (Some(r), _) => render::mesh_for_subdivision(&r.subdivider),
+    };
+    let count = mesh.count_vertices();
+    for buffer in [
+        &mut state.render_prev,
+        &mut state.render_curr,
+        &mut state.normals_prev,
+        &mut state.normals_curr,
+    ] {
+        buffer.resize(count, Vec3::ZERO);
+    }
+    refresh_render(state)?;
+    state.render_prev.copy_from_slice(&state.render_curr);
+    state.normals_prev.copy_from_slice(&state.normals_curr);
+    state.dirty = true;
+    state.mesh = meshes.add(mesh);
+    Ok(state.mesh.clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loose_triangles_share_no_vertex_and_a_welded_strip_does() {
+        assert!(shares_no_vertex(&[0, 1, 2, 3, 4, 5]));
+        assert!(!shares_no_vertex(&[0, 1, 2, 2, 1, 3]));
+        assert!(shares_no_vertex(&[]));
+    }
+}

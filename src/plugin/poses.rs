@@ -1,0 +1,30 @@
+//! Entity poses as the systems read them mid-step: an entity's global transform now, and the
+//! rotation and translation the solver takes. Shared by the phases; imports none of them.
+
+use bevy::ecs::prelude::*;
+use bevy::transform::components::GlobalTransform;
+use bevy::transform::helper::TransformHelper;
+
+use crate::sim::contact::Pose;
+
+/// The global pose of an entity now: computed from its `Transform` and its ancestors' (so an
+/// entity moved earlier in this fixed step counts), else its last propagated `GlobalTransform`.
+pub(super) fn current_global(
+    entity: Entity,
+    helper: &TransformHelper,
+    globals: &Query<&GlobalTransform>,
+) -> Option<GlobalTransform> {
+    helper
+        .compute_global_transform(entity)
+        .ok()
+        .or_else(|| globals.get(entity).ok().copied())
+}
+
+/// The rotation and translation of a global transform (its scale left out).
+pub(super) fn pose_of(global: &GlobalTransform) -> Pose {
+    let (_, rotation, translation) = global.to_scale_rotation_translation();
+    Pose {
+        rotation,
+        translation,
+    }
+}
