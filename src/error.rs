@@ -23,7 +23,7 @@ pub enum ClothError {
     #[error(
         "grid {nx}×{ny} has {} particles, more than the supported maximum {}",
         *.nx as u64 * *.ny as u64,
-        crate::sim::MAX_PARTICLES
+        crate::limits::MAX_PARTICLES
     )]
     GridTooLarge {
         /// Particles along x.

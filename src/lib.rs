@@ -44,6 +44,7 @@ pub mod harness;
 mod hash;
 #[cfg(feature = "egui")]
 pub mod inspector;
+mod limits;
 pub mod plugin;
 mod render;
 pub mod scene;

@@ -8,13 +8,20 @@
 //!   runs;
 //! - layering: every module of `src/sim` uses only the modules listed before it in [`LAYERS`]
 //!   (the order `sim`'s module docs give), so no two import each other; and nothing in `src/sim`
-//!   reaches the ECS, the harness or the render layer.
+//!   reaches the ECS, the harness or the render layer;
+//! - one-way imports crate-wide: at every level of the module tree, no two sibling modules use
+//!   each other, directly or through a third (the source reader is `house/source.rs`);
+//! - size: no source file is over [`MAX_LINES`] lines, its unit tests included.
 
 use bevy_cloth::harness::scene_state_hash;
 use bevy_cloth::harness::stress::{StressLimits, draw_case, run_case};
 use bevy_cloth::sim::Integrator;
+use source::{Crate, cycles, files, library_text};
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+#[path = "house/source.rs"]
+mod source;
 
 const FRAMES: u32 = 60;
 const CASES: u64 = 40;
@@ -109,122 +116,24 @@ const FORBIDDEN: [&str; 10] = [
     "bevy::prelude",
 ];
 
-fn sim_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("src/sim")
-}
-
-/// Every `.rs` file below `dir`.
-fn files(dir: &Path, out: &mut Vec<PathBuf>) {
-    for entry in std::fs::read_dir(dir).expect("src/sim is readable") {
-        let path = entry.expect("a directory entry").path();
-        if path.is_dir() {
-            files(&path, out);
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
-}
-
-/// The code of `path`: without its unit tests (a `tests.rs` file, or a `mod tests` at the end)
-/// and without comments (a doc link is no dependency).
-fn library_text(path: &Path) -> String {
-    if path.file_name().is_some_and(|n| n == "tests.rs") {
-        return String::new();
-    }
-    let text = std::fs::read_to_string(path).expect("source is readable");
-    let code = match text.find("#[cfg(test)]\nmod tests {") {
-        Some(i) => &text[..i],
-        None => &text,
-    };
-    code.lines()
-        .filter(|l| !l.trim_start().starts_with("//"))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
-/// The names a path continues with after `prefix` at each place it occurs: `a` for `prefix a::…`
-/// or `prefix a;`, and each of `a`, `b` for `prefix {a, b::c}`.
-fn names_after(text: &str, prefix: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    for (i, _) in text.match_indices(prefix) {
-        let before = text[..i].chars().next_back();
-        if before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == ':') {
-            continue;
-        }
-        let rest = &text[i + prefix.len()..];
-        if let Some(group) = rest.strip_prefix('{') {
-            let group = &group[..group.find('}').unwrap_or(group.len())];
-            out.extend(group.split(',').map(|s| first_segment(s.trim())));
-        } else {
-            out.push(first_segment(rest));
-        }
-    }
-    out.retain(|n| !n.is_empty());
-    out
-}
-
-fn first_segment(path: &str) -> String {
-    path.chars()
-        .take_while(|c| c.is_alphanumeric() || *c == '_')
-        .collect()
-}
-
-/// `src/sim/mod.rs`'s re-exports: item name → the module it comes from.
-fn reexports() -> BTreeMap<String, String> {
-    let text = std::fs::read_to_string(sim_dir().join("mod.rs")).expect("sim/mod.rs");
-    let mut map = BTreeMap::new();
-    for (i, _) in text.match_indices("pub use ") {
-        let rest = &text[i + "pub use ".len()..];
-        let statement = &rest[..rest.find(';').unwrap_or(rest.len())];
-        let module = first_segment(statement);
-        let items = statement[module.len()..].trim_start_matches("::");
-        let items = items.trim_start_matches('{').trim_end_matches('}');
-        for item in items.split(',') {
-            let item = item.trim().rsplit("::").next().unwrap_or("").trim();
-            if !item.is_empty() {
-                map.insert(item.to_string(), module.clone());
-            }
-        }
-    }
-    map
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
 /// For each top-level module of `src/sim`, the other top-level modules its library code names.
 fn uses() -> BTreeMap<String, BTreeSet<String>> {
-    let root = sim_dir();
-    let reexports = reexports();
-    let mut all = Vec::new();
-    files(&root, &mut all);
+    let krate = Crate::read(root());
+    let sim = ["sim".to_string()];
     let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for path in all {
-        let relative = path.strip_prefix(&root).unwrap();
-        let parts: Vec<String> = relative
-            .iter()
-            .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string())
-            .collect();
-        if parts == ["mod"] {
-            continue;
-        }
-        let top = parts[0].clone();
-        let text = library_text(&path);
-        let mut named: Vec<String> = names_after(&text, "crate::sim::");
-        // `super::` of a file directly in `src/sim` (or of a `mod.rs` one folder down) is `sim`;
-        // deeper files reach `sim` through `super::super::`.
-        let depth = parts.len() - usize::from(parts.last().is_some_and(|p| p == "mod"));
-        let to_sim = "super::".repeat(depth);
-        named.extend(names_after(&text, &to_sim));
-        let targets = graph.entry(top.clone()).or_default();
-        for name in named {
-            let module = if LAYERS.contains(&name.as_str()) {
-                name
-            } else if let Some(module) = reexports.get(&name) {
-                module.clone()
-            } else {
-                continue;
-            };
-            if module != top {
-                targets.insert(module);
-            }
+    for child in krate.children(&sim) {
+        graph.entry(child).or_default();
+    }
+    for (from, to) in krate.sibling_uses().keys() {
+        if from.len() == 2 && from.starts_with(&sim) {
+            graph
+                .entry(from[1].clone())
+                .or_default()
+                .insert(to[1].clone());
         }
     }
     graph
@@ -259,7 +168,7 @@ fn every_solver_module_uses_only_the_layers_below_it() {
 #[test]
 fn the_solver_knows_no_ecs_harness_or_renderer() {
     let mut all = Vec::new();
-    files(&sim_dir(), &mut all);
+    files(&root().join("src/sim"), &mut all);
     for path in all {
         let text = library_text(&path);
         for forbidden in FORBIDDEN {
@@ -270,4 +179,62 @@ fn the_solver_knows_no_ecs_harness_or_renderer() {
             );
         }
     }
+}
+
+/// The most lines a source file may have, its unit tests included.
+const MAX_LINES: usize = 800;
+
+#[test]
+fn no_source_file_is_over_800_lines() {
+    let mut all = Vec::new();
+    files(&root().join("src"), &mut all);
+    all.sort();
+    let long: Vec<String> = all
+        .iter()
+        .filter_map(|path| {
+            let lines = std::fs::read_to_string(path)
+                .expect("source")
+                .lines()
+                .count();
+            let name = path.strip_prefix(root()).unwrap().display();
+            (lines > MAX_LINES).then(|| format!("  {name}: {lines} lines"))
+        })
+        .collect();
+    assert!(
+        long.is_empty(),
+        "{} source files are over {MAX_LINES} lines (split them by concern, tests into a \
+         sibling tests.rs):\n{}",
+        long.len(),
+        long.join("\n")
+    );
+}
+
+#[test]
+fn no_two_modules_import_each_other() {
+    let edges = Crate::read(root()).sibling_uses();
+    // The scan found the imports (an empty graph would pass trivially).
+    let edge = |a: &str, b: &str| {
+        let path = |m: &str| m.split("::").map(String::from).collect::<Vec<_>>();
+        edges.contains_key(&(path(a), path(b)))
+    };
+    assert!(edges.len() >= 50, "only {} uses found", edges.len());
+    assert!(edge("plugin", "sim") && edge("sim::cloth_sim", "sim::integrate"));
+    assert!(edge("subdivision::obj", "subdivision::error"));
+    let cycles = cycles(&edges);
+    let mut report = String::new();
+    for cycle in &cycles {
+        let name = |m: &Vec<String>| m.join("::");
+        let names: Vec<String> = cycle.iter().chain(&cycle[..1]).map(name).collect();
+        report += &format!("{}\n", names.join(" -> "));
+        for (a, b) in cycle.iter().zip(cycle.iter().cycle().skip(1)) {
+            let at = &edges[&(a.clone(), b.clone())];
+            report += &format!("    {} -> {}: {at}\n", name(a), name(b));
+        }
+    }
+    assert!(
+        cycles.is_empty(),
+        "{} import cycles among sibling modules (move what both need into a module below \
+         them):\n{report}",
+        cycles.len()
+    );
 }

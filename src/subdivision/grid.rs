@@ -19,9 +19,9 @@ use std::ops::{Add, Mul};
 
 use glam::{DVec3, Vec3};
 
-use super::refine::SparseRows;
+use super::sparse_rows::SparseRows;
 use super::stencil::StencilTable;
-use super::topology::{LevelFaces, LevelTopology};
+use super::topology::LevelTopology;
 use crate::hash::splitmix;
 
 /// A control mesh that is a grid: control vertex `(r, c)` is vertex `r * cols + c`, and the faces
@@ -78,28 +78,6 @@ impl GridShape {
             .map(|v| [(v / self.cols) as u32, (v % self.cols) as u32])
             .collect()
     }
-}
-
-/// The `(row, column)` of each vertex of the level after `topo`, in that level's units, from those
-/// of `topo`'s vertices: face points at the mean of their corners, edge points at the mean of their
-/// ends, vertex points where their vertex was (see `LevelFaces::refine_child` for the order).
-pub(crate) fn child_coordinates(topo: &LevelFaces, coords: &[[u32; 2]]) -> Vec<[u32; 2]> {
-    let sum = |vs: &mut dyn Iterator<Item = u32>| {
-        vs.fold([0, 0], |s, v| {
-            let c = coords[v as usize];
-            [s[0] + c[0], s[1] + c[1]]
-        })
-    };
-    let mut out = Vec::with_capacity(topo.face_count() + topo.edges.len() + coords.len());
-    // A cell's four corners sum to 4 × its centre, which lies at twice the coordinates one
-    // level down.
-    out.extend((0..topo.face_count()).map(|f| {
-        let s = sum(&mut topo.face(f).iter().copied());
-        [s[0] / 2, s[1] / 2]
-    }));
-    out.extend(topo.edges.iter().map(|e| sum(&mut e.iter().copied())));
-    out.extend(coords.iter().map(|c| [2 * c[0], 2 * c[1]]));
-    out
 }
 
 /// The numbers the grid passes run in, and their weights.

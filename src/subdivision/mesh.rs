@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 use glam::{DVec3, Vec2, Vec3};
 
 use super::SubdivisionError;
-use super::topology::LevelTopology;
+use super::topology::{LevelTopology, corner_count};
 
 /// A validated, oriented, manifold polygon mesh with optional face-varying UVs.
 ///
@@ -286,18 +286,6 @@ fn validate_uvs(uvs: &[Vec2], corners: usize) -> Result<(), SubdivisionError> {
         });
     }
     Ok(())
-}
-
-/// `len` face corners as a `u32` offset, or [`SubdivisionError::TooLarge`] when indices would not fit.
-pub(super) fn corner_count(len: usize) -> Result<u32, SubdivisionError> {
-    u32::try_from(len)
-        .ok()
-        .filter(|&n| n < u32::MAX)
-        .ok_or(SubdivisionError::TooLarge {
-            what: "face corner",
-            count: len as u64,
-            max: u32::MAX as u64 - 1,
-        })
 }
 
 #[cfg(test)]

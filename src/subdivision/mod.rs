@@ -16,6 +16,11 @@
 //! then vertex points), and with [`VertexRule::Original`] the refined
 //! positions match OpenSubdiv 3.7 (Catmull-Clark, default crease and triangle
 //! options) for both [`BoundaryMode`]s.
+//!
+//! The modules depend one way, bottom up: `error`; `topology` (integer
+//! connectivity); `sparse_rows` (CSR rows); `rules` (the weights); `mesh` and
+//! `obj` (the input mesh); `refine` (refinement masks); `stencil` (per-frame
+//! evaluation); `grid` and `subdivider` (the front ends); `analysis`.
 
 pub mod analysis;
 mod error;
@@ -24,6 +29,7 @@ mod mesh;
 mod obj;
 mod refine;
 mod rules;
+mod sparse_rows;
 mod stencil;
 mod subdivider;
 mod topology;

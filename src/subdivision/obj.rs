@@ -144,7 +144,7 @@ pub fn parse_obj(text: &str) -> Result<PolyMesh, SubdivisionError> {
                     }
                     _ => {}
                 }
-                offsets.push(super::mesh::corner_count(indices.len())?);
+                offsets.push(super::topology::corner_count(indices.len())?);
             }
             _ => {}
         }

@@ -1,9 +1,9 @@
 //! Uniform topology refinement (OpenSubdiv Far style): one level at a time,
 //! producing the local refinement masks (new vertex in terms of the previous
-//! level's vertices, i.e. factorized stencils), face-varying UVs, the
-//! composition of masks into stencils over the original control vertices, and
-//! the direct level-by-level evaluation of a one-shot refinement
-//! ([`refine_direct`]).
+//! level's vertices, i.e. factorized stencils), face-varying UVs, grid
+//! coordinates, the composition of masks into stencils over the original
+//! control vertices, and the direct level-by-level evaluation of a one-shot
+//! refinement ([`refine_direct`]).
 //!
 //! This module holds mesh traversal, mask assembly and that one-shot
 //! evaluation; the two apply the same rules and a test keeps them equal. It
@@ -19,71 +19,9 @@ use std::borrow::Cow;
 use glam::{DVec3, Vec2};
 
 use super::rules::{BoundaryMode, VertexRule};
+use super::sparse_rows::{SparseRows, check_entries};
 use super::topology::{LevelFaces, LevelTopology, NO_FACE};
-use super::{MAX_LEVEL, MAX_REFINED_FACES, MAX_STENCIL_ENTRIES, SubdivisionError};
-
-/// Sparse rows in CSR form: row `r` is `(index, weight)` pairs
-/// `entries[offsets[r]..offsets[r + 1]]`.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct SparseRows {
-    pub offsets: Vec<u32>,
-    pub indices: Vec<u32>,
-    pub weights: Vec<f64>,
-}
-
-impl SparseRows {
-    pub(crate) fn identity(n: usize) -> Self {
-        SparseRows {
-            offsets: (0..=n as u32).collect(),
-            indices: (0..n as u32).collect(),
-            weights: vec![1.0; n],
-        }
-    }
-
-    fn row(&self, r: usize) -> (&[u32], &[f64]) {
-        let s = self.offsets[r] as usize;
-        let e = self.offsets[r + 1] as usize;
-        (&self.indices[s..e], &self.weights[s..e])
-    }
-
-    /// Number of rows.
-    pub fn rows(&self) -> usize {
-        self.offsets.len() - 1
-    }
-
-    /// Appends a row from unsorted, possibly repeated `(index, weight)` pairs,
-    /// merging repeats, sorting by index and dropping exact zeros.
-    fn push_merged(&mut self, scratch: &mut [(u32, f64)]) -> Result<(), SubdivisionError> {
-        scratch.sort_unstable_by_key(|&(i, _)| i);
-        let mut k = 0;
-        while k < scratch.len() {
-            let idx = scratch[k].0;
-            let mut w = 0.0;
-            while k < scratch.len() && scratch[k].0 == idx {
-                w += scratch[k].1;
-                k += 1;
-            }
-            if w != 0.0 {
-                self.indices.push(idx);
-                self.weights.push(w);
-            }
-        }
-        self.offsets.push(check_entries(self.indices.len())?);
-        Ok(())
-    }
-}
-
-/// Checks the running stencil entry count against [`MAX_STENCIL_ENTRIES`].
-fn check_entries(len: usize) -> Result<u32, SubdivisionError> {
-    if len > MAX_STENCIL_ENTRIES {
-        return Err(SubdivisionError::TooLarge {
-            what: "stencil entry",
-            count: len as u64,
-            max: MAX_STENCIL_ENTRIES as u64,
-        });
-    }
-    Ok(len as u32)
-}
+use super::{MAX_LEVEL, MAX_REFINED_FACES, SubdivisionError};
 
 /// Output of refining a mesh to a given level.
 #[derive(Debug, Clone)]
@@ -148,7 +86,7 @@ pub(crate) fn refine(
             *m += offset;
         }
         uvs = uvs.map(|u| child_uvs(&topo, &u));
-        grid = grid.map(|g| super::grid::child_coordinates(&topo, &g));
+        grid = grid.map(|g| child_coordinates(&topo, &g));
         topo = Cow::Owned(topo.refine_child());
     }
     Ok(Refinement {
@@ -443,6 +381,28 @@ fn child_uvs(topo: &LevelFaces, uvs: &[Vec2]) -> Vec<Vec2> {
             prev = uv;
         }
     });
+    out
+}
+
+/// The `(row, column)` of each vertex of the level after `topo`, in that level's units, from those
+/// of `topo`'s vertices: face points at the mean of their corners, edge points at the mean of their
+/// ends, vertex points where their vertex was (see `LevelFaces::refine_child` for the order).
+fn child_coordinates(topo: &LevelFaces, coords: &[[u32; 2]]) -> Vec<[u32; 2]> {
+    let sum = |vs: &mut dyn Iterator<Item = u32>| {
+        vs.fold([0, 0], |s, v| {
+            let c = coords[v as usize];
+            [s[0] + c[0], s[1] + c[1]]
+        })
+    };
+    let mut out = Vec::with_capacity(topo.face_count() + topo.edges.len() + coords.len());
+    // A cell's four corners sum to 4 × its centre, which lies at twice the coordinates one
+    // level down.
+    out.extend((0..topo.face_count()).map(|f| {
+        let s = sum(&mut topo.face(f).iter().copied());
+        [s[0] / 2, s[1] / 2]
+    }));
+    out.extend(topo.edges.iter().map(|e| sum(&mut e.iter().copied())));
+    out.extend(coords.iter().map(|c| [2 * c[0], 2 * c[1]]));
     out
 }
 

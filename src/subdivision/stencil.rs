@@ -8,7 +8,7 @@
 use glam::{DVec3, Vec3, Vec3A};
 
 use super::SubdivisionError;
-use super::refine::SparseRows;
+use super::sparse_rows::SparseRows;
 
 /// Stencils of refined vertices over coarser ("control") vertices: either one
 /// level over the previous one ([`Subdivider::level_stencils`](super::Subdivider::level_stencils),

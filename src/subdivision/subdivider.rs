@@ -12,7 +12,8 @@ use std::collections::HashMap;
 use glam::{DVec3, Vec2, Vec3, Vec3A};
 
 use super::grid::{GridEvaluator, GridShape};
-use super::refine::{SparseRows, compose, refine, refine_direct};
+use super::refine::{compose, refine, refine_direct};
+use super::sparse_rows::SparseRows;
 use super::{BoundaryMode, PolyMesh, StencilTable, SubdivisionError, VertexRule};
 
 /// Connectivity of the finest refinement level, built once.

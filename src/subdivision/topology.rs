@@ -227,7 +227,7 @@ impl LevelTopology {
                 max: u32::MAX as u64 - 1,
             });
         }
-        super::mesh::corner_count(face_indices.len())?;
+        corner_count(face_indices.len())?;
         validate_offsets(&face_offsets, face_indices.len())?;
 
         let mut scratch: Vec<u32> = Vec::new();
@@ -429,6 +429,18 @@ impl LevelTopology {
             vertex_edges,
         }
     }
+}
+
+/// `len` face corners as a `u32` offset, or [`SubdivisionError::TooLarge`] when indices would not fit.
+pub(super) fn corner_count(len: usize) -> Result<u32, SubdivisionError> {
+    u32::try_from(len)
+        .ok()
+        .filter(|&n| n < u32::MAX)
+        .ok_or(SubdivisionError::TooLarge {
+            what: "face corner",
+            count: len as u64,
+            max: u32::MAX as u64 - 1,
+        })
 }
 
 /// Checks that `offsets` starts at 0, never decreases and ends at `len`.

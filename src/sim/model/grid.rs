@@ -17,9 +17,7 @@ pub enum GridPlane {
     Vertical,
 }
 
-/// Largest number of particles a cloth may have (16,777,216, a 4096 × 4096 grid): far beyond
-/// real time, and small enough that building the cloth's springs fits in memory.
-pub const MAX_PARTICLES: usize = 1 << 24;
+pub use crate::limits::MAX_PARTICLES;
 
 /// The canonical rectangular grid cloth (docs/guide.md, "The model").
 ///
