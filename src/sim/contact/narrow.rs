@@ -3,8 +3,8 @@
 
 use glam::{Quat, Vec3, Vec3A};
 
-use super::Since;
 use super::shapes::{Collider, ColliderShape, Friction, Near, Pose, Shape};
+use super::simd_passes::Since;
 use crate::sim::soa::Soa;
 
 /// Sphere tracing stops after this many steps along one path (a miss).
