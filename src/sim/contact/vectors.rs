@@ -16,8 +16,9 @@ pub(super) struct Vectors<'a> {
     pub(super) touches: Option<&'a mut [Touch]>,
 }
 
-/// A collider's contact with one particle in a substep, as [`Contacts::resolve`](super::Contacts::resolve) reports it: the
-/// outward normal (zero: no contact) and the velocity of the collider's surface there.
+/// A collider's contact with one particle in a substep, as
+/// [`Contacts::resolve`](super::Contacts::resolve) reports it: the outward normal (zero: no
+/// contact) and the velocity of the collider's surface there.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Touch {
     /// Outward unit normal; zero for a particle no collider touched.

@@ -18,7 +18,7 @@ pub(in crate::sim::contact) struct GapBands {
     list: Vec<GapBand>,
 }
 
-/// One of [`GapBands`].
+/// One band of [`GapBands`]: where its candidates end, their least distance and largest thickness.
 #[derive(Debug, Clone, Copy)]
 struct GapBand {
     /// The end of the band's candidates (exclusive).

@@ -75,7 +75,8 @@ pub(super) struct ParticleCubes {
     pub(super) moved: Vec<Vec3A>,
 }
 
-/// What [`ParticleCubes::closing`] found.
+/// The bounds [`ParticleCubes::closing`] found on how much closer particles can have come, and
+/// their mean displacement.
 pub(super) struct ClosingBounds {
     /// How much closer two particles of the same or neighbouring cubes can have come.
     pub(super) near: f32,

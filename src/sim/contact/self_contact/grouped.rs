@@ -1,6 +1,7 @@
 //! Items grouped by a number each: a patch's vertices, triangles and edges, a block's cubes.
 
-/// Items grouped by patch: those of patch `p` are `items[start[p]..start[p + 1]]`.
+/// Items grouped by a number each (a patch, a block): those of group `g` are
+/// `items[start[g]..start[g + 1]]`.
 #[derive(Debug, Clone, Default)]
 pub(super) struct ItemsByGroup {
     pub(super) start: Vec<u32>,

@@ -19,14 +19,14 @@
 //!    of the cloth keeps for the patches it holds (`ParticleCubes::limit`); a culled patch
 //!    keeps its cone while each of its triangles' edges' ends move within twice the reach of each
 //!    other. Each substep bounds the displacements cube by cube and block by block of cubes
-//!    (`ParticleCubes`), and edge by edge where the cubes' bound exceeds twice the reach: a cloth moving
-//!    as a whole keeps its candidates; one whose parts move relative to each other searches
+//!    (`ParticleCubes`), and edge by edge where the cubes' bound exceeds twice the reach: a
+//!    cloth moving as a whole keeps its candidates; one whose parts move relative to each other searches
 //!    again, within a step if need be. A cloth at rest searches once, and while its particles
 //!    stay within the slack the last check left, it is not checked either: one vector pass over
 //!    the particles (`LastCheck`) shows they did.
 //! 3. **Narrow phase and response, at every substep where the layers may have come closer** (at the
-//!    step's last substep always; at others only once any two particles can have come [`DEFER_CLOSING`] of
-//!    the thickness closer since the last one, so a resting fold or pile is resolved every few
+//!    step's last substep always; at others only once any two particles can have come
+//!    [`DEFER_CLOSING`] of the thickness closer since the last one, so a resting fold or pile is resolved every few
 //!    substeps, see `LastResolution`), on whatever layout the stepper keeps its particles in
 //!    ([`ContactState`]): for each candidate whose distance at the broad phase, less how far its
 //!    particles have since moved relative to the cloth, may have fallen to the thickness (a pile's
