@@ -63,7 +63,7 @@
 //!
 //! # Layout
 //! `shapes` (colliders and their queries), `narrow` (the narrow phase and response against
-//! colliders, on any [`ContactState`]), `simd_passes` (the vector passes over a structure-of-arrays
+//! colliders, on any `ContactState`), `simd_passes` (the vector passes over a structure-of-arrays
 //! state), `limits` (targets, backstops, tethers); `pairs` (what the contacts of a cloth with itself
 //! and with other cloths share: the response to a vertex–triangle or edge–edge pair, the spatial
 //! hash, the snapshots, the bands of distance), below `self_contact` (a cloth with itself: search,
