@@ -7,7 +7,7 @@ use super::shapes::Near;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 
-/// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
+/// [`ContactState::clearances`](super::narrow::ContactState::clearances) of particles displaced by `d` over the substep: ending at `x`, or
 /// with `AHEAD` starting at `x` (and ending at `x + d`), against `within`. A vector [`Kernel`]
 /// ([`simd`]).
 pub(crate) fn soa_clearances<const AHEAD: bool>(
@@ -96,7 +96,7 @@ fn clearances_body<const AHEAD: bool>(
     }
 }
 
-/// What [`ContactState::since`] measures over the particles: sums of their displacements since a
+/// What [`ContactState::since`](super::narrow::ContactState::since) measures over the particles: sums of their displacements since a
 /// snapshot and over the substep, and how far the farthest one is from a guess.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Since {
@@ -124,7 +124,7 @@ impl Since {
     }
 }
 
-/// [`ContactState::since`] of particles displaced by `d` over the substep: ending at `x`, or with
+/// [`ContactState::since`](super::narrow::ContactState::since) of particles displaced by `d` over the substep: ending at `x`, or with
 /// `AHEAD` starting at `x` (and ending at `x + d`). A vector [`Kernel`] ([`simd`]): sixteen
 /// running sums and maxima per quantity, added up in a fixed order, so every build gives the same
 /// bits.
@@ -140,7 +140,7 @@ pub(crate) fn soa_since<const AHEAD: bool>(x: &Soa, d: &Soa, at: &Soa, guess: Ve
     out.checked()
 }
 
-/// [`ContactState::displaced`] of particles displaced by `d` over the substep (see
+/// [`ContactState::displaced`](super::narrow::ContactState::displaced) of particles displaced by `d` over the substep (see
 /// [`soa_since`]): a plain loop over the arrays, whose running sums stay in registers.
 pub(crate) fn soa_displaced<const AHEAD: bool>(
     x: &Soa,
@@ -163,7 +163,7 @@ pub(crate) fn soa_displaced<const AHEAD: bool>(
     (m0, m1)
 }
 
-/// [`ContactState::ends`] of particles displaced by `d` over the substep (see [`soa_since`]).
+/// [`ContactState::ends`](super::narrow::ContactState::ends) of particles displaced by `d` over the substep (see [`soa_since`]).
 pub(crate) fn soa_ends<const AHEAD: bool>(x: &Soa, d: &Soa, out: &mut Soa) {
     let n = x.len().min(d.len());
     out.resize(n);

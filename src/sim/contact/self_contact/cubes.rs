@@ -151,7 +151,7 @@ impl ParticleCubes {
 
     /// Sets each cube's limit to the least `of_particle(p)` of the model particles `p` (stored at
     /// `slot`) in it. Where that is the least limit of the patches with a triangle corner at `p`
-    /// (see [`SelfContacts::refresh_candidates`]), two particles of neighbouring cubes may come
+    /// (see [`SelfContacts::refresh_candidates`](super::SelfContacts::refresh_candidates)), two particles of neighbouring cubes may come
     /// closer by the larger of their cubes' limits: an element with a particle in a cube belongs
     /// to one of those patches, and the pair of elements is within both limits.
     pub(super) fn limit(&mut self, slot: &[u32], of_particle: impl Fn(usize) -> f32) {

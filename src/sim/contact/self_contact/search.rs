@@ -24,7 +24,7 @@ pub(super) type NormalConeCull = (fn(f32) -> f32, f32);
 pub(super) const NO_CULL: Option<NormalConeCull> = None;
 
 /// Share of the limit on the edges' turn up to which the near bound stands in for the edges'
-/// own bound (see [`ParticleCubes::edges_closing`]): the slack that a check leaves the next ones is
+/// own bound (see [`ParticleCubes::edges_closing`](super::cubes::ParticleCubes::edges_closing)): the slack that a check leaves the next ones is
 /// then at least the rest.
 pub(super) const EDGES_NEAR_BOUND_SHARE: f32 = 0.25;
 
@@ -189,7 +189,7 @@ impl SelfContacts {
         }
     }
 
-    /// Orders the candidates of each kind into bands of distance (see [`GapBands`]), the distances
+    /// Orders the candidates of each kind into bands of distance (see [`GapBands`](crate::sim::contact::pairs::GapBands)), the distances
     /// found being below `margin`.
     pub(super) fn order_by_gap(&mut self, margin: f32) {
         let split = self.vt.len();
@@ -229,7 +229,7 @@ impl SelfContacts {
     /// The broad phase on `x` (by model particle): every vertex–triangle and edge–edge pair that
     /// shares no vertex, is not exempt, and is closer than `margin`, up to `cap` of each kind;
     /// with `cull` (`flat`, `out`), none between patches within one direction by the angle `flat`
-    /// gives for their shortest triangle altitude at `x` (see [`patches`]), the patches' uncovered
+    /// gives for their shortest triangle altitude at `x` (see [`patches`](super::patches)), the patches' uncovered
     /// distance being looked for up to `out` beyond twice the margin (`Patches::clear_of`).
     pub(super) fn find_candidates(
         &mut self,
