@@ -60,19 +60,28 @@
 //! the paper's damping taken to its limit, so contacts never add energy); and the tangential factor
 //! becomes Coulomb's law with static and kinetic coefficients, measured relative to the collider's
 //! own velocity.
+//!
+//! # Layout
+//! `shapes` (colliders and their queries), `narrow` (the narrow phase and response against
+//! colliders, on any `ContactState`), `simd_passes` (the vector passes over a structure-of-arrays
+//! state), `limits` (targets, backstops, tethers); `pairs` (what the contacts of a cloth with itself
+//! and with other cloths share: the response to a vertex–triangle or edge–edge pair, the spatial
+//! hash, the snapshots, the bands of distance), below `self_contact` (a cloth with itself: search,
+//! cubes, patches) and `cloths` (a cloth with other cloths). Imports between these run one way.
 
 mod cloths;
 mod limits;
 mod narrow;
+mod pairs;
 mod self_contact;
 mod shapes;
+mod simd_passes;
 #[cfg(test)]
 mod tests;
+mod vectors;
 
-use glam::{Vec3, Vec3A};
+use glam::Vec3;
 
-use crate::sim::simd::{self, Build, Kernel};
-use crate::sim::soa::Soa;
 use crate::sim::state::max_distance;
 pub(crate) use cloths::ClothContacts;
 pub use cloths::OtherCloth;
@@ -86,65 +95,9 @@ use narrow::{ActiveCollider, resolve, resolve_among};
 pub(crate) use self_contact::SelfContacts;
 pub(crate) use shapes::Near;
 pub use shapes::{Collider, ColliderShape, Friction, Pose, Shape, Surface, bounds};
-
-/// The state as three arrays of vectors in the particles' own order.
-struct Vectors<'a> {
-    x: &'a mut [Vec3],
-    v: &'a mut [Vec3],
-    start: &'a [Vec3],
-    inv_mass: &'a [f32],
-    /// Where given, each touched particle's [`Touch`].
-    touches: Option<&'a mut [Touch]>,
-}
-
-/// A collider's contact with one particle in a substep, as [`Contacts::resolve`] reports it: the
-/// outward normal (zero: no contact) and the velocity of the collider's surface there.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Touch {
-    /// Outward unit normal; zero for a particle no collider touched.
-    pub normal: Vec3,
-    /// Velocity of the collider's surface at the contact, m/s.
-    pub surface: Vec3,
-}
-
-impl ContactState for Vectors<'_> {
-    fn len(&self) -> usize {
-        self.x.len()
-    }
-    #[inline(always)]
-    fn inv_mass(&self, i: usize) -> f32 {
-        self.inv_mass[i]
-    }
-    fn slot(&self, p: u32) -> usize {
-        p as usize
-    }
-    #[inline(always)]
-    fn start(&self, i: usize) -> Vec3 {
-        self.start[i]
-    }
-    #[inline(always)]
-    fn position(&self, i: usize) -> Vec3 {
-        self.x[i]
-    }
-    #[inline(always)]
-    fn velocity(&self, i: usize) -> Vec3 {
-        self.v[i]
-    }
-    #[inline(always)]
-    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
-        (self.x[i], self.v[i]) = (x, v);
-    }
-    fn touched(&mut self, i: usize, normal: Vec3, surface: Vec3) {
-        if let Some(touches) = self.touches.as_deref_mut() {
-            touches[i] = Touch { normal, surface };
-        }
-    }
-    fn clearances(&self, near: Near, within: f32, out: &mut [f32]) {
-        for ((o, x), s) in out.iter_mut().zip(&*self.x).zip(self.start) {
-            *o = near.distance(*x) - x.distance(*s) - within;
-        }
-    }
-}
+pub(crate) use simd_passes::{Since, soa_clearances, soa_displaced, soa_ends, soa_since};
+pub(crate) use vectors::Touch;
+use vectors::Vectors;
 
 /// Per-cloth collision state: the colliders that survived this step's broad phase, the particle
 /// positions at the start of the current substep (for states without their own, see
@@ -519,266 +472,4 @@ fn resolve_all<S: ContactState>(
     }
     cloths.end_substep(state);
     work
-}
-
-/// [`ContactState::clearances`] of particles displaced by `d` over the substep: ending at `x`, or
-/// with `AHEAD` starting at `x` (and ending at `x + d`), against `within`. A vector [`Kernel`]
-/// ([`simd`]).
-pub(crate) fn soa_clearances<const AHEAD: bool>(
-    x: &Soa,
-    d: &Soa,
-    (near, within): (Near, f32),
-    out: &mut [f32],
-) {
-    let within = within.max(0.0);
-    simd::run(Clearances::<AHEAD> {
-        x,
-        d,
-        near,
-        within,
-        out,
-    });
-}
-
-/// [`soa_clearances`]' arguments, as a [`Kernel`].
-struct Clearances<'a, const AHEAD: bool> {
-    x: &'a Soa,
-    d: &'a Soa,
-    near: Near,
-    within: f32,
-    out: &'a mut [f32],
-}
-
-impl<const AHEAD: bool> Kernel for Clearances<'_, AHEAD> {
-    const WIDEST: Build = Build::Avx512;
-
-    #[inline(always)]
-    fn body<const WIDE: bool>(self) {
-        clearances_body::<AHEAD>(self.x, self.d, (self.near, self.within), self.out);
-    }
-}
-
-/// The sign of `|e| − |d| − w` (`w ≥ 0`) from `e2 = |e|²` and `d2 = |d|²`, without square
-/// roots: `|e| ≤ w + |d|` holds where `q = |e|² − |d|² − w² ≤ 0`, and otherwise exactly where
-/// `q² ≤ 4 w² |d|²`.
-#[inline(always)]
-fn point_gap_sign(e2: f32, d2: f32, w2: f32) -> f32 {
-    let q = e2 - d2 - w2;
-    if q <= 0.0 { q } else { q * q - 4.0 * w2 * d2 }
-}
-
-/// The sign of `a − |d| − w` (`w ≥ 0`) from `a` and `d2 = |d|²`, without a square root: it is
-/// at most 0 where `a − w ≤ 0`, and otherwise exactly where `(a − w)² ≤ |d|²`.
-#[inline(always)]
-fn plane_gap_sign(a: f32, d2: f32, w: f32) -> f32 {
-    let q = a - w;
-    if q <= 0.0 { q } else { q * q - d2 }
-}
-
-#[inline(always)]
-fn clearances_body<const AHEAD: bool>(
-    x: &Soa,
-    d: &Soa,
-    (near, within): (Near, f32),
-    out: &mut [f32],
-) {
-    let n = out.len().min(x.len()).min(d.len());
-    let (x, y, z) = (&x.x[..n], &x.y[..n], &x.z[..n]);
-    let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);
-    let moved2 = |i: usize| dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i];
-    let end = |x: &[f32], d: &[f32], i: usize| if AHEAD { x[i] + d[i] } else { x[i] };
-    match near {
-        Near::Point(c) => {
-            let w2 = within * within;
-            for (i, o) in out[..n].iter_mut().enumerate() {
-                let (ex, ey, ez) = (
-                    end(x, dx, i) - c.x,
-                    end(y, dy, i) - c.y,
-                    end(z, dz, i) - c.z,
-                );
-                *o = point_gap_sign(ex * ex + ey * ey + ez * ez, moved2(i), w2);
-            }
-        }
-        Near::Plane(c, normal) => {
-            for (i, o) in out[..n].iter_mut().enumerate() {
-                let along = (end(x, dx, i) - c.x) * normal.x
-                    + (end(y, dy, i) - c.y) * normal.y
-                    + (end(z, dz, i) - c.z) * normal.z;
-                *o = plane_gap_sign(along, moved2(i), within);
-            }
-        }
-    }
-}
-
-/// What [`ContactState::since`] measures over the particles: sums of their displacements since a
-/// snapshot and over the substep, and how far the farthest one is from a guess.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Since {
-    /// Sum over the particles of `end − snapshot`.
-    pub moved: Vec3,
-    /// Sum over the particles of `end − start`.
-    pub step: Vec3,
-    /// Largest `|end − snapshot − guess|²`; infinite if a sum is not finite (a particle's
-    /// position or the snapshot is NaN or infinite).
-    pub worst: f32,
-}
-
-impl Since {
-    /// Infinite `worst` where a displacement is not finite, which the sums always see (`max`
-    /// alone would drop a NaN).
-    fn checked(self) -> Self {
-        if self.moved.is_finite() && self.step.is_finite() {
-            self
-        } else {
-            Self {
-                worst: f32::INFINITY,
-                ..self
-            }
-        }
-    }
-}
-
-/// [`ContactState::since`] of particles displaced by `d` over the substep: ending at `x`, or with
-/// `AHEAD` starting at `x` (and ending at `x + d`). A vector [`Kernel`] ([`simd`]): sixteen
-/// running sums and maxima per quantity, added up in a fixed order, so every build gives the same
-/// bits.
-pub(crate) fn soa_since<const AHEAD: bool>(x: &Soa, d: &Soa, at: &Soa, guess: Vec3) -> Since {
-    let mut out = Since::default();
-    simd::run(SinceKernel::<AHEAD> {
-        x,
-        d,
-        at,
-        guess,
-        out: &mut out,
-    });
-    out.checked()
-}
-
-/// [`ContactState::displaced`] of particles displaced by `d` over the substep (see
-/// [`soa_since`]): a plain loop over the arrays, whose running sums stay in registers.
-pub(crate) fn soa_displaced<const AHEAD: bool>(
-    x: &Soa,
-    d: &Soa,
-    found: &[Vec3],
-    moved: &mut [Vec3A],
-) -> (Vec3A, Vec3A) {
-    let n = x.len().min(d.len()).min(found.len()).min(moved.len());
-    let (mut m0, mut m1) = (Vec3A::ZERO, Vec3A::ZERO);
-    for i in 0..n {
-        let p = Vec3A::new(x.x[i], x.y[i], x.z[i]);
-        let q = Vec3A::new(d.x[i], d.y[i], d.z[i]);
-        let (start, end) = if AHEAD { (p, p + q) } else { (p - q, p) };
-        let at = Vec3A::from(found[i]);
-        let d = end - at;
-        moved[i] = d;
-        m0 += start - at;
-        m1 += d;
-    }
-    (m0, m1)
-}
-
-/// [`ContactState::ends`] of particles displaced by `d` over the substep (see [`soa_since`]).
-pub(crate) fn soa_ends<const AHEAD: bool>(x: &Soa, d: &Soa, out: &mut Soa) {
-    let n = x.len().min(d.len());
-    out.resize(n);
-    for (o, (x, d)) in [&mut out.x, &mut out.y, &mut out.z].into_iter().zip([
-        (&x.x, &d.x),
-        (&x.y, &d.y),
-        (&x.z, &d.z),
-    ]) {
-        if AHEAD {
-            for ((o, x), d) in o.iter_mut().zip(&x[..n]).zip(&d[..n]) {
-                *o = x + d;
-            }
-        } else {
-            o.copy_from_slice(&x[..n]);
-        }
-    }
-}
-
-/// [`soa_since`]'s arguments, as a [`Kernel`].
-struct SinceKernel<'a, const AHEAD: bool> {
-    x: &'a Soa,
-    d: &'a Soa,
-    at: &'a Soa,
-    guess: Vec3,
-    out: &'a mut Since,
-}
-
-impl<const AHEAD: bool> Kernel for SinceKernel<'_, AHEAD> {
-    // Sixteen lanes of seven running values fit AVX-512's registers (AVX2's spill).
-    const WIDEST: Build = Build::Avx512;
-
-    #[inline(always)]
-    fn body<const WIDE: bool>(self) {
-        *self.out = since_body::<AHEAD>(self.x, self.d, self.at, self.guess);
-    }
-}
-
-#[inline(always)]
-fn since_body<const AHEAD: bool>(x: &Soa, d: &Soa, at: &Soa, guess: Vec3) -> Since {
-    let n = x.len().min(d.len()).min(at.len());
-    let arrays = [&x.x, &x.y, &x.z, &d.x, &d.y, &d.z, &at.x, &at.y, &at.z].map(|a| &a[..n]);
-    let mut acc = [[0.0; LANES]; 7];
-    let whole = n - n % LANES;
-    for base in (0..whole).step_by(LANES) {
-        let block = |k: usize| -> &[f32; LANES] {
-            arrays[k][base..base + LANES]
-                .try_into()
-                .expect("a whole block")
-        };
-        since_block::<AHEAD>(&mut acc, std::array::from_fn(block), guess);
-    }
-    for i in whole..n {
-        since_lane::<AHEAD>(&mut acc, i - whole, arrays.map(|a| a[i]), guess);
-    }
-    let sum = |a: &[f32; LANES]| a.iter().sum::<f32>();
-    Since {
-        moved: Vec3::new(sum(&acc[0]), sum(&acc[1]), sum(&acc[2])),
-        step: Vec3::new(sum(&acc[3]), sum(&acc[4]), sum(&acc[5])),
-        worst: acc[6].iter().fold(0.0, |a, &w| a.max(w)),
-    }
-}
-
-/// Lanes of [`since_body`]'s running sums and maxima.
-const LANES: usize = 16;
-
-/// One block of [`since_body`]: [`since_lane`] for [`LANES`] particles, whose x, y, z, d (x, y, z)
-/// and snapshot (x, y, z) `block` holds.
-#[inline(always)]
-fn since_block<const AHEAD: bool>(
-    acc: &mut [[f32; LANES]; 7],
-    block: [&[f32; LANES]; 9],
-    guess: Vec3,
-) {
-    for l in 0..LANES {
-        since_lane::<AHEAD>(acc, l, block.map(|a| a[l]), guess);
-    }
-}
-
-/// Adds one particle's move (x, y, z), substep displacement (x, y, z) and squared distance of the
-/// move from `guess` (a maximum) to lane `l` of `acc`, from its x, y, z, d (x, y, z) and snapshot
-/// (x, y, z).
-#[inline(always)]
-fn since_lane<const AHEAD: bool>(
-    acc: &mut [[f32; LANES]; 7],
-    l: usize,
-    [x, y, z, dx, dy, dz, ax, ay, az]: [f32; 9],
-    guess: Vec3,
-) {
-    let (ex, ey, ez) = if AHEAD {
-        (x + dx, y + dy, z + dz)
-    } else {
-        (x, y, z)
-    };
-    let (mx, my, mz) = (ex - ax, ey - ay, ez - az);
-    let (gx, gy, gz) = (mx - guess.x, my - guess.y, mz - guess.z);
-    let w = gx * gx + gy * gy + gz * gz;
-    acc[0][l] += mx;
-    acc[1][l] += my;
-    acc[2][l] += mz;
-    acc[3][l] += dx;
-    acc[4][l] += dy;
-    acc[5][l] += dz;
-    acc[6][l] = if w > acc[6][l] { w } else { acc[6][l] };
 }

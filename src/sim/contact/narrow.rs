@@ -3,8 +3,8 @@
 
 use glam::{Quat, Vec3, Vec3A};
 
-use super::Since;
 use super::shapes::{Collider, ColliderShape, Friction, Near, Pose, Shape};
+use super::simd_passes::Since;
 use crate::sim::soa::Soa;
 
 /// Sphere tracing stops after this many steps along one path (a miss).
@@ -219,7 +219,7 @@ pub(crate) trait ContactState {
     }
 }
 
-/// See [`Contacts::resolve_state`]. Before the exact test, a particle whose clearance (see
+/// See [`Contacts::resolve_state`](super::Contacts::resolve_state). Before the exact test, a particle whose clearance (see
 /// [`ContactState::clearances`]) from the collider's bounding ball or plane exceeds the ball's
 /// radius, the margin and the collider's travel over the substep is skipped: no point of its path
 /// comes within the margin, so the exact test would leave it alone. This bound holds for colliders

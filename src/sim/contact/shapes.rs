@@ -487,7 +487,7 @@ impl Collider {
     }
 }
 
-/// What a particle's clearance from a collider is measured to (see [`ContactState::clearances`]):
+/// What a particle's clearance from a collider is measured to (see [`ContactState::clearances`](super::narrow::ContactState::clearances)):
 /// the centre of its bounding ball, or, for a half-space, its plane.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Near {

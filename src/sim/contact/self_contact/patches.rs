@@ -18,6 +18,8 @@
 
 use glam::Vec3;
 
+use crate::sim::contact::pairs::{boxes_meet, cell_of};
+
 /// The patch of a vertex in no triangle: it is searched, and paired, always.
 const LOOSE: u32 = u32::MAX;
 
@@ -115,7 +117,7 @@ impl Patches {
             .iter()
             .map(|t| {
                 let centre = t.iter().map(|&i| rest[i as usize]).sum::<Vec3>() / 3.0;
-                super::cell_of(centre, inv)
+                cell_of(centre, inv)
             })
             .collect();
         let mut of_triangle = vec![u32::MAX; tris.len()];
@@ -381,7 +383,7 @@ impl Patches {
                 }
                 // Most pairs of the sweep lie too far apart along another axis to matter, which
                 // the sorted boxes tell.
-                let meet = super::boxes_meet((blo, bhi), (alo, ahi));
+                let meet = boxes_meet((blo, bhi), (alo, ahi));
                 let gap = (blo - ahi).max(alo - bhi).max_element() + 2.0 * margin;
                 // A NaN gap is not below what was looked at: nothing to do, as for a pair far
                 // apart.

@@ -24,7 +24,7 @@
 //!    a step if need be. Cloths falling or swinging together keep their candidates, and so does a
 //!    cloth lying on another from step to step while the same cloths are copied in.
 //! 3. **Narrow phase and response, where the cloths may have come closer**: at the step's last
-//!    substep, and at others once a pair can have come [`DEFER`] of its kept distance closer
+//!    substep, and at others once a pair can have come [`DEFER_CLOSING`] of its kept distance closer
 //!    since the last resolution (this cloth's particles measured as for self-contacts, the
 //!    others' by how far they move along their paths), so a cloth resting on another is resolved
 //!    every few substeps. As for self-contacts (sides taken from the start of the substep, pushes
@@ -35,12 +35,18 @@
 use glam::Vec3;
 
 use super::narrow::ContactState;
-use super::self_contact::{
-    Bands, DEFER, Gathered, Hash, Settled, Spacing, closest_on_segments, edge_table, four,
-    later_passes, max_or_infinite, order_changed, point_triangle_distance, reorder,
+use super::pairs::{
+    DEFER_CLOSING, GapBands, GatheredParticles, LastResolution, LayerSpacing, SpatialHash,
+    closest_on_segments, edge_table, later_passes, map_four, max_or_infinite,
+    point_triangle_distance, reorder, storage_order_changed,
 };
-use super::{Near, Vectors};
+use super::vectors::Vectors;
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
+use joined::JoinedState;
+
+mod joined;
+#[cfg(test)]
+mod tests;
 
 /// At most this many candidates per vertex or edge of the search, of each kind: enough for
 /// several layers within the margin, not for a crushed ball of cloth.
@@ -115,7 +121,7 @@ pub(crate) struct ClothContacts {
     last_tris: Vec<[u32; 3]>,
     keyed: Vec<(u64, usize)>,
     /// The spacing of each copied cloth with this one, and the copied cloth of each particle.
-    spacing: Vec<Spacing>,
+    spacing: Vec<LayerSpacing>,
     owner: Vec<u32>,
     /// 1 / the step's length.
     inv_dt: f32,
@@ -127,13 +133,13 @@ pub(crate) struct ClothContacts {
     /// The reach the candidates were found with, m.
     reach: f32,
     /// The candidates and each one's distance when found, m, in the search's order.
-    pairs: Vec<(Pair, f32)>,
+    pairs: Vec<(ClothPair, f32)>,
     /// The same ready for the substeps, ordered into `bands` of that distance.
-    prepared: Vec<Prepared>,
-    bands: Bands,
+    prepared: Vec<SubstepCandidate>,
+    bands: GapBands,
     /// Scratch of the ordering into bands.
     order: Vec<u32>,
-    reordered: Vec<Prepared>,
+    reordered: Vec<SubstepCandidate>,
     /// Where each of this cloth's model particles is stored in the state being resolved.
     slot: Vec<u32>,
     /// Positions when the candidates were found: this cloth's (by model particle), the others'.
@@ -152,15 +158,15 @@ pub(crate) struct ClothContacts {
     /// When the pairs were last resolved in this step (a fraction of it; 0 at its start).
     resolved_at: f32,
     /// Where this cloth was then, which lets substeps defer the next resolution (see
-    /// [`Settled`]).
-    settled: Settled,
+    /// [`LastResolution`]).
+    last_resolution: LastResolution,
     /// Searches run so far.
     searches: u64,
     /// Substeps whose pairs were resolved so far.
     resolutions: u64,
     /// Spatial hashes of the others' triangles and of this cloth's.
-    other_hash: Hash,
-    own_hash: Hash,
+    other_hash: SpatialHash,
+    own_hash: SpatialHash,
     /// Scratch: each stored particle's drift (this cloth's, then the others'), and the candidates
     /// that acted in a substep's first pass.
     drift: Vec<f32>,
@@ -169,7 +175,7 @@ pub(crate) struct ClothContacts {
     involved: Vec<u32>,
     /// Scratch of the narrow phase: the particles of `involved` copied out of the state, their
     /// drifts, and the ones it moved.
-    gathered: Gathered,
+    gathered: GatheredParticles,
     local_drift: Vec<f32>,
     moved: Vec<u32>,
 }
@@ -201,7 +207,7 @@ impl ClothContacts {
             if other.validate().is_err() || other.triangles.is_empty() {
                 continue;
             }
-            let spacing = Spacing {
+            let spacing = LayerSpacing {
                 thickness: 0.5 * (thickness + other.thickness),
                 friction: 0.5 * (friction + other.friction),
             };
@@ -229,7 +235,7 @@ impl ClothContacts {
         // the last step's ended.
         let same_tris = same_triangles(&self.tris, &self.last_tris);
         if !same_tris || self.start != self.last_end {
-            self.settled.forget();
+            self.last_resolution.forget();
         }
         self.resolved_at = 0.0;
         self.motion = (self.start.iter().zip(&self.end))
@@ -272,7 +278,7 @@ impl ClothContacts {
 
     /// The narrow phase and response at the end of the substep `[t0, t1]` (fractions of the
     /// step) of length `h`, for a cloth of `triangles` whose particles are in `state`, or nothing
-    /// while no pair can have come [`DEFER`] of its kept distance closer since the last
+    /// while no pair can have come [`DEFER_CLOSING`] of its kept distance closer since the last
     /// resolution, unless the substep is the step's last (`t1 = 1`). Returns whether any particle
     /// moved.
     pub fn resolve<S: ContactState>(
@@ -298,14 +304,14 @@ impl ClothContacts {
         }
         let n = state.len();
         // A stepper may store this cloth's particles in another order from one step to the next.
-        if std::mem::take(&mut self.new_step) && order_changed(state, &self.slot) {
+        if std::mem::take(&mut self.new_step) && storage_order_changed(state, &self.slot) {
             self.stale = true;
-            self.settled.forget();
+            self.last_resolution.forget();
         }
         // Between this cloth and a copied particle: this cloth's bound plus how far the copy
         // moved since (along its straight path over the step).
         let others = self.motion * (t1 - self.resolved_at);
-        let slack = DEFER
+        let slack = DEFER_CLOSING
             * self
                 .spacing
                 .iter()
@@ -313,13 +319,13 @@ impl ClothContacts {
                 .fold(f32::MAX, f32::min);
         if t1 < 1.0
             && !self.stale
-            && (self.settled).holds(state, |r, c| r + c.length() + others <= slack)
+            && (self.last_resolution).holds(state, |r, c| r + c.length() + others <= slack)
         {
             return false;
         }
         self.resolutions += 1;
-        let h = h * (self.settled.deferred + 1) as f32;
-        self.settled.forget();
+        let h = h * (self.last_resolution.deferred + 1) as f32;
+        self.last_resolution.forget();
         self.resolved_at = t1;
         let mut drift = std::mem::take(&mut self.drift);
         let mut acting = std::mem::take(&mut self.acting);
@@ -328,7 +334,7 @@ impl ClothContacts {
             self.search(state, (t0, t1), &mut drift);
         }
         let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
-        let mut joined = Joined {
+        let mut joined = JoinedState {
             own: state,
             n,
             start: &self.start,
@@ -351,7 +357,7 @@ impl ClothContacts {
                 return 0.0;
             }
             acting.push(k as u32);
-            let [a, b, c, d] = four(self.prepared[k].slots, |i| local[i as usize]);
+            let [a, b, c, d] = map_four(self.prepared[k].slots, |i| local[i as usize]);
             a.max(b).max(c).max(d)
         });
         later_passes(&acting, |k| self.pair(&mut copies, k, inv_h, &mut local));
@@ -362,7 +368,7 @@ impl ClothContacts {
         self.gathered = gathered;
         self.local_drift = local;
         self.drift = drift;
-        self.settled.due = !self.prepared.is_empty();
+        self.last_resolution.due = !self.prepared.is_empty();
         self.acting = acting;
         any
     }
@@ -370,8 +376,8 @@ impl ClothContacts {
     /// Ends a substep's contacts: after a resolution, once the colliders have had their last
     /// word, keeps the positions that the next substeps' motion is measured from.
     pub fn end_substep<S: ContactState>(&mut self, state: &S) {
-        if std::mem::take(&mut self.settled.due) {
-            self.settled.take(state);
+        if std::mem::take(&mut self.last_resolution.due) {
+            self.last_resolution.take(state);
         }
     }
 
@@ -472,7 +478,7 @@ impl ClothContacts {
                     let [a, b, c] = corners(&tri, y);
                     let gap = point_triangle_distance(at, a, b, c);
                     if gap < limit(tri[0]) {
-                        pairs.push((Pair::OwnVertex(p as u32, t), gap));
+                        pairs.push((ClothPair::OwnVertex(p as u32, t), gap));
                         count[0] += 1;
                     }
                 });
@@ -490,7 +496,7 @@ impl ClothContacts {
                         let (s, u) = closest_on_segments(pa, pb, pc, pd);
                         let gap = pa.lerp(pb, s).distance(pc.lerp(pd, u));
                         if gap < limit(c) {
-                            pairs.push((Pair::Edges(e as u32, [c.min(d), c.max(d)]), gap));
+                            pairs.push((ClothPair::Edges(e as u32, [c.min(d), c.max(d)]), gap));
                             count[1] += 1;
                         }
                     }
@@ -508,7 +514,7 @@ impl ClothContacts {
                     let [a, b, c] = corners(&self.own_tris[t as usize], x);
                     let gap = point_triangle_distance(at, a, b, c);
                     if gap < limit(p as u32) {
-                        pairs.push((Pair::OtherVertex(p as u32, t), gap));
+                        pairs.push((ClothPair::OtherVertex(p as u32, t), gap));
                         count[2] += 1;
                     }
                 });
@@ -519,19 +525,19 @@ impl ClothContacts {
     /// The joined slots of candidate `pair`'s four particles (this cloth's stored where `slot`
     /// says, the others' after this cloth's `n`), the weight of the first in the pair's
     /// combination being 1, and the other cloth it meets.
-    fn slots(&self, pair: Pair, n: usize) -> ([usize; 4], u32) {
+    fn slots(&self, pair: ClothPair, n: usize) -> ([usize; 4], u32) {
         let own = |p: u32| self.slot[p as usize] as usize;
         let other = |p: u32| n + p as usize;
         match pair {
-            Pair::OwnVertex(p, t) => {
+            ClothPair::OwnVertex(p, t) => {
                 let [a, b, c] = self.tris[t as usize];
                 ([own(p), other(a), other(b), other(c)], a)
             }
-            Pair::OtherVertex(p, t) => {
+            ClothPair::OtherVertex(p, t) => {
                 let [a, b, c] = self.own_tris[t as usize];
                 ([other(p), own(a), own(b), own(c)], p)
             }
-            Pair::Edges(e, [c, d]) => {
+            ClothPair::Edges(e, [c, d]) => {
                 let [a, b] = self.edges[e as usize];
                 ([own(a), own(b), other(c), other(d)], c)
             }
@@ -545,9 +551,9 @@ impl ClothContacts {
         prepared.clear();
         prepared.extend(self.pairs.iter().map(|&(pair, gap)| {
             let (slots, other) = self.slots(pair, n);
-            Prepared {
+            SubstepCandidate {
                 slots: slots.map(|s| s as u32),
-                vertex: !matches!(pair, Pair::Edges(..)),
+                vertex: !matches!(pair, ClothPair::Edges(..)),
                 spacing: self.owner[other as usize],
                 gap,
             }
@@ -567,7 +573,7 @@ impl ClothContacts {
         let mut order = std::mem::take(&mut self.order);
         order.clear();
         let pair = |k: usize| {
-            let c: &Prepared = &prepared[k];
+            let c: &SubstepCandidate = &prepared[k];
             (c.gap, self.spacing[c.spacing as usize].kept(c.vertex))
         };
         let margin = thickest + 2.0 * self.reach;
@@ -586,7 +592,7 @@ impl ClothContacts {
     /// then less the most its two elements' particles have drifted.
     fn may_touch(&self, k: usize, drift: &[f32]) -> bool {
         let c = &self.prepared[k];
-        let d = four(c.slots, |i| drift[i as usize]);
+        let d = map_four(c.slots, |i| drift[i as usize]);
         let closing = if c.vertex {
             d[0] + d[1].max(d[2]).max(d[3])
         } else {
@@ -596,12 +602,12 @@ impl ClothContacts {
     }
 
     /// Resolves candidate `k` on the copies of the joined state's pair particles (see
-    /// [`Spacing`]). Returns how far it pushed the pair out, as a fraction of its kept distance
+    /// [`LayerSpacing`]). Returns how far it pushed the pair out, as a fraction of its kept distance
     /// (0: nothing moved); adds what it moved each particle to `drift`.
     fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> f32 {
         let c = &self.prepared[k];
         let spacing = self.spacing[c.spacing as usize];
-        let s = four(c.slots, |i| i as usize);
+        let s = map_four(c.slots, |i| i as usize);
         if c.vertex {
             spacing.vertex_triangle(state, s, inv_h, drift)
         } else {
@@ -613,7 +619,7 @@ impl ClothContacts {
 /// A candidate as the substeps use it: its four particles' places in `involved` (the vertex first
 /// in a vertex–triangle pair), its kind, the copied cloth it meets and its distance when found.
 #[derive(Debug, Clone, Copy)]
-struct Prepared {
+struct SubstepCandidate {
     slots: [u32; 4],
     vertex: bool,
     spacing: u32,
@@ -622,7 +628,7 @@ struct Prepared {
 
 /// A candidate pair between this cloth and another.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Pair {
+enum ClothPair {
     /// This cloth's vertex and another's triangle (an index into the copied triangles).
     OwnVertex(u32, u32),
     /// Another cloth's vertex (an index into the copied particles) and this cloth's triangle.
@@ -631,431 +637,10 @@ enum Pair {
     Edges(u32, [u32; 2]),
 }
 
-/// This cloth's state joined with the other cloths' particles, stored after this cloth's: they
-/// move in straight lines over the step, are read at the substep's ends and never written.
-struct Joined<'a, S> {
-    own: &'a mut S,
-    /// Where the others' particles begin (this cloth's stored length).
-    n: usize,
-    start: &'a [Vec3],
-    end: &'a [Vec3],
-    /// The substep, as fractions of the step.
-    t: (f32, f32),
-    inv_dt: f32,
-}
-
-impl<S: ContactState> ContactState for Joined<'_, S> {
-    fn len(&self) -> usize {
-        self.n + self.start.len()
-    }
-    fn inv_mass(&self, i: usize) -> f32 {
-        match i.checked_sub(self.n) {
-            None => self.own.inv_mass(i),
-            // Never moved by this cloth's pushes.
-            Some(_) => 0.0,
-        }
-    }
-    fn slot(&self, p: u32) -> usize {
-        self.own.slot(p)
-    }
-    fn start(&self, i: usize) -> Vec3 {
-        match i.checked_sub(self.n) {
-            None => self.own.start(i),
-            Some(j) => self.start[j].lerp(self.end[j], self.t.0),
-        }
-    }
-    fn position(&self, i: usize) -> Vec3 {
-        match i.checked_sub(self.n) {
-            None => self.own.position(i),
-            Some(j) => self.start[j].lerp(self.end[j], self.t.1),
-        }
-    }
-    fn velocity(&self, i: usize) -> Vec3 {
-        match i.checked_sub(self.n) {
-            None => self.own.velocity(i),
-            Some(j) => (self.end[j] - self.start[j]) * self.inv_dt,
-        }
-    }
-    fn set(&mut self, i: usize, x: Vec3, v: Vec3) {
-        if i < self.n {
-            self.own.set(i, x, v);
-        }
-    }
-    fn clearances(&self, near: Near, within: f32, out: &mut [f32]) {
-        // Not used by the pair responses; the others' particles are always near.
-        let n = self.n.min(out.len());
-        self.own.clearances(near, within, &mut out[..n]);
-        out[n..].fill(f32::NEG_INFINITY);
-    }
-}
-
 /// Whether `a` and `b` list the same triangles. Two empty lists (a cloth with no other near,
 /// every step) are answered without comparing: a slice comparison calls `memcmp` even for zero
 /// bytes, at an empty `Vec`'s dangling address, and glibc's AVX-512 `memcmp` is slow there (its
 /// masked load of nothing at an unmapped page takes a microcode assist).
 fn same_triangles(a: &[[u32; 3]], b: &[[u32; 3]]) -> bool {
     a.len() == b.len() && (a.is_empty() || a == b)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::contact::self_contact::EDGES_APART;
-    use crate::sim::contact::{Vectors, bounds};
-    use crate::sim::{ClothModel, GridSpec};
-
-    #[test]
-    fn triangle_lists_compare_as_slices_do() {
-        let (one, two) = ([[0, 1, 2]], [[0, 1, 2], [2, 1, 3]]);
-        let lists: [&[[u32; 3]]; 4] = [&[], &one, &two, &[[0, 1, 3]]];
-        for a in lists {
-            for b in lists {
-                assert_eq!(same_triangles(a, b), a == b, "{a:?} against {b:?}");
-            }
-        }
-    }
-
-    /// An 8×8 grid of 3 cm cells at rest (its model), and contacts for it begun with the same
-    /// grid shifted by `shift` (held still, 5 mm thick, with `friction`), the step's particles
-    /// moving `reach` at most.
-    fn under_a_copy(shift: Vec3, friction: f32, reach: f32) -> (ClothModel, ClothContacts) {
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let lower = &model.rest_positions;
-        let upper: Vec<Vec3> = lower.iter().map(|p| *p + shift).collect();
-        let mut contacts = ClothContacts::default();
-        let other = OtherCloth {
-            triangles: &model.triangles,
-            start: &upper,
-            end: &upper,
-            thickness: 0.005,
-            friction,
-        };
-        contacts.begin_step(
-            &[other],
-            (0.005, friction),
-            (bounds(lower), reach),
-            0.03,
-            1.0 / 60.0,
-        );
-        (model, contacts)
-    }
-
-    /// [`ClothContacts::resolve`] over substep `t` for particles of unit mass that moved from
-    /// `start` to `x` (velocities `v`).
-    fn resolve(
-        contacts: &mut ClothContacts,
-        t: (f32, f32, f32),
-        tris: &[u32],
-        start: &[Vec3],
-        x: &mut [Vec3],
-        v: &mut [Vec3],
-    ) -> bool {
-        let inv_mass = vec![1.0; x.len()];
-        let mut state = Vectors {
-            x,
-            v,
-            start,
-            inv_mass: &inv_mass,
-            touches: None,
-        };
-        let moved = contacts.resolve(t, tris, &mut state);
-        contacts.end_substep(&state);
-        moved
-    }
-
-    /// Ten steps of 20 substeps of the free 8×8 grid `x` (velocities `v`) pulled down at 30 m/s²
-    /// above a fixed copy of it at `other`, 5 mm thick; the copy moves by `jump` before step 5
-    /// (or, with `glide`, along a straight line during it). Calls `check(step, substep, lowest
-    /// height over the copy)` after each substep.
-    fn rest_on_a_copy(
-        other: Vec<Vec3>,
-        (jump, glide): (Vec3, bool),
-        x: &mut [Vec3],
-        mut check: impl FnMut(u32, u32, f32),
-    ) -> ClothContacts {
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let tris = &model.triangles;
-        let mut v = vec![Vec3::ZERO; x.len()];
-        let (h, g) = (1.0 / 1200.0, Vec3::new(0.0, -30.0, 0.0));
-        let mut contacts = ClothContacts::default();
-        let moved: Vec<Vec3> = other.iter().map(|p| *p + jump).collect();
-        for step in 0..10 {
-            let (start, end) = match step {
-                0..5 => (&other, &other),
-                5 if glide => (&other, &moved),
-                _ => (&moved, &moved),
-            };
-            let copy = OtherCloth {
-                triangles: tris,
-                start,
-                end,
-                thickness: 0.005,
-                friction: 0.0,
-            };
-            contacts.begin_step(&[copy], (0.005, 0.0), (bounds(x), 0.002), 0.03, 1.0 / 60.0);
-            for sub in 0..20 {
-                let start = x.to_vec();
-                for (x, v) in x.iter_mut().zip(&mut v) {
-                    *v += g * h;
-                    *x += *v * h;
-                }
-                let t = (sub as f32 / 20.0, (sub + 1) as f32 / 20.0, h);
-                resolve(&mut contacts, t, tris, &start, x, &mut v);
-                let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-                check(step, sub, lowest - copy.start[0].lerp(copy.end[0], t.1).y);
-            }
-        }
-        contacts
-    }
-
-    #[test]
-    fn a_cloth_resting_on_another_is_resolved_every_few_substeps_and_sinks_at_most_the_slack() {
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let other = model.rest_positions.clone();
-        let mut x: Vec<Vec3> = other.iter().map(|p| *p + Vec3::Y * 0.005).collect();
-        let mut deepest = f32::INFINITY;
-        let contacts = rest_on_a_copy(other, (Vec3::ZERO, false), &mut x, |_, sub, above| {
-            assert!(
-                above >= 0.005 * (1.0 - DEFER) - 1e-6,
-                "sank to {above} m, past the slack"
-            );
-            if sub == 19 {
-                assert!(above >= 0.005 - 1e-6, "a step ended {above} m apart");
-            }
-            deepest = deepest.min(above);
-        });
-        // It sank between resolutions: some were deferred.
-        assert!(deepest < 0.0045, "never deferred (deepest {deepest} m)");
-        assert_eq!(
-            contacts.searches(),
-            1,
-            "the candidates kept from step to step"
-        );
-    }
-
-    #[test]
-    fn a_cloth_that_moved_between_steps_is_resolved_at_once() {
-        // The other cloth jumps 4 mm up into the resting one between two steps.
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let other = model.rest_positions.clone();
-        let mut x: Vec<Vec3> = other.iter().map(|p| *p + Vec3::Y * 0.005).collect();
-        rest_on_a_copy(
-            other,
-            (Vec3::Y * 0.004, false),
-            &mut x,
-            |step, sub, above| {
-                if step == 5 && sub == 0 {
-                    assert!(above >= 0.005 - 1e-6, "{above} m apart after the jump");
-                }
-            },
-        );
-    }
-
-    #[test]
-    fn a_cloth_that_rises_into_a_resting_one_is_met_within_the_slack() {
-        // The other cloth rises 4 mm into the resting one over one step.
-        let model = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-        let other = model.rest_positions.clone();
-        let mut x: Vec<Vec3> = other.iter().map(|p| *p + Vec3::Y * 0.005).collect();
-        rest_on_a_copy(other, (Vec3::Y * 0.004, true), &mut x, |_, _, above| {
-            assert!(
-                above >= 0.005 * (1.0 - DEFER) - 1e-6,
-                "{above} m apart, past the slack"
-            );
-        });
-    }
-
-    #[test]
-    fn a_particle_that_comes_within_reach_of_another_cloth_is_kept_apart() {
-        // A fixed 8×8 grid 7 mm above a free one: every pair is a candidate but none touches.
-        // In the next substep one particle rises 3 mm (within the reach, so no search), to 4 mm
-        // below the other cloth: its pairs are found far from touching and must still be tested.
-        let (model, mut contacts) = under_a_copy(Vec3::Y * 0.007, 0.0, 0.004);
-        let (tris, lower) = (&model.triangles, &model.rest_positions);
-        let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
-        let first = (0.0, 0.5, 1.0 / 120.0);
-        assert!(!resolve(&mut contacts, first, tris, lower, &mut x, &mut v));
-        let start = x.clone();
-        x[27].y += 0.003;
-        resolve(
-            &mut contacts,
-            (0.5, 1.0, 1.0 / 120.0),
-            tris,
-            &start,
-            &mut x,
-            &mut v,
-        );
-        assert_eq!(contacts.searches(), 1);
-        assert!((x[27].y - 0.002).abs() < 1e-5, "{}", x[27]);
-    }
-
-    #[test]
-    fn edges_of_two_cloths_are_kept_their_distance_apart() {
-        // This cloth's edge 0–1 crosses the other cloth's edge 0–1 obliquely at their middles
-        // and moves down from 6 mm above it to 4 mm, within the edges' kept distance but not
-        // half of it. Neither edge's ends are over the other cloth's triangle (both triangles'
-        // third corners are far away): only the edge pair sees them.
-        let other = [
-            Vec3::new(-1.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, -3.0),
-        ];
-        let start = vec![
-            Vec3::new(-0.9, 0.006, -0.5),
-            Vec3::new(0.9, 0.006, 0.5),
-            Vec3::new(0.0, 3.0, 0.0),
-        ];
-        let tris = [0, 1, 2];
-        let mut contacts = ClothContacts::default();
-        contacts.begin_step(
-            &[OtherCloth {
-                triangles: &tris,
-                start: &other,
-                end: &other,
-                thickness: 0.005,
-                friction: 0.0,
-            }],
-            (0.005, 0.0),
-            (bounds(&start), 0.01),
-            3.0,
-            1.0 / 60.0,
-        );
-        let mut x = start.clone();
-        x[0].y = 0.004;
-        x[1].y = 0.004;
-        let mut v = vec![Vec3::ZERO; 3];
-        assert!(resolve(
-            &mut contacts,
-            (0.0, 1.0, 1.0 / 60.0),
-            &tris,
-            &start,
-            &mut x,
-            &mut v
-        ));
-        let middle = 0.5 * (x[0] + x[1]);
-        let kept = EDGES_APART * 0.005;
-        assert!((middle.y - kept).abs() < 1e-4, "{} {}", x[0], x[1]);
-    }
-
-    #[test]
-    fn a_search_finds_every_pair_within_the_margin_once() {
-        // Two 8×8 grids 4 mm apart, the upper one shifted across the lower one's cells: every
-        // edge of one is near several of the other's.
-        let shift = Vec3::new(0.011, 0.004, 0.017);
-        let (model, mut contacts) = under_a_copy(shift, 0.3, 0.0);
-        let (tris, lower) = (&model.triangles, &model.rest_positions);
-        let upper: Vec<Vec3> = lower.iter().map(|p| *p + shift).collect();
-        let (mut x, mut v) = (lower.clone(), vec![Vec3::ZERO; lower.len()]);
-        resolve(
-            &mut contacts,
-            (0.0, 1.0, 1.0 / 60.0),
-            tris,
-            lower,
-            &mut x,
-            &mut v,
-        );
-        assert_eq!(contacts.searches(), 1);
-        let margin = 0.005 + 2.0 * contacts.reach;
-        // The grid's edges, found here independently of the contacts.
-        let mut edges: Vec<[u32; 2]> = tris
-            .chunks_exact(3)
-            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-            .map(|(a, b)| [a.min(b), a.max(b)])
-            .collect();
-        edges.sort_unstable();
-        edges.dedup();
-        assert_eq!(edges, contacts.edges);
-        let mut expected: Vec<(u32, [u32; 2])> = Vec::new();
-        for (e, &[a, b]) in edges.iter().enumerate() {
-            for &[c, d] in &edges {
-                let (s, t) = closest_on_segments(
-                    lower[a as usize],
-                    lower[b as usize],
-                    upper[c as usize],
-                    upper[d as usize],
-                );
-                let gap = lower[a as usize]
-                    .lerp(lower[b as usize], s)
-                    .distance(upper[c as usize].lerp(upper[d as usize], t));
-                if gap < margin {
-                    expected.push((e as u32, [c, d]));
-                }
-            }
-        }
-        let mut found: Vec<(u32, [u32; 2])> = contacts
-            .pairs
-            .iter()
-            .filter_map(|(pair, _)| match pair {
-                Pair::Edges(e, f) => Some((*e, *f)),
-                _ => None,
-            })
-            .collect();
-        let count = found.len();
-        found.sort_unstable();
-        found.dedup();
-        assert_eq!(found.len(), count, "an edge pair found twice");
-        expected.sort_unstable();
-        assert!(expected.len() > 4 * edges.len(), "{} pairs", expected.len());
-        assert_eq!(found, expected);
-    }
-
-    #[test]
-    fn a_bad_other_cloth_is_a_typed_error() {
-        let x = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        let good = OtherCloth {
-            triangles: &[0, 1, 2],
-            start: &x,
-            end: &x,
-            thickness: 0.005,
-            friction: 0.3,
-        };
-        assert!(good.validate().is_ok());
-        let out_of_range = OtherCloth {
-            triangles: &[0, 1, 3],
-            ..good
-        };
-        assert!(matches!(
-            out_of_range.validate(),
-            Err(ClothError::MeshIndexOutOfRange { index: 3, .. })
-        ));
-        let short = OtherCloth {
-            end: &x[..2],
-            ..good
-        };
-        assert!(matches!(
-            short.validate(),
-            Err(ClothError::InvalidMesh { .. })
-        ));
-        let nan = [Vec3::ZERO, Vec3::NAN, Vec3::Y];
-        let not_finite = OtherCloth { end: &nan, ..good };
-        assert!(matches!(
-            not_finite.validate(),
-            Err(ClothError::InvalidMesh { .. })
-        ));
-        for thickness in [-0.01, f32::NAN] {
-            let bad = OtherCloth { thickness, ..good };
-            assert!(matches!(
-                bad.validate(),
-                Err(ClothError::InvalidValue { .. })
-            ));
-        }
-        // The step leaves it out: nothing is copied, nothing is searched.
-        let mut contacts = ClothContacts::default();
-        contacts.begin_step(
-            &[out_of_range, short, not_finite],
-            (0.005, 0.3),
-            ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
-            0.1,
-            1.0 / 60.0,
-        );
-        assert!(!contacts.is_active());
-        contacts.begin_step(
-            &[good],
-            (0.005, 0.3),
-            ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
-            0.1,
-            1.0 / 60.0,
-        );
-        assert!(contacts.is_active());
-    }
 }

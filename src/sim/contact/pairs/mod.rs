@@ -1,0 +1,37 @@
+//! What a cloth's contacts with itself (`self_contact`) and with other cloths (`cloths`) share,
+//! below both: the geometry of vertex–triangle and edge–edge pairs ([`geometry`]), the spatial
+//! hash of the broad phases ([`hash_grid`]), the response to one pair ([`response`]), the
+//! candidates' bands of distance ([`bands`]), and the snapshots of the particles that the narrow
+//! phase works on and that let a substep defer its resolution ([`snapshots`]). Nothing here
+//! knows either kind of contact.
+
+mod bands;
+mod geometry;
+mod hash_grid;
+mod response;
+mod snapshots;
+
+pub(super) use bands::{GapBands, reorder};
+pub(super) use geometry::{closest_on_segments, edge_table, pair_key, point_triangle_distance};
+pub(super) use hash_grid::{
+    CellHasher, SpatialHash, boxes_meet, boxes_meet_wide, cell_of, for_cells,
+};
+#[cfg(test)]
+pub(super) use response::EDGES_APART_SHARE;
+pub(super) use response::{LayerSpacing, later_passes};
+pub(super) use snapshots::{
+    DEFER_CLOSING, GatheredParticles, LastResolution, storage_order_changed,
+};
+
+/// `s.map(f)` for the four particles of a pair, written out: in the narrow phase's hot loop the
+/// library's `map` was left as a call.
+#[inline(always)]
+pub(super) fn map_four<T: Copy, U>(s: [T; 4], f: impl Fn(T) -> U) -> [U; 4] {
+    [f(s[0]), f(s[1]), f(s[2]), f(s[3])]
+}
+
+/// The larger of `a` and `b`, infinite if `b` is NaN (a non-finite displacement must force a new
+/// search, not vanish in a comparison).
+pub(super) fn max_or_infinite(a: f32, b: f32) -> f32 {
+    if b.is_nan() { f32::INFINITY } else { a.max(b) }
+}
