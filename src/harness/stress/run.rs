@@ -17,7 +17,7 @@ use crate::sim::{ClothSim, Environment, Gusts, Integrator, MAX_SUBSTEPS, WindFie
 /// without running away, which this suite has found: single light particles whipping faster than
 /// the rest, a box swept through a soft cloth of light particles stretching its springs, and a
 /// stiff, undamped cloth shaken by its pins faster than XPBD's iterations carry the motion across
-/// it, whose energy beats (BENCHMARKS.md, "Stress suite").
+/// it, whose energy beats (CHANGELOG.md, 2026-12-02).
 pub const RUNAWAY_SPEED_FACTOR: f64 = 10.0;
 
 /// Runs one case, catching panics (a panic is a failure).

@@ -235,7 +235,7 @@ fn a_cloth_without_springs_falls_freely_with_every_integrator() {
 /// thin capsule under implicit Euler. Solved without the contacts, each substep's linearised
 /// springs pulled the particles on the capsule into it and the response pushed them back out,
 /// which stretched the cloth and gave it energy (found by the stress suite's case 777/91;
-/// BENCHMARKS.md has the figures).
+/// CHANGELOG.md, 2026-11-24).
 #[test]
 fn implicit_euler_holds_contacts_without_giving_the_cloth_energy() {
     use crate::sim::{Collider, ColliderShape, Environment, Friction, Pose};
