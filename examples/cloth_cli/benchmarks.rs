@@ -43,7 +43,7 @@ pub fn run(
     output: &Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
     // Before the run writes its file into the checkout.
-    let commit = machine::commit();
+    let commit = machine::commit(&[output]);
     let mut paths: Vec<PathBuf> = std::fs::read_dir(scenes)
         .map_err(|e| format!("cannot read {}: {e}", scenes.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))

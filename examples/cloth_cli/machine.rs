@@ -1,10 +1,29 @@
 //! What a report says about where its figures come from: the commit, the CPU and the date.
 
-/// The checkout's commit (`git describe --always --dirty`), so that a reader can tell which code
-/// the figures are from.
-pub fn commit() -> String {
-    command_output("git", &["describe", "--always", "--dirty"])
-        .unwrap_or_else(|| "an unknown commit".into())
+/// The checkout's commit (`git describe --always`, with `-dirty` when tracked files other than
+/// `outputs` differ from it), so that a reader can tell which code the figures are from; a report's
+/// own earlier output does not make its checkout dirty.
+pub fn commit(outputs: &[&std::path::Path]) -> String {
+    let Some(described) = command_output("git", &["describe", "--always"]) else {
+        return "an unknown commit".into();
+    };
+    let mut args = vec![
+        "diff".to_string(),
+        "--quiet".into(),
+        "HEAD".into(),
+        "--".into(),
+        ".".into(),
+    ];
+    args.extend(outputs.iter().map(|p| format!(":(exclude){}", p.display())));
+    let clean = std::process::Command::new("git")
+        .args(&args)
+        .status()
+        .is_ok_and(|s| s.success());
+    if clean {
+        described
+    } else {
+        format!("{described}-dirty")
+    }
 }
 
 /// Today's date in UTC (`date -u +%F`).

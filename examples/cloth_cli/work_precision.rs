@@ -452,7 +452,9 @@ pub fn run(
     out_dir: &Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
     // Before the run writes its files into the checkout.
-    let commit = commit();
+    // Its own earlier output (the report, its data and plots) does not count as a change.
+    let outputs = out_dir.join("work-precision*");
+    let commit = commit(&[outputs.as_path()]);
     let configs = sweep(quick);
     let default = SolverSettings::default();
     let min_time = Duration::from_millis(if quick { 60 } else { 300 });
