@@ -233,7 +233,7 @@ fn no_two_modules_import_each_other() {
     }
     assert!(
         cycles.is_empty(),
-        "{} import cycles among sibling modules (move what both need into a module below \
+        "import cycles among sibling modules: {} (move what both need into a module below \
          them):\n{report}",
         cycles.len()
     );

@@ -64,8 +64,7 @@ pub fn run(
     let started = std::time::Instant::now();
     for round in 0..runs.max(1) {
         for row in &mut rows {
-            let mut pair = Vec::with_capacity(2);
-            for single_threaded in [true, false] {
+            let mut time = |single_threaded: bool| -> Result<Timing, Box<dyn std::error::Error>> {
                 let line = bench_scene(&row.path, frames, 1, single_threaded)?;
                 let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);
                 let count = |key: &str| line[key].as_u64().unwrap_or(0);
@@ -75,12 +74,6 @@ pub fn run(
                     substeps: count("substeps"),
                     integrator: line["integrator"].as_str().unwrap_or("?").to_string(),
                 });
-                pair.push(Timing {
-                    median_ms: number("median_ms"),
-                    p10_ms: number("p10_ms"),
-                    p90_ms: number("p90_ms"),
-                    asleep: count("cloth_frames_asleep"),
-                });
                 eprintln!(
                     "round {}/{runs}, {} ({}): {:.3} ms ({:.0} s so far)",
                     round + 1,
@@ -89,9 +82,15 @@ pub fn run(
                     number("median_ms"),
                     started.elapsed().as_secs_f64()
                 );
-            }
-            let multi = pair.pop().expect("two timings");
-            let single = pair.pop().expect("two timings");
+                Ok(Timing {
+                    median_ms: number("median_ms"),
+                    p10_ms: number("p10_ms"),
+                    p90_ms: number("p90_ms"),
+                    asleep: count("cloth_frames_asleep"),
+                })
+            };
+            let single = time(true)?;
+            let multi = time(false)?;
             row.rounds.push([single, multi]);
         }
     }
