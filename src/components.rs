@@ -675,7 +675,10 @@ pub struct ClothState {
     /// Render normals after the previous and the latest step.
     pub(crate) normals_prev: Vec<Vec3>,
     pub(crate) normals_curr: Vec<Vec3>,
-    /// Pin targets resolved this tick: the [`ClothPins`] in their order, then the targets'
+    /// The pin set the cloth runs: its [`ClothPins`] as last accepted (an edit that was rejected
+    /// leaves them as they were).
+    pub(crate) pins: Vec<ClothPin>,
+    /// Pin targets resolved this tick: `pins` in their order, then the targets'
     /// weight-0 particles listed in `target_pins` (scratch buffer).
     pub(crate) pin_targets: Vec<Vec3>,
     /// The particles tied to targets ([`ClothTargets`]), when the cloth has any.
@@ -743,3 +746,10 @@ impl ClothState {
 /// [`ClothPins`]) makes it try again.
 #[derive(Component, Debug, Clone, PartialEq)]
 pub struct ClothInvalid(pub ClothError);
+
+/// Marks a running cloth whose latest edit was rejected, with the reason. The edit (of its
+/// [`Cloth`], [`ClothConfig`], [`ClothPins`], [`ClothTargets`], [`ClothSubdivision`] or source
+/// mesh) changed nothing: the cloth runs on as it was. The plugin logs each rejection once and
+/// removes the marker when a later edit is accepted.
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct ClothEditRejected(pub ClothError);

@@ -83,7 +83,7 @@ type InspectedCloth<'a> = (
     Option<&'a mut ClothSubdivision>,
     &'a mut ClothPins,
     Option<&'a ClothState>,
-    Option<&'a ClothInvalid>,
+    (Option<&'a ClothInvalid>, Option<&'a ClothEditRejected>),
 );
 
 fn inspector_window(
@@ -117,7 +117,9 @@ fn inspector_window(
                     *wind = w;
                 }
             }
-            for (entity, name, mut config, subdivision, mut pins, state, invalid) in &mut cloths {
+            for (entity, name, mut config, subdivision, mut pins, state, (invalid, rejected)) in
+                &mut cloths
+            {
                 ui.separator();
                 let title = name.map_or_else(|| format!("cloth {entity}"), |n| n.to_string());
                 egui::CollapsingHeader::new(title)
@@ -126,6 +128,9 @@ fn inspector_window(
                     .show(ui, |ui| {
                         if let Some(ClothInvalid(e)) = invalid {
                             ui.colored_label(egui::Color32::RED, e.to_string());
+                        }
+                        if let Some(ClothEditRejected(e)) = rejected {
+                            ui.colored_label(egui::Color32::YELLOW, format!("edit rejected: {e}"));
                         }
                         if let Some(state) = state {
                             ui.label(format!(

@@ -61,9 +61,9 @@ pub mod prelude {
     #[cfg(feature = "avian")]
     pub use crate::avian::{ClothAvianPlugin, ClothContact, NoClothContact};
     pub use crate::components::{
-        Cloth, ClothCollider, ClothConfig, ClothFrame, ClothInvalid, ClothPin, ClothPins,
-        ClothPushesBodies, ClothSkin, ClothSource, ClothState, ClothSubdivision, ClothTargets,
-        PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
+        Cloth, ClothCollider, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPin,
+        ClothPins, ClothPushesBodies, ClothSkin, ClothSource, ClothState, ClothSubdivision,
+        ClothTargets, PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};

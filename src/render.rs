@@ -82,6 +82,18 @@ pub(crate) fn model_from_mesh(mesh: &Mesh) -> Result<ClothModel, ClothError> {
         }
         None => return Err(mesh_error("has no vertex positions")),
     };
+    // Every attribute holds one value per vertex: the cloth rewrites positions and normals in
+    // place and keeps the others, so a short or long one would leave vertices without data.
+    for (attribute, values) in mesh.try_attributes().map_err(access)? {
+        if values.len() != positions.len() {
+            return Err(mesh_error(format!(
+                "attribute {} has {} values for {} vertex positions",
+                attribute.name,
+                values.len(),
+                positions.len()
+            )));
+        }
+    }
     let uvs: Option<Vec<Vec2>> = match mesh
         .try_attribute_option(Mesh::ATTRIBUTE_UV_0)
         .map_err(access)?

@@ -2,21 +2,22 @@
 //! replaced and edited cloths built and validated (simulation, attachment to targets, render
 //! side), and failures reported once as [`ClothInvalid`].
 
-use bevy::asset::{Assets, Handle};
+use bevy::asset::{AssetEvent, AssetId, Assets, Handle};
 use bevy::ecs::prelude::*;
 use bevy::log::{error, warn};
 use bevy::math::Vec3;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, Mesh3d};
+use bevy::platform::collections::HashSet;
 use bevy::transform::components::GlobalTransform;
 
-use super::edits::{apply_pins, run_settings};
+use super::edits::{commit_pins, plan_pins, report_edit, run_settings};
 use super::mesh::refresh_render;
 use super::poses::pose_of;
 use crate::components::{
-    Cloth, ClothConfig, ClothFrame, ClothInvalid, ClothPins, ClothSkin, ClothSource, ClothState,
-    ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL, RenderSubdivision,
-    SubdivisionTarget, TargetWeights,
+    Cloth, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPins, ClothSkin,
+    ClothSource, ClothState, ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL,
+    RenderSubdivision, SubdivisionTarget, TargetWeights,
 };
 use crate::error::{ClothError, count_in};
 use crate::render;
@@ -52,8 +53,17 @@ type BuildQuery<'a> = (
         Option<&'a ClothFrame>,
     ),
     Option<&'a mut ClothState>,
-    Has<ClothInvalid>,
+    (
+        Has<ClothInvalid>,
+        Option<&'a ClothEditRejected>,
+        Has<AwaitingAssets>,
+    ),
 );
+
+/// Marks a running cloth whose replacement waits for its assets (a new source mesh, a skin's
+/// inverse bind poses): it runs on as it was and is rebuilt once they are loaded.
+#[derive(Component)]
+pub(super) struct AwaitingAssets;
 
 /// What building a cloth reads besides its own components: mesh assets (and where new meshes
 /// go), the skins' inverse bind poses, and joints' global transforms.
@@ -63,15 +73,27 @@ struct BuildInputs<'a, 'w, 's> {
     globals: &'a Query<'w, 's, &'static GlobalTransform>,
 }
 
-/// Builds new and replaced cloths (and invalid ones that were edited), and turns failures into
-/// [`ClothInvalid`], logged once per failure.
+/// Builds new and replaced cloths (and invalid ones that were edited), and rebuilds running ones
+/// whose targets, simulated subdivision or source mesh asset changed. A cloth that cannot be built
+/// becomes [`ClothInvalid`]; a running cloth whose rebuild fails runs on as it was
+/// ([`ClothEditRejected`]). Each failure is logged once.
 pub(super) fn build_cloths(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
+    mut mesh_events: MessageReader<AssetEvent<Mesh>>,
     bindposes: Res<Assets<SkinnedMeshInverseBindposes>>,
     mut cloths: Query<BuildQuery>,
     globals: Query<&'static GlobalTransform>,
 ) {
+    // Source meshes replaced or edited since the last frame (the cloths' own render meshes,
+    // written every frame, are other assets).
+    let modified: HashSet<AssetId<Mesh>> = mesh_events
+        .read()
+        .filter_map(|event| match event {
+            AssetEvent::Modified { id } => Some(*id),
+            _ => None,
+        })
+        .collect();
     for (
         entity,
         (cloth, config, pins),
@@ -79,7 +101,7 @@ pub(super) fn build_cloths(
         subdivision,
         (targets, skin, frame),
         mut state,
-        invalid,
+        (invalid, rejected, awaiting),
     ) in &mut cloths
     {
         let subdivision_changed = match (&subdivision, &state) {
@@ -91,7 +113,9 @@ pub(super) fn build_cloths(
         let targets_changed = targets.as_ref().is_some_and(|t| t.is_changed())
             || skin.as_ref().is_some_and(|s| s.is_changed())
             || targets.is_none() && state.as_ref().is_some_and(|s| s.attachment.is_some());
-        let edited = cloth.is_changed()
+        let source_changed = cloth.is_changed()
+            || matches!(&cloth.source, ClothSource::Mesh(h) if modified.contains(&h.id()));
+        let edited = source_changed
             || config.is_changed()
             || pins.is_changed()
             || subdivision_changed
@@ -100,12 +124,13 @@ pub(super) fn build_cloths(
             .as_mut()
             .filter(|s| s.failure.is_some())
             .and_then(|s| s.failure.take());
-        // New, replaced, waiting for its mesh asset, or edited after being invalid; or its
+        // New, replaced, waiting for its assets, or edited after being invalid; or its
         // subdivision changed while (or to) refining the simulation itself.
         let refines_sim = |s: &ClothSubdivision| s.target == SubdivisionTarget::Simulation;
         let rebuild = match &state {
             Some(state) => {
-                cloth.is_changed()
+                source_changed
+                    || awaiting
                     || targets_changed
                     || subdivision_changed
                         && (state.particle_map.is_some()
@@ -119,27 +144,48 @@ pub(super) fn build_cloths(
             bindposes: &bindposes,
             globals: &globals,
         };
+        let running = state.is_some();
         let result = match (failure, state) {
+            // A step or a mesh write failed: the cloth stops.
             (Some(e), _) => Err(e),
-            (None, _) if rebuild => build_state(
+            (None, state) if rebuild => match build_state(
                 (&cloth, &config, &pins),
                 subdivision,
                 (targets.as_deref(), skin.as_deref(), frame),
                 transform,
+                state.as_deref(),
                 &mut inputs,
-            )
-            .map(|built| {
-                if let Some((state, mesh)) = built {
-                    commands
-                        .entity(entity)
-                        .remove::<ClothInvalid>()
+            ) {
+                Ok(Some((state, mesh))) => {
+                    let mut entity = commands.entity(entity);
+                    entity
+                        .remove::<(ClothInvalid, AwaitingAssets)>()
                         .insert((state, Mesh3d(mesh)));
+                    if rejected.is_some() {
+                        entity.remove::<ClothEditRejected>();
+                    }
+                    Ok(())
                 }
-            }),
+                Ok(None) => {
+                    if running && !awaiting {
+                        commands.entity(entity).insert(AwaitingAssets);
+                    }
+                    Ok(())
+                }
+                Err(e) if running => {
+                    commands.entity(entity).remove::<AwaitingAssets>();
+                    report_edit(&mut commands, entity, Err(e), rejected);
+                    Ok(())
+                }
+                Err(e) => Err(e),
+            },
             (None, Some(mut state)) if subdivision_changed => {
-                rebuild_render(&mut state, subdivision, None, inputs.meshes).map(|mesh| {
-                    commands.entity(entity).insert(Mesh3d(mesh));
-                })
+                let result =
+                    rebuild_render(&mut state, subdivision, None, inputs.meshes).map(|mesh| {
+                        commands.entity(entity).insert(Mesh3d(mesh));
+                    });
+                report_edit(&mut commands, entity, result, rejected);
+                Ok(())
             }
             (None, _) => Ok(()),
         };
@@ -147,7 +193,7 @@ pub(super) fn build_cloths(
             error!("cloth {entity}: {e}; the cloth is skipped until it is edited");
             commands
                 .entity(entity)
-                .remove::<ClothState>()
+                .remove::<(ClothState, ClothEditRejected, AwaitingAssets)>()
                 .insert(ClothInvalid(e));
         }
     }
@@ -164,6 +210,7 @@ fn build_state(
         Option<&ClothFrame>,
     ),
     transform: &GlobalTransform,
+    previous: Option<&ClothState>,
     inputs: &mut BuildInputs,
 ) -> Result<Option<(ClothState, Handle<Mesh>)>, ClothError> {
     let meshes = &mut *inputs.meshes;
@@ -235,6 +282,10 @@ fn build_state(
     let mut sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
         transform.transform_point(p)
     })?;
+    // A rebuild that keeps the topology (new targets, a reshaped source mesh) keeps the motion.
+    if let Some(previous) = previous {
+        sim.continue_from(&previous.sim);
+    }
     // The reference frame starts where it is now.
     let frame = frame.map_or(Some(*transform), |f| inputs.globals.get(f.0).ok().copied());
     if let Some(frame) = frame {
@@ -254,6 +305,7 @@ fn build_state(
         render_curr: Vec::new(),
         normals_prev: Vec::new(),
         normals_curr: Vec::new(),
+        pins: Vec::new(),
         pin_targets: Vec::new(),
         attachment,
         target_pins: Vec::new(),
@@ -261,7 +313,8 @@ fn build_state(
         dirty: true,
         at_rest: false,
     };
-    apply_pins(&mut state, pins, transform)?;
+    let plan = plan_pins(&state, pins, transform)?;
+    commit_pins(&mut state, plan)?;
     let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
     Ok(Some((state, mesh)))
 }
@@ -343,7 +396,8 @@ fn check_level(sub: &ClothSubdivision) -> Result<(), ClothError> {
 
 /// Sets up the render side of a cloth (subdivision stencils, buffers, a new mesh asset) for its
 /// current particles, and returns the mesh handle. Unsubdivided, the cloth renders into `user_mesh`
-/// when given (a copy of the user's source mesh, keeping all its attributes).
+/// when given (a copy of the user's source mesh, keeping all its attributes). Fails, changing
+/// nothing, when the subdivision cannot be built; a render pass that then fails stops the cloth.
 fn rebuild_render(
     state: &mut ClothState,
     subdivision: Option<&ClothSubdivision>,
@@ -384,7 +438,9 @@ fn rebuild_render(
     ] {
         buffer.resize(count, Vec3::ZERO);
     }
-    refresh_render(state)?;
+    // The buffers match the particles and the mesh by construction: a failure here is a bug,
+    // reported as the cloth stopping rather than a rejected edit.
+    state.failure = refresh_render(state).err();
     state.render_prev.copy_from_slice(&state.render_curr);
     state.normals_prev.copy_from_slice(&state.normals_curr);
     state.dirty = true;

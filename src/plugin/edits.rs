@@ -1,41 +1,89 @@
 //! Runtime edits (in [`ClothSystems::Prepare`](super::ClothSystems::Prepare)): edited
-//! [`ClothConfig`]s and [`ClothPins`] applied to running cloths before they step. Building a cloth
-//! applies its settings and pins through the same functions.
+//! [`ClothConfig`]s and [`ClothPins`] applied to running cloths before they step, each as a
+//! transaction: checked whole, then applied, or rejected with the cloth left as it was. Building a
+//! cloth applies its settings and pins through the same functions.
 
 use bevy::ecs::prelude::*;
+use bevy::log::warn;
+use bevy::math::Vec3;
 use bevy::transform::components::GlobalTransform;
 
-use crate::components::{ClothConfig, ClothInvalid, ClothPins, ClothState};
-use crate::error::ClothError;
+use crate::components::{
+    ClothConfig, ClothEditRejected, ClothInvalid, ClothPin, ClothPins, ClothState,
+};
+use crate::error::{ClothError, finite_vec3};
 use crate::sim::SolverSettings;
 
-/// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. A bad edit
-/// stops the cloth (reported by [`build_cloths`](super::build::build_cloths)).
+/// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. An edit
+/// that fails leaves the cloth running unchanged and is reported ([`report_edit`]).
 #[allow(clippy::type_complexity)]
 pub(super) fn apply_edits(
+    mut commands: Commands,
     mut cloths: Query<
         (
+            Entity,
             Ref<ClothConfig>,
             Ref<ClothPins>,
             &GlobalTransform,
             &mut ClothState,
+            Option<&ClothEditRejected>,
         ),
         Without<ClothInvalid>,
     >,
 ) {
-    for (config, pins, transform, mut state) in &mut cloths {
+    for (entity, config, pins, transform, mut state, rejected) in &mut cloths {
         if state.failure.is_some() || !(config.is_changed() || pins.is_changed()) {
             continue;
         }
-        let mut result = Ok(());
-        if config.is_changed() {
-            let settings = run_settings(&config, state.mass_scale);
-            result = state.sim.set_settings(settings);
+        let config = config.is_changed().then_some(&*config);
+        let pins = pins.is_changed().then_some(&*pins);
+        let result = edit_running(&mut state, config, pins, transform);
+        report_edit(&mut commands, entity, result, rejected);
+    }
+}
+
+/// Applies a new config and/or pin set to a running cloth, all or nothing: the pins are planned
+/// (every index and target checked) before the settings are swapped in, and the settings (checked
+/// against the cloth's model) before the pins.
+fn edit_running(
+    state: &mut ClothState,
+    config: Option<&ClothConfig>,
+    pins: Option<&ClothPins>,
+    transform: &GlobalTransform,
+) -> Result<(), ClothError> {
+    let plan = pins
+        .map(|pins| plan_pins(state, pins, transform))
+        .transpose()?;
+    if let Some(config) = config {
+        state
+            .sim
+            .set_settings(run_settings(config, state.mass_scale))?;
+    }
+    match plan {
+        Some(plan) => commit_pins(state, plan),
+        None => Ok(()),
+    }
+}
+
+/// Reports the outcome of an edit of a running cloth: a rejection is logged and marks the cloth
+/// with [`ClothEditRejected`] (once: the same rejection again is not repeated); an accepted edit
+/// clears the mark.
+pub(super) fn report_edit(
+    commands: &mut Commands,
+    entity: Entity,
+    result: Result<(), ClothError>,
+    marked: Option<&ClothEditRejected>,
+) {
+    match result {
+        Ok(()) if marked.is_some() => {
+            commands.entity(entity).remove::<ClothEditRejected>();
         }
-        if result.is_ok() && pins.is_changed() {
-            result = apply_pins(&mut state, &pins, transform);
+        Ok(()) => {}
+        Err(e) if marked.is_some_and(|m| m.0 == e) => {}
+        Err(e) => {
+            warn!("cloth {entity}: edit rejected, the cloth runs on unchanged: {e}");
+            commands.entity(entity).insert(ClothEditRejected(e));
         }
-        state.failure = result.err();
     }
 }
 
@@ -47,15 +95,31 @@ pub(super) fn run_settings(config: &ClothConfig, mass_scale: f32) -> SolverSetti
     settings
 }
 
-/// Replaces the pin set of a running cloth, each pin starting at its anchor's current position:
-/// the [`ClothPins`], then the targets' weight-0 particles they do not pin.
-pub(super) fn apply_pins(
-    state: &mut ClothState,
+/// A cloth's pin set as it will run, computed without changing the cloth: the [`ClothPins`] in
+/// their order, then the targets' weight-0 particles they do not pin.
+pub(super) struct PinPlan {
+    pins: Vec<ClothPin>,
+    /// Where each pin starts, in the order above.
+    targets: Vec<Vec3>,
+    /// The entries of the attachment pinned after the [`ClothPins`].
+    target_pins: Vec<usize>,
+    /// Each pinned simulation particle and its target.
+    particles: Vec<(u32, Vec3)>,
+}
+
+/// Plans the pin set `pins` for `state`, each pin starting at its anchor's current position;
+/// fails on a particle out of range or a target that is not finite.
+pub(super) fn plan_pins(
+    state: &ClothState,
     pins: &ClothPins,
     transform: &GlobalTransform,
-) -> Result<(), ClothError> {
-    state.pin_targets.clear();
-    let mut targets = Vec::with_capacity(pins.pins.len());
+) -> Result<PinPlan, ClothError> {
+    let mut plan = PinPlan {
+        pins: pins.pins.clone(),
+        targets: Vec::with_capacity(pins.pins.len()),
+        target_pins: Vec::new(),
+        particles: Vec::with_capacity(pins.pins.len()),
+    };
     for pin in &pins.pins {
         let Some(index) = state.particle(pin.particle) else {
             return Err(ClothError::PinOutOfRange {
@@ -72,24 +136,33 @@ pub(super) fn apply_pins(
             .anchor
             .target(|| Some(transform.transform_point(rest)), |_| None)
             .unwrap_or(state.sim.positions()[index]);
-        state.pin_targets.push(target);
-        targets.push((index as u32, target));
+        finite_vec3(["pin target.x", "pin target.y", "pin target.z"], target)?;
+        plan.targets.push(target);
+        plan.particles.push((index as u32, target));
     }
-    state.target_pins.clear();
     if let Some(a) = &state.attachment {
         let mut pinned = vec![false; state.sim.positions().len()];
-        for &(p, _) in &targets {
+        for &(p, _) in &plan.particles {
             pinned[p as usize] = true;
         }
         for (k, (&(particle, weight), &(target, _))) in
             a.weighted.iter().zip(&a.targets).enumerate()
         {
             if weight == 0.0 && !pinned[particle as usize] {
-                state.target_pins.push(k);
-                state.pin_targets.push(target);
-                targets.push((particle, target));
+                plan.target_pins.push(k);
+                plan.targets.push(target);
+                plan.particles.push((particle, target));
             }
         }
     }
-    state.sim.set_pins(targets)
+    Ok(plan)
+}
+
+/// Swaps a planned pin set in.
+pub(super) fn commit_pins(state: &mut ClothState, plan: PinPlan) -> Result<(), ClothError> {
+    state.sim.set_pins(plan.particles)?;
+    state.pins = plan.pins;
+    state.pin_targets = plan.targets;
+    state.target_pins = plan.target_pins;
+    Ok(())
 }

@@ -49,6 +49,16 @@ pub(super) fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
     let positions = s.sim.positions();
     match &mut s.subdivision {
         None => {
+            // Render buffers are sized from the mesh, checked against the particles at build.
+            if s.render_curr.len() != positions.len() {
+                return Err(ClothError::InvalidMesh {
+                    what: format!(
+                        "has {} render vertices for {} particles",
+                        s.render_curr.len(),
+                        positions.len()
+                    ),
+                });
+            }
             s.render_curr.copy_from_slice(positions);
             let by_grid = s
                 .grid_normals

@@ -6,9 +6,7 @@ use bevy::transform::components::GlobalTransform;
 use bevy::transform::helper::TransformHelper;
 
 use super::poses::{current_global, pose_of};
-use crate::components::{
-    ClothFrame, ClothInvalid, ClothPins, ClothSkin, ClothState, mapped_particle,
-};
+use crate::components::{ClothFrame, ClothInvalid, ClothSkin, ClothState, mapped_particle};
 
 /// Where each pin, target and reference frame should be at the end of this step.
 #[allow(clippy::type_complexity)]
@@ -16,7 +14,6 @@ pub(super) fn resolve_pin_targets(
     mut cloths: Query<
         (
             Entity,
-            &ClothPins,
             &GlobalTransform,
             Option<&ClothSkin>,
             Option<&ClothFrame>,
@@ -27,7 +24,7 @@ pub(super) fn resolve_pin_targets(
     helper: TransformHelper,
     anchors: Query<&GlobalTransform>,
 ) {
-    for (entity, pins, transform, skin, frame, mut state) in &mut cloths {
+    for (entity, transform, skin, frame, mut state) in &mut cloths {
         // The cloth's pose now (moved earlier in this step, or since the last propagation).
         let transform = &helper
             .compute_global_transform(entity)
@@ -35,7 +32,7 @@ pub(super) fn resolve_pin_targets(
         let state = &mut *state;
         let rest = &state.sim.model().rest_positions;
         let map = state.particle_map.as_deref();
-        for (pin, target) in pins.pins.iter().zip(state.pin_targets.iter_mut()) {
+        for (pin, target) in state.pins.iter().zip(state.pin_targets.iter_mut()) {
             let resolved = pin.anchor.target(
                 || {
                     mapped_particle(map, rest.len(), pin.particle)
@@ -54,8 +51,13 @@ pub(super) fn resolve_pin_targets(
                 let entity = *joints.get(j)?;
                 current_global(entity, &helper, &anchors).map(|g| g.affine())
             });
-            let user = pins.pins.len();
-            for (target, &k) in state.pin_targets[user..].iter_mut().zip(&state.target_pins) {
+            let user = state.pins.len();
+            for (target, &k) in state
+                .pin_targets
+                .iter_mut()
+                .skip(user)
+                .zip(&state.target_pins)
+            {
                 *target = attachment.targets[k].0;
             }
             state

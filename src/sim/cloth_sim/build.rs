@@ -63,6 +63,21 @@ impl ClothSim {
         Ok(sim)
     }
 
+    /// Continues the motion of `previous`, a cloth of the same topology (same particle count and
+    /// triangles; the rest shape and settings may differ): its positions, velocities and step
+    /// count. Returns whether it did; a cloth of another topology changes nothing.
+    pub fn continue_from(&mut self, previous: &ClothSim) -> bool {
+        let same = previous.model.particle_count() == self.model.particle_count()
+            && previous.model.triangles == self.model.triangles;
+        if same {
+            let p = &previous.particles;
+            self.particles.positions.copy_from_slice(&p.positions);
+            self.particles.velocities.copy_from_slice(&p.velocities);
+            self.steps = previous.steps;
+        }
+        same
+    }
+
     /// Replaces the settings, after validating them. Cheap (one pass over springs and particles);
     /// intended for runtime edits, not for calling every step.
     pub fn set_settings(&mut self, settings: SolverSettings) -> Result<(), ClothError> {
