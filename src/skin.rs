@@ -22,7 +22,7 @@ pub(crate) struct Attachment {
     rest: Vec<(Vec3, Vec3)>,
     /// The skin: each particle's influences, and the joints' inverse bind poses.
     skin: Option<(Vec<Influences>, Vec<Affine3A>)>,
-    /// Scratch: the joints' skinning matrices.
+    /// The joints' skinning matrices of the last update (a missing joint keeps its last one).
     joint_matrices: Vec<Affine3A>,
     /// Each particle's target (position, unit normal) after [`Self::update`].
     pub targets: Vec<(Vec3, Vec3)>,
@@ -83,12 +83,16 @@ impl Attachment {
             .iter()
             .map(|&(i, _)| (rest[i as usize], normals[i as usize]))
             .collect::<Vec<_>>();
+        // Until a joint is first found, its matrix is the identity's: the bind pose.
+        let joint_matrices = skin
+            .as_ref()
+            .map_or_else(Vec::new, |(_, bind)| bind.clone());
         Ok(Self {
             targets: rest.clone(),
             weighted,
             rest,
             skin,
-            joint_matrices: Vec::new(),
+            joint_matrices,
         })
     }
 
@@ -112,7 +116,8 @@ impl Attachment {
     }
 
     /// Computes every target: skinned, with each joint's global transform from `joint`
-    /// (`None`, a missing joint, counts as the identity), or otherwise the rest shape under
+    /// (`None`, a missing joint, keeps the pose it last had, or the identity if it never had
+    /// one), or otherwise the rest shape under
     /// `transform`.
     pub fn update(&mut self, transform: &Affine3A, joint: impl Fn(usize) -> Option<Affine3A>) {
         let Some((influences, bind)) = &self.skin else {
@@ -125,12 +130,13 @@ impl Attachment {
             }
             return;
         };
-        self.joint_matrices.clear();
-        self.joint_matrices.extend(
-            bind.iter()
-                .enumerate()
-                .map(|(j, b)| joint(j).unwrap_or(Affine3A::IDENTITY) * *b),
-        );
+        // A joint that is missing (its entity despawned) keeps its last matrix, so the targets
+        // it moves stay where they were.
+        for (j, (m, b)) in self.joint_matrices.iter_mut().zip(bind).enumerate() {
+            if let Some(pose) = joint(j) {
+                *m = pose * *b;
+            }
+        }
         for ((t, (p, n)), inf) in self.targets.iter_mut().zip(&self.rest).zip(influences) {
             *t = skin_point(&self.joint_matrices, inf, *p, *n);
         }
@@ -268,6 +274,9 @@ mod tests {
             (n - Vec3::new(-1.0, 1.0, 0.0).normalize()).length() < 1e-6,
             "{n}"
         );
+        // A joint whose entity is gone keeps its last pose: the target stays.
+        a.update(&Affine3A::IDENTITY, |j| (j == 0).then_some(joints[0]));
+        assert!((a.targets[0].0 - p).length() < 1e-6, "{:?}", a.targets[0]);
         // Influences for fewer vertices than the cloth has are an error.
         let one = vec![[(0, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)]];
         let two = [Vec3::ZERO, Vec3::X];

@@ -13,7 +13,7 @@ use bevy::transform::components::GlobalTransform;
 
 use super::edits::{commit_pins, plan_pins, report_edit, run_settings};
 use super::mesh::refresh_render;
-use super::poses::pose_of;
+use super::poses::{invertible, pose_of};
 use crate::components::{
     Cloth, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPins, ClothSkin,
     ClothSource, ClothState, ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL,
@@ -213,6 +213,13 @@ fn build_state(
     previous: Option<&ClothState>,
     inputs: &mut BuildInputs,
 ) -> Result<Option<(ClothState, Handle<Mesh>)>, ClothError> {
+    if !invertible(transform) {
+        return Err(ClothError::InvalidValue {
+            field: "GlobalTransform determinant",
+            expected: "finite and non-zero (no axis of the cloth entity scaled to 0)",
+            value: transform.affine().matrix3.determinant() as f64,
+        });
+    }
     let meshes = &mut *inputs.meshes;
     let source_mesh = match &cloth.source {
         ClothSource::Mesh(handle) => meshes.get(handle),

@@ -9,6 +9,7 @@ use bevy::mesh::Mesh;
 use bevy::time::{Fixed, Time};
 use bevy::transform::components::GlobalTransform;
 
+use super::poses::invertible;
 use crate::components::{ClothConfig, ClothInvalid, ClothState};
 use crate::error::ClothError;
 use crate::render;
@@ -98,6 +99,11 @@ pub(super) fn write_meshes(
     for (config, transform, mut state) in &mut cloths {
         let interpolating = config.interpolate && fraction < 1.0 && !state.at_rest;
         if !(state.dirty || interpolating || transform.is_changed()) {
+            continue;
+        }
+        // A transform scaled to zero (or not finite) has no local space to write into: the mesh
+        // keeps its last shape until the transform is usable again.
+        if !invertible(&transform) {
             continue;
         }
         let Some(mut mesh) = meshes.get_mut(&state.mesh) else {

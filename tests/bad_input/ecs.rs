@@ -249,3 +249,53 @@ fn bad_colliders_and_wind_are_ignored_while_cloths_keep_running() {
         "bad colliders are skipped"
     );
 }
+
+/// Whether every position in cloth `e`'s render mesh is finite.
+fn mesh_is_finite(app: &App, e: Entity) -> bool {
+    let handle = app.world().get::<ClothState>(e).unwrap().mesh();
+    let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+    match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+        Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) => {
+            p.iter().flatten().all(|c| c.is_finite())
+        }
+        _ => false,
+    }
+}
+
+#[test]
+fn a_cloth_scaled_to_zero_is_an_error_at_build_and_holds_its_mesh_when_scaled_later() {
+    let mut app = app();
+    let flat = spawn(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(4, 4, 0.1)),
+            Transform::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+        ),
+    );
+    let e = &app.world().get::<ClothInvalid>(flat).expect("reported").0;
+    assert!(e.to_string().contains("GlobalTransform determinant"), "{e}");
+
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(6, 6, 0.05)),
+            ClothPins::new([0, 5]),
+        ),
+    );
+    run(&mut app, 5);
+    // Scaled to zero, then moved to a point that is not finite: the cloth steps on, its mesh keeps
+    // its last finite shape.
+    let edits: [fn(&mut Transform); 2] = [
+        |t| t.scale = Vec3::ZERO,
+        |t| t.translation = Vec3::NAN,
+    ];
+    for edit in edits {
+        let before = steps(&app, cloth);
+        edit(&mut app.world_mut().get_mut::<Transform>(cloth).unwrap());
+        run(&mut app, 5);
+        assert!(app.world().get::<ClothInvalid>(cloth).is_none());
+        assert_eq!(steps(&app, cloth), before + 5);
+        assert!(state(&app, cloth).positions().iter().all(|p| p.is_finite()));
+        assert!(mesh_is_finite(&app, cloth));
+    }
+}
