@@ -18,7 +18,10 @@ impl ClothSim {
 
     /// Advances the cloth by `dt` seconds among the colliders of `env`. Returns an error (and
     /// leaves the state as it was at the failure) if a position became non-finite; the caller
-    /// should stop stepping this cloth.
+    /// should stop stepping this cloth. It also returns one, before any particle moves, when the
+    /// distance kept from another cloth of `env` in reach (the mean of the two thicknesses) is
+    /// more than [`MAX_THICKNESS_PER_EDGE`](crate::sim::MAX_THICKNESS_PER_EDGE) times this
+    /// cloth's mean rest edge length.
     pub fn step_in(&mut self, dt: f32, env: &Environment) -> Result<(), ClothError> {
         self.step_spread(dt, env, None)
     }
@@ -128,7 +131,7 @@ impl ClothSim {
             (layers.thickness, layers.friction),
             reach.unwrap_or(((Vec3::ONE, Vec3::ZERO), 0.0)),
             dt,
-        );
+        )?;
         if self.sleeps_through(env) {
             self.steps += 1;
             self.sleep.skipped = true;

@@ -42,6 +42,7 @@ use super::pairs::{
 };
 use super::vectors::Vectors;
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
+use crate::sim::settings::within_thickness_bound;
 use joined::JoinedState;
 
 mod joined;
@@ -183,16 +184,20 @@ pub(crate) struct ClothContacts {
 impl ClothContacts {
     /// The broad phase of a step of `dt` seconds for a cloth of `thickness` and `friction` whose
     /// box at the start is `bounds`, whose particles move at most `reach` in the step, and whose
-    /// longest edge at rest is `max_edge`: copies the valid `others` in reach (see the module
-    /// docs).
+    /// longest and mean edges at rest are `max_edge` and `mean_edge` long: copies the valid
+    /// `others` in reach (see the module docs). Errors with [`ClothError::TooLong`] (and copies
+    /// none) when the distance kept from one in reach, the mean of the two thicknesses, is more
+    /// than [`MAX_THICKNESS_PER_EDGE`](crate::sim::MAX_THICKNESS_PER_EDGE) times `mean_edge`:
+    /// the pairs a search meets grow with its square. Each cloth checks against its own edges,
+    /// so of two cloths stepped against each other the finer one reports.
     pub fn begin_step(
         &mut self,
         others: &[OtherCloth],
         (thickness, friction): (f32, f32),
         (bounds, reach): ((Vec3, Vec3), f32),
-        max_edge: f32,
+        (max_edge, mean_edge): (f32, f32),
         dt: f32,
-    ) {
+    ) -> Result<(), ClothError> {
         self.start.clear();
         std::mem::swap(&mut self.end, &mut self.last_end);
         self.end.clear();
@@ -217,6 +222,24 @@ impl ClothContacts {
             let (lo, hi) = (a0.min(b0) - grow, a1.max(b1) + grow);
             if !(lo.cmple(bounds.1).all() && hi.cmpge(bounds.0).all()) {
                 continue;
+            }
+            if mean_edge > 0.0 {
+                let kept = within_thickness_bound(
+                    "distance kept from another cloth (the mean of the two cloths' \
+                     self_collision.thickness)",
+                    spacing.thickness,
+                    mean_edge,
+                );
+                if let Err(e) = kept {
+                    self.start.clear();
+                    self.end.clear();
+                    self.tris.clear();
+                    self.spacing.clear();
+                    self.owner.clear();
+                    self.stale = true;
+                    self.last_resolution.forget();
+                    return Err(e);
+                }
             }
             let offset = self.start.len() as u32;
             let index = self.spacing.len() as u32;
@@ -254,6 +277,7 @@ impl ClothContacts {
         }
         let thickest = self.spacing.iter().map(|s| s.thickness).fold(0.0, f32::max);
         self.reach_cap = (0.1 * max_edge).max(thickest);
+        Ok(())
     }
 
     /// Whether another cloth is near this step.

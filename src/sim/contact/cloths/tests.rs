@@ -31,13 +31,15 @@ fn under_a_copy(shift: Vec3, friction: f32, reach: f32) -> (ClothModel, ClothCon
         thickness: 0.005,
         friction,
     };
-    contacts.begin_step(
-        &[other],
-        (0.005, friction),
-        (bounds(lower), reach),
-        0.03,
-        1.0 / 60.0,
-    );
+    contacts
+        .begin_step(
+            &[other],
+            (0.005, friction),
+            (bounds(lower), reach),
+            (0.03, 0.0),
+            1.0 / 60.0,
+        )
+        .unwrap();
     (model, contacts)
 }
 
@@ -93,7 +95,15 @@ fn rest_on_a_copy(
             thickness: 0.005,
             friction: 0.0,
         };
-        contacts.begin_step(&[copy], (0.005, 0.0), (bounds(x), 0.002), 0.03, 1.0 / 60.0);
+        contacts
+            .begin_step(
+                &[copy],
+                (0.005, 0.0),
+                (bounds(x), 0.002),
+                (0.03, 0.0),
+                1.0 / 60.0,
+            )
+            .unwrap();
         for sub in 0..20 {
             let start = x.to_vec();
             for (x, v) in x.iter_mut().zip(&mut v) {
@@ -208,19 +218,21 @@ fn edges_of_two_cloths_are_kept_their_distance_apart() {
     ];
     let tris = [0, 1, 2];
     let mut contacts = ClothContacts::default();
-    contacts.begin_step(
-        &[OtherCloth {
-            triangles: &tris,
-            start: &other,
-            end: &other,
-            thickness: 0.005,
-            friction: 0.0,
-        }],
-        (0.005, 0.0),
-        (bounds(&start), 0.01),
-        3.0,
-        1.0 / 60.0,
-    );
+    contacts
+        .begin_step(
+            &[OtherCloth {
+                triangles: &tris,
+                start: &other,
+                end: &other,
+                thickness: 0.005,
+                friction: 0.0,
+            }],
+            (0.005, 0.0),
+            (bounds(&start), 0.01),
+            (3.0, 0.0),
+            1.0 / 60.0,
+        )
+        .unwrap();
     let mut x = start.clone();
     x[0].y = 0.004;
     x[1].y = 0.004;
@@ -342,20 +354,24 @@ fn a_bad_other_cloth_is_a_typed_error() {
     }
     // The step leaves it out: nothing is copied, nothing is searched.
     let mut contacts = ClothContacts::default();
-    contacts.begin_step(
-        &[out_of_range, short, not_finite],
-        (0.005, 0.3),
-        ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
-        0.1,
-        1.0 / 60.0,
-    );
+    contacts
+        .begin_step(
+            &[out_of_range, short, not_finite],
+            (0.005, 0.3),
+            ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
+            (0.1, 0.0),
+            1.0 / 60.0,
+        )
+        .unwrap();
     assert!(!contacts.is_active());
-    contacts.begin_step(
-        &[good],
-        (0.005, 0.3),
-        ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
-        0.1,
-        1.0 / 60.0,
-    );
+    contacts
+        .begin_step(
+            &[good],
+            (0.005, 0.3),
+            ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
+            (0.1, 0.0),
+            1.0 / 60.0,
+        )
+        .unwrap();
     assert!(contacts.is_active());
 }
