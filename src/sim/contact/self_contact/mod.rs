@@ -292,8 +292,9 @@ impl SelfContacts {
                 bound: cap as u64,
                 why: format!(
                     "MAX_EXEMPT_PAIRS_PER_TRIANGLE = {MAX_EXEMPT_PAIRS_PER_TRIANGLE} of each kind \
-                     per triangle, at thickness {thickness} m: the rest shape lies in layers \
-                     closer than that; lower the thickness"
+                     per triangle, at thickness {thickness} m: more of the rest shape lies \
+                     within the thickness of itself than of a flat cloth at the largest \
+                     thickness; lower the thickness"
                 ),
             });
         }
