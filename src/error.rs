@@ -31,6 +31,35 @@ pub enum ClothError {
         /// Particles along y.
         ny: u32,
     },
+    /// A count past a bound, found before anything of that size is allocated: more particles than
+    /// [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES), more pins than particles, more springs at
+    /// one particle than [`MAX_SPRINGS_PER_PARTICLE`](crate::sim::MAX_SPRINGS_PER_PARTICLE), … (the
+    /// guide's "Bounds" lists them all).
+    #[error("{field}: {count}, more than the bound {bound} ({why})")]
+    TooMany {
+        /// What is counted, e.g. `"particles"` or `"pins"`.
+        field: &'static str,
+        /// The count the input asks for.
+        count: u64,
+        /// The most allowed.
+        bound: u64,
+        /// Where the bound comes from and which inputs gave the count.
+        why: String,
+    },
+    /// A length past a bound derived from the cloth's model, e.g. a self-collision thickness
+    /// longer than the cloth's edges allow (see
+    /// [`MAX_THICKNESS_PER_EDGE`](crate::sim::MAX_THICKNESS_PER_EDGE)).
+    #[error("{field} is {value} m, more than the bound {bound} m ({why})")]
+    TooLong {
+        /// The field, e.g. `"self_collision.thickness"`.
+        field: &'static str,
+        /// The value given, m.
+        value: f32,
+        /// The most allowed for this cloth, m.
+        bound: f32,
+        /// Where the bound comes from.
+        why: String,
+    },
     /// A length, mass, time or stiffness that must be positive (or non-negative) and finite is not.
     #[error("{field} must be {expected}, got {value}")]
     InvalidValue {
@@ -288,6 +317,41 @@ pub(crate) fn unit_interval(field: &'static str, value: f32) -> Result<(), Cloth
             field,
             expected: "in 0..=1",
             value: value as f64,
+        })
+    }
+}
+
+/// Checks that `count` is at most `bound`; the error says `why` (where the bound comes from).
+pub(crate) fn at_most(
+    field: &'static str,
+    count: usize,
+    bound: usize,
+    why: impl FnOnce() -> String,
+) -> Result<(), ClothError> {
+    if count <= bound {
+        Ok(())
+    } else {
+        Err(ClothError::TooMany {
+            field,
+            count: count as u64,
+            bound: bound as u64,
+            why: why(),
+        })
+    }
+}
+
+/// Checks that a cloth of `count` particles (as `why` says they come about) is within
+/// [`MAX_PARTICLES`](crate::limits::MAX_PARTICLES).
+pub(crate) fn particles_within(count: u64, why: impl FnOnce() -> String) -> Result<(), ClothError> {
+    let bound = crate::limits::MAX_PARTICLES as u64;
+    if count <= bound {
+        Ok(())
+    } else {
+        Err(ClothError::TooMany {
+            field: "particles",
+            count,
+            bound,
+            why: format!("MAX_PARTICLES; {}", why()),
         })
     }
 }

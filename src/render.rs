@@ -72,6 +72,8 @@ pub(crate) fn model_from_mesh(mesh: &Mesh) -> Result<ClothModel, ClothError> {
         .map_err(access)?
     {
         Some(VertexAttributeValues::Float32x3(p)) => {
+            // Counted before anything is copied.
+            crate::error::particles_within(p.len() as u64, || "one per mesh vertex".into())?;
             p.iter().map(|p| Vec3::from_array(*p)).collect()
         }
         Some(other) => {

@@ -36,6 +36,10 @@ use crate::sim::{
     ClothModel, ColliderShape, Friction, GridSpec, Gusts, SolverSettings, WindZoneShape,
 };
 
+/// Largest scene file [`ClothScene::load`] reads, bytes (64 MiB: room for the pins and target
+/// weights of a cloth of [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES) particles written out).
+pub const MAX_SCENE_BYTES: usize = 64 << 20;
+
 /// The cloth of a scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum SceneCloth {
@@ -358,6 +362,7 @@ impl SceneWind {
                 "wind.gusts.turbulence",
             ])?;
         }
+        crate::sim::wind::validate_zone_count(self.zones.len())?;
         for z in &self.zones {
             z.component()?;
         }
@@ -436,11 +441,22 @@ impl ClothScene {
         Ok(scene)
     }
 
-    /// Reads, parses and validates a scene file.
+    /// Reads, parses and validates a scene file of at most [`MAX_SCENE_BYTES`] (a longer one is
+    /// refused without being read).
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ClothError> {
+        use std::io::Read;
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ClothError::Scene(format!("cannot read {}: {e}", path.display())))?;
+        let cannot =
+            |e: std::io::Error| ClothError::Scene(format!("cannot read {}: {e}", path.display()));
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .map_err(cannot)?
+            .take(MAX_SCENE_BYTES as u64 + 1)
+            .read_to_string(&mut text)
+            .map_err(cannot)?;
+        crate::error::at_most("scene file bytes", text.len(), MAX_SCENE_BYTES, || {
+            format!("MAX_SCENE_BYTES; reading {} stopped there", path.display())
+        })?;
         Self::from_ron(&text).map_err(|e| ClothError::Scene(format!("{}: {e}", path.display())))
     }
 
@@ -456,6 +472,9 @@ impl ClothScene {
                 spec.nx as usize * spec.ny as usize
             }
         };
+        crate::error::at_most("pins", self.pins.len(), count, || {
+            format!("one per particle of the cloth, which has {count}")
+        })?;
         if let Some(&index) = self.pins.iter().find(|&&p| p as usize >= count) {
             return Err(ClothError::PinOutOfRange { index, count });
         }

@@ -52,13 +52,13 @@ pub use contact::{
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
     ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridNormals, GridPlane, GridSpec,
-    MAX_DISC_RINGS, MAX_DISC_SECTORS, MAX_PARTICLES, MIN_DISC_SECTORS, SpringKind, Springs,
-    SubdividedModel, compute_normals,
+    MAX_DISC_RINGS, MAX_DISC_SECTORS, MAX_PARTICLES, MAX_SPRINGS_PER_PARTICLE, MIN_DISC_SECTORS,
+    SpringKind, Springs, SubdividedModel, compute_normals,
 };
 pub use settings::{
     AUTO_MAX_STRETCH, Accuracy, ErrorUnit, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
-    NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION, SelfCollision, SolverSettings, Stiffness,
-    TargetLimits, Tethers,
+    MAX_THICKNESS_PER_EDGE, NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION, SelfCollision,
+    SolverSettings, Stiffness, TargetLimits, Tethers,
 };
 pub use state::Energy;
-pub use wind::{PlacedWindZone, WindField, WindZoneShape};
+pub use wind::{MAX_WIND_ZONES, PlacedWindZone, WindField, WindZoneShape};

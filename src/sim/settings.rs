@@ -13,6 +13,15 @@ pub const MAX_SUBSTEPS: u32 = 1024;
 /// Largest number of constraint iterations per substep accepted by [`SolverSettings::validate`].
 pub const MAX_ITERATIONS: u32 = 256;
 
+/// The most [`SelfCollision::thickness`] may be, as a multiple of the cloth's mean rest edge
+/// length (the mean over its triangles' edges): the pairs of its elements within the thickness at
+/// rest, which are exempt and stored, grow with the square of the thickness over the edge length
+/// (none below 0.7 of it on a grid, about 50 per particle at it), and so do the pairs each search
+/// meets. [`ClothSim::new`](super::ClothSim::new) and
+/// [`ClothSim::set_settings`](super::ClothSim::set_settings) check it while self-collision is on;
+/// the distance a cloth keeps from other cloths is clamped to it (a step never fails on it).
+pub const MAX_THICKNESS_PER_EDGE: f32 = 1.0;
+
 /// Fraction of the explicit stability limit `h < 2/ω_max` that [`SolverSettings::auto_substeps`]
 /// stays within, applied to the Gershgorin bound on `ω_max` (which itself over-estimates it).
 pub const STABILITY_FRACTION: f32 = 0.9;
@@ -186,11 +195,13 @@ pub struct SolverSettings {
     /// Sleeping: a cloth whose free particles all move slower than this (m/s, measured as the
     /// displacement over a whole step divided by the step) for [`sleep_steps`](Self::sleep_steps)
     /// consecutive steps stops stepping until something wakes it (a moving pin or collider, a
-    /// collider arriving or leaving, wind, or an edit). 0 disables it. Measuring over the step, not
-    /// the last substep's velocity, keeps the rounding jitter of a cloth far from the origin (one
-    /// f32 step of 15 µm at 200 m) below the default threshold.
+    /// collider arriving or leaving, wind, or an edit). 0 disables sleeping. Measuring over the
+    /// step, not the last substep's velocity, keeps the rounding jitter of a cloth far from the
+    /// origin (one f32 step of 15 µm at 200 m) below the default threshold.
     pub sleep_speed: f32,
-    /// Consecutive quiet steps before a cloth falls asleep.
+    /// Consecutive quiet steps before a cloth falls asleep: at least 1 (0 would put every cloth
+    /// to sleep before its first step; to keep a cloth awake, set
+    /// [`sleep_speed`](Self::sleep_speed) to 0).
     pub sleep_steps: u32,
     /// Collisions of the cloth with itself (off by default).
     pub self_collision: SelfCollision,
@@ -240,6 +251,7 @@ impl SolverSettings {
         non_negative("drag_coefficient", self.drag_coefficient)?;
         non_negative("lift_coefficient", self.lift_coefficient)?;
         non_negative("sleep_speed", self.sleep_speed)?;
+        count_in("sleep_steps", self.sleep_steps, 1, u32::MAX)?;
         self.self_collision.validate()?;
         self.targets.validate()?;
         self.tethers.validate()?;
@@ -275,7 +287,9 @@ pub struct SelfCollision {
     /// other are left alone. Every step ends with its layers that far apart; within a step,
     /// layers that approach slowly (a resting fold) may come up to a quarter of it closer before
     /// they are pushed back, which saves resolving them at every substep. Keeping it below half
-    /// the cloth's particle spacing leaves the mesh's own neighbours out of it.
+    /// the cloth's particle spacing leaves the mesh's own neighbours out of it; it may be at most
+    /// [`MAX_THICKNESS_PER_EDGE`] times the cloth's mean rest edge length (checked when the cloth
+    /// is built or its settings change, while self-collision is on).
     pub thickness: f32,
     /// Coulomb friction between layers (0 = frictionless).
     pub friction: f32,
@@ -294,11 +308,45 @@ impl Default for SelfCollision {
 
 impl SelfCollision {
     /// Checks the thickness is finite and positive and the friction finite and non-negative
-    /// (whether or not self-collision is enabled, so that enabling it later cannot fail).
+    /// (whether or not self-collision is enabled). The bound that depends on the cloth is
+    /// [`Self::validate_for`]'s.
     pub fn validate(&self) -> Result<(), ClothError> {
         positive("self_collision.thickness", self.thickness)?;
         non_negative("self_collision.friction", self.friction)
     }
+
+    /// Checks the thickness against a cloth whose triangles' edges are `mean_edge` long on
+    /// average at rest: at most [`MAX_THICKNESS_PER_EDGE`] times that, while self-collision is
+    /// enabled (a cloth without triangles, `mean_edge` 0, has no self-contacts to bound).
+    pub fn validate_for(&self, mean_edge: f32) -> Result<(), ClothError> {
+        if !self.enabled || mean_edge <= 0.0 {
+            return Ok(());
+        }
+        within_thickness_bound("self_collision.thickness", self.thickness, mean_edge)
+    }
+}
+
+/// Checks that a distance kept between layers, `thickness` (named `field`), is at most
+/// [`MAX_THICKNESS_PER_EDGE`] times `mean_edge`, the mean rest edge length of the cloth whose
+/// contacts it sets.
+pub(crate) fn within_thickness_bound(
+    field: &'static str,
+    thickness: f32,
+    mean_edge: f32,
+) -> Result<(), ClothError> {
+    let bound = MAX_THICKNESS_PER_EDGE * mean_edge;
+    if thickness <= bound {
+        return Ok(());
+    }
+    Err(ClothError::TooLong {
+        field,
+        value: thickness,
+        bound,
+        why: format!(
+            "MAX_THICKNESS_PER_EDGE = {MAX_THICKNESS_PER_EDGE} × the cloth's mean rest edge \
+             length {mean_edge} m"
+        ),
+    })
 }
 
 /// Limits on particles tied to an animated target (a skinned position, or the rest shape carried

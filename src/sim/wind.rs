@@ -76,6 +76,11 @@ impl WindZoneShape {
     }
 }
 
+/// Most [`WindField::zones`]: every zone is sampled at every triangle of every cloth in every
+/// step (a zone is not culled by its box), so a step's wind costs their number times the
+/// triangles.
+pub const MAX_WIND_ZONES: usize = 64;
+
 /// The air around the cloths during one step: a global wind (optionally gusty), local zones, and
 /// the air's density.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -86,10 +91,17 @@ pub struct WindField {
     pub gusts: Option<Gusts>,
     /// Air density, kg/m³.
     pub air_density: f32,
-    /// Local wind zones.
+    /// Local wind zones, at most [`MAX_WIND_ZONES`].
     pub zones: Vec<PlacedWindZone>,
     /// Simulation time at the end of the step, s (drives the gusts).
     pub time: f32,
+}
+
+/// Checks a number of wind zones against [`MAX_WIND_ZONES`].
+pub(crate) fn validate_zone_count(zones: usize) -> Result<(), ClothError> {
+    crate::error::at_most("wind zones", zones, MAX_WIND_ZONES, || {
+        "MAX_WIND_ZONES: each is sampled at every triangle of every cloth in every step".into()
+    })
 }
 
 impl WindField {
@@ -140,10 +152,11 @@ impl WindField {
         }
     }
 
-    /// Checks the density, the velocity, the gusts and the zones (shape, velocity, gusts, falloff
-    /// in `0..=1`, and a finite placement: a zone scaled to zero has none); the error names the
-    /// first bad field and its value.
+    /// Checks the number of zones (at most [`MAX_WIND_ZONES`]), the density, the velocity, the
+    /// gusts and the zones (shape, velocity, gusts, falloff in `0..=1`, and a finite placement: a
+    /// zone scaled to zero has none); the error names the first bad field and its value.
     pub fn validate(&self) -> Result<(), ClothError> {
+        validate_zone_count(self.zones.len())?;
         non_negative("wind.air_density", self.air_density)?;
         finite_vec3(
             ["wind.velocity.x", "wind.velocity.y", "wind.velocity.z"],

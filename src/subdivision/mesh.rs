@@ -8,8 +8,8 @@ use std::sync::OnceLock;
 
 use glam::{DVec3, Vec2, Vec3};
 
-use super::SubdivisionError;
 use super::topology::{LevelTopology, corner_count};
+use super::{MAX_CONTROL_VERTICES, SubdivisionError};
 
 /// A validated, oriented, manifold polygon mesh with optional face-varying UVs.
 ///
@@ -85,7 +85,19 @@ impl PolyMesh {
         face_indices: Vec<u32>,
         uvs: Option<Vec<Vec2>>,
     ) -> Result<Self, SubdivisionError> {
-        let positions: Vec<DVec3> = positions.into_iter().map(Into::into).collect();
+        // Counted before more than the bound are collected.
+        let positions: Vec<DVec3> = positions
+            .into_iter()
+            .take(MAX_CONTROL_VERTICES + 1)
+            .map(Into::into)
+            .collect();
+        if positions.len() > MAX_CONTROL_VERTICES {
+            return Err(SubdivisionError::TooLarge {
+                what: "control vertex",
+                count: positions.len() as u64,
+                max: MAX_CONTROL_VERTICES as u64,
+            });
+        }
         validate_positions(&positions)?;
         if let Some(uvs) = &uvs {
             validate_uvs(uvs, face_indices.len())?;
@@ -242,6 +254,26 @@ impl PolyMesh {
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), &p| (lo.min(p), hi.max(p)),
         )
+    }
+
+    /// Number of vertices of the mesh refined uniformly `level` times, from its vertex, edge,
+    /// face and corner counts alone (nothing is refined), saturating at `u64::MAX`.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use bevy_cloth::subdivision::PolyMesh;
+    ///
+    /// let quad = PolyMesh::from_quads(
+    ///     [DVec3::ZERO, DVec3::X, DVec3::new(1.0, 0.0, 1.0), DVec3::Z],
+    ///     &[0, 3, 2, 1],
+    /// )?;
+    /// // A 2×2, then a 4×4 grid of quads.
+    /// assert_eq!(quad.refined_vertex_count(1)?, 9);
+    /// assert_eq!(quad.refined_vertex_count(2)?, 25);
+    /// # Ok::<(), bevy_cloth::subdivision::SubdivisionError>(())
+    /// ```
+    pub fn refined_vertex_count(&self, level: u32) -> Result<u64, SubdivisionError> {
+        Ok(self.topology()?.refined_counts(level).0)
     }
 
     /// Derived connectivity; cannot fail because `self` is valid.

@@ -50,6 +50,16 @@ pub const MAX_LEVEL: u32 = 6;
 /// Largest number of faces a refinement may produce (about 4.2 million).
 pub const MAX_REFINED_FACES: usize = 1 << 22;
 
+/// Largest number of vertices a refinement may produce (about 8.4 million), predicted from the
+/// control mesh's counts before anything is refined. Twice [`MAX_REFINED_FACES`]: a refinement
+/// within that many faces has about as many vertices, more only along open boundaries (a mesh of
+/// loose quads) and with vertices no face uses.
+pub const MAX_REFINED_VERTICES: usize = 1 << 23;
+
+/// Largest number of vertices a [`PolyMesh`] may have (about 4.2 million), counted before they
+/// are collected.
+pub const MAX_CONTROL_VERTICES: usize = 1 << 22;
+
 /// Largest number of `(index, weight)` entries a stencil table (or one
 /// level's refinement masks) may hold (about 67 million).
 pub const MAX_STENCIL_ENTRIES: usize = 1 << 26;

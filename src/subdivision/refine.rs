@@ -21,7 +21,7 @@ use glam::{DVec3, Vec2};
 use super::rules::{BoundaryMode, VertexRule};
 use super::sparse_rows::{SparseRows, check_entries};
 use super::topology::{LevelFaces, LevelTopology, NO_FACE};
-use super::{MAX_LEVEL, MAX_REFINED_FACES, SubdivisionError};
+use super::{MAX_LEVEL, MAX_REFINED_FACES, MAX_REFINED_VERTICES, SubdivisionError};
 
 /// Output of refining a mesh to a given level.
 #[derive(Debug, Clone)]
@@ -40,23 +40,25 @@ pub(crate) struct Refinement {
     pub grid_coordinates: Option<Vec<[u32; 2]>>,
 }
 
-/// Checks `level` against [`MAX_LEVEL`] and the refined face count against
-/// [`MAX_REFINED_FACES`] before any work is done.
-fn check_level(base: &LevelTopology, level: u32) -> Result<(), SubdivisionError> {
+/// Checks `level` against [`MAX_LEVEL`], and the refined face and vertex counts against
+/// [`MAX_REFINED_FACES`] and [`MAX_REFINED_VERTICES`], before any work is done.
+fn check_level(base: &LevelFaces, level: u32) -> Result<(), SubdivisionError> {
     if level > MAX_LEVEL {
         return Err(SubdivisionError::LevelTooHigh {
             level,
             max: MAX_LEVEL,
         });
     }
-    if level > 0 {
-        // Faces at level L: corners(base) * 4^(L-1).
-        let faces = (base.face_indices.len() as u64).saturating_mul(1u64 << (2 * (level - 1)));
-        if faces > MAX_REFINED_FACES as u64 {
+    let (vertices, faces) = base.refined_counts(level);
+    for (what, count, max) in [
+        ("refined face", faces, MAX_REFINED_FACES),
+        ("refined vertex", vertices, MAX_REFINED_VERTICES),
+    ] {
+        if level > 0 && count > max as u64 {
             return Err(SubdivisionError::TooLarge {
-                what: "refined face",
-                count: faces,
-                max: MAX_REFINED_FACES as u64,
+                what,
+                count,
+                max: max as u64,
             });
         }
     }
@@ -486,4 +488,41 @@ pub(crate) fn compose(
         out.offsets.push(check_entries(out.indices.len())?);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Counts like a mesh of one quad and `unused` vertices no face uses (only counts are read).
+    fn one_quad_and(unused: usize) -> LevelFaces {
+        LevelFaces {
+            num_vertices: 4 + unused,
+            face_offsets: vec![0, 4],
+            face_indices: vec![0, 1, 2, 3],
+            edges: vec![[0, 1], [1, 2], [2, 3], [0, 3]],
+            edge_faces: vec![[0, NO_FACE]; 4],
+            corner_edges: vec![0, 1, 2, 3],
+            quads: true,
+        }
+    }
+
+    #[test]
+    fn the_refined_vertex_count_is_checked_before_refining() {
+        // One level adds an edge point per edge and a face point: 5 vertices.
+        let at = one_quad_and(MAX_REFINED_VERTICES - 4 - 5);
+        assert_eq!(at.refined_counts(1), (MAX_REFINED_VERTICES as u64, 4));
+        assert_eq!(check_level(&at, 1), Ok(()));
+        let past = one_quad_and(MAX_REFINED_VERTICES - 4 - 4);
+        assert_eq!(
+            check_level(&past, 1),
+            Err(SubdivisionError::TooLarge {
+                what: "refined vertex",
+                count: MAX_REFINED_VERTICES as u64 + 1,
+                max: MAX_REFINED_VERTICES as u64,
+            })
+        );
+        // Level 0 refines nothing.
+        assert_eq!(check_level(&past, 0), Ok(()));
+    }
 }

@@ -237,7 +237,9 @@ impl Subdivider {
     /// [`SubdivisionError::LevelTooHigh`], or
     /// [`SubdivisionError::TooLarge`] when the refined mesh would exceed
     /// [`MAX_REFINED_FACES`](super::MAX_REFINED_FACES) faces or
-    /// [`MAX_STENCIL_ENTRIES`](super::MAX_STENCIL_ENTRIES) stencil entries.
+    /// [`MAX_REFINED_VERTICES`](super::MAX_REFINED_VERTICES) vertices (both counted before
+    /// anything is refined) or [`MAX_STENCIL_ENTRIES`](super::MAX_STENCIL_ENTRIES) stencil
+    /// entries (counted as they are made).
     pub fn new(
         mesh: &PolyMesh,
         level: u32,

@@ -56,6 +56,24 @@ impl std::ops::Deref for LevelTopology {
 }
 
 impl LevelFaces {
+    /// The numbers of vertices and faces after refining uniformly `level` times, from the counts
+    /// alone (saturating at `u64::MAX`). Each level has a face point per face, an edge point per
+    /// edge and a vertex point per vertex (unused ones too); each edge splits in two and each face
+    /// of `c` corners into `c` quads joined by `c` new edges.
+    pub fn refined_counts(&self, level: u32) -> (u64, u64) {
+        let (mut v, mut e) = (self.num_vertices as u64, self.edges.len() as u64);
+        let (mut f, mut c) = (self.face_count() as u64, self.face_indices.len() as u64);
+        for _ in 0..level {
+            (v, e, f, c) = (
+                v.saturating_add(e).saturating_add(f),
+                e.saturating_mul(2).saturating_add(c),
+                c,
+                c.saturating_mul(4),
+            );
+        }
+        (v, f)
+    }
+
     /// Number of faces.
     pub fn face_count(&self) -> usize {
         self.face_offsets.len() - 1

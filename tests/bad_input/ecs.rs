@@ -285,10 +285,7 @@ fn a_cloth_scaled_to_zero_is_an_error_at_build_and_holds_its_mesh_when_scaled_la
     run(&mut app, 5);
     // Scaled to zero, then moved to a point that is not finite: the cloth steps on, its mesh keeps
     // its last finite shape.
-    let edits: [fn(&mut Transform); 2] = [
-        |t| t.scale = Vec3::ZERO,
-        |t| t.translation = Vec3::NAN,
-    ];
+    let edits: [fn(&mut Transform); 2] = [|t| t.scale = Vec3::ZERO, |t| t.translation = Vec3::NAN];
     for edit in edits {
         let before = steps(&app, cloth);
         edit(&mut app.world_mut().get_mut::<Transform>(cloth).unwrap());

@@ -143,7 +143,7 @@ fn grid_specs_name_the_bad_field() {
         );
         assert_eq!(e, ClothError::GridTooLarge { nx, ny });
     }
-    assert!(GridSpec::new(4096, 4096, 0.1).validate().is_ok());
+    assert!(GridSpec::new(1024, 1024, 0.1).validate().is_ok());
     for h in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.1, 0.0, -0.0] {
         invalid_value(GridSpec::new(4, 4, h).validate(), "spacing");
     }

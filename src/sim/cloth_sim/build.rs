@@ -11,7 +11,7 @@ use crate::sim::contact::{Contacts, SelfContacts};
 use crate::sim::forces::{SpringSet, max_frequency_bound};
 use crate::sim::integrate::Steppers;
 use crate::sim::model::ClothModel;
-use crate::sim::settings::{Integrator, SolverSettings};
+use crate::sim::settings::{Integrator, SelfCollision, SolverSettings};
 use crate::sim::state::Particles;
 use crate::sim::wind::WindScratch;
 
@@ -26,6 +26,8 @@ impl ClothSim {
         // The steppers' vector kernels and threads rely on a consistent model (indices in range,
         // a proper colouring, a truthful grid): checked here, where every model enters.
         model.validate()?;
+        let mean_edge = model.mean_edge_length();
+        settings.self_collision.validate_for(mean_edge)?;
         let n = model.particle_count();
         let positions: Vec<Vec3> = model.rest_positions.iter().map(|p| to_world(*p)).collect();
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
@@ -46,7 +48,7 @@ impl ClothSim {
             omega_max: 0.0,
             longest_spring: model.springs.rest.iter().copied().fold(0.0, f32::max),
             active: settings.integrator,
-            contacts: Contacts::new(n, model.max_edge_length()),
+            contacts: Contacts::new(n, (model.max_edge_length(), mean_edge)),
             wind: WindScratch::new(&model),
             pins: Vec::new(),
             model,
@@ -59,6 +61,7 @@ impl ClothSim {
             frame: None,
             adaptive: None,
         };
+        sim.prepare_self_contacts(settings.self_collision)?;
         sim.apply_settings();
         Ok(sim)
     }
@@ -78,10 +81,17 @@ impl ClothSim {
         same
     }
 
-    /// Replaces the settings, after validating them. Cheap (one pass over springs and particles);
-    /// intended for runtime edits, not for calling every step.
+    /// Replaces the settings, after validating them (for this cloth: see
+    /// [`SelfCollision::validate_for`](crate::sim::SelfCollision::validate_for)); on an error
+    /// nothing changes. Cheap (one pass over springs and particles) unless self-collision is
+    /// turned on or its thickness or friction change; intended for runtime edits, not for calling
+    /// every step.
     pub fn set_settings(&mut self, settings: SolverSettings) -> Result<(), ClothError> {
         settings.validate()?;
+        settings
+            .self_collision
+            .validate_for(self.model.mean_edge_length())?;
+        self.prepare_self_contacts(settings.self_collision)?;
         self.settings = settings;
         self.apply_settings();
         self.wake();
@@ -116,7 +126,6 @@ impl ClothSim {
         let mut scratch = vec![0.0; self.particles.positions.len()];
         self.omega_max =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
-        self.prepare_self_contacts();
         // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.
         let integrator = if self.settings.accuracy.tolerance.is_some() {
             Integrator::Auto
@@ -138,23 +147,25 @@ impl ClothSim {
         }
     }
 
-    /// Builds the self-contacts' topology and exempt pairs when self-collision is turned on or its
-    /// thickness changes, and drops them when it is turned off.
-    pub(super) fn prepare_self_contacts(&mut self) {
-        let c = self.settings.self_collision;
+    /// Builds the self-contacts' topology and exempt pairs for `c` when self-collision is turned
+    /// on or its thickness or friction change, and drops them when it is turned off. On an error
+    /// (see [`SelfContacts::new`]) the cloth keeps the ones it had.
+    fn prepare_self_contacts(&mut self, c: SelfCollision) -> Result<(), ClothError> {
         if !c.enabled {
             self.contacts.set_self_contacts(None);
-            return;
+            return Ok(());
         }
         if self.contacts.self_contacts().map(|s| s.settings()) == Some((c.thickness, c.friction)) {
-            return;
+            return Ok(());
         }
-        self.contacts.set_self_contacts(Some(SelfContacts::new(
+        let contacts = SelfContacts::new(
             &self.model.triangles,
             &self.model.rest_positions,
             c.thickness,
             c.friction,
-        )));
+        )?;
+        self.contacts.set_self_contacts(Some(contacts));
+        Ok(())
     }
 
     /// The springs with their current stiffness, for the force kernel.

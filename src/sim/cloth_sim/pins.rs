@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use super::ClothSim;
-use crate::error::ClothError;
+use crate::error::{ClothError, at_most};
 use crate::sim::contact::{Pose, Target};
 use crate::sim::settings::Inertia;
 #[cfg(doc)]
@@ -18,7 +18,8 @@ impl ClothSim {
 
     /// Replaces the pin set. Each pin is `(particle, target)`; a particle pinned for the first time
     /// moves to its target over the next step. Particles no longer listed are released with their
-    /// current velocity.
+    /// current velocity. At most one pin per particle of the cloth ([`ClothError::TooMany`]
+    /// past that, counted as they come: an endless iterator is refused, not collected).
     pub fn set_pins(
         &mut self,
         pins: impl IntoIterator<Item = (u32, Vec3)>,
@@ -26,6 +27,9 @@ impl ClothSim {
         let count = self.particles.positions.len();
         let mut new = Vec::new();
         for (particle, target) in pins {
+            at_most("pins", new.len() + 1, count, || {
+                format!("one per particle of the cloth, which has {count}; counting stopped there")
+            })?;
             if particle as usize >= count {
                 return Err(ClothError::PinOutOfRange {
                     index: particle,
@@ -66,10 +70,13 @@ impl ClothSim {
     /// stays within `weight × max_distance_scale` of its target's position and, with a backstop
     /// ([`SolverSettings::targets`]), outside the backstop sphere behind it. Targets move with
     /// [`Self::move_targets`], interpolated across each step like pins. A pinned particle ignores
-    /// its target. Bad input (a particle out of range, a negative or non-finite weight, a
-    /// non-finite position or normal) is an error and changes nothing.
+    /// its target. Bad input (more targets than particles, a particle out of range, a negative
+    /// or non-finite weight, a non-finite position or normal) is an error and changes nothing.
     pub fn set_targets(&mut self, targets: &[Target]) -> Result<(), ClothError> {
         let count = self.particles.positions.len();
+        at_most("targets", targets.len(), count, || {
+            format!("one per particle of the cloth, which has {count}")
+        })?;
         for t in targets {
             if t.particle as usize >= count {
                 return Err(ClothError::InvalidTargets {

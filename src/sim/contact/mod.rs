@@ -113,6 +113,9 @@ pub(crate) struct Contacts {
     /// The longest edge of the cloth's triangles at rest, m: spheres smaller than this get the
     /// particle–triangle test.
     max_edge: f32,
+    /// The mean length of the cloth's triangles' edges at rest, m (0 without triangles): the
+    /// distance kept from other cloths is bounded by it.
+    mean_edge: f32,
     /// The cloth's contacts with itself, when enabled.
     self_contacts: Option<SelfContacts>,
     /// Targets and tethers, resolved before the colliders.
@@ -128,13 +131,15 @@ pub(crate) struct Contacts {
 }
 
 impl Contacts {
-    /// Sized for a cloth of `particles` particles whose longest rest edge is `max_edge`.
-    pub fn new(particles: usize, max_edge: f32) -> Self {
+    /// Sized for a cloth of `particles` particles whose longest and mean rest edges are
+    /// `max_edge` and `mean_edge` long.
+    pub fn new(particles: usize, (max_edge, mean_edge): (f32, f32)) -> Self {
         Self {
             active: Vec::new(),
             start: vec![Vec3::ZERO; particles],
             clearance: vec![0.0; particles],
             max_edge,
+            mean_edge,
             self_contacts: None,
             limits: Limits::default(),
             reach_box: (Vec3::ZERO, Vec3::ZERO),
@@ -172,8 +177,13 @@ impl Contacts {
         (bounds, reach): ((Vec3, Vec3), f32),
         dt: f32,
     ) {
-        self.cloths
-            .begin_step(others, spacing, (bounds, reach), self.max_edge, dt);
+        self.cloths.begin_step(
+            others,
+            spacing,
+            (bounds, reach),
+            (self.max_edge, self.mean_edge),
+            dt,
+        )
     }
 
     /// The contacts with other cloths.

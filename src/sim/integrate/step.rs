@@ -392,7 +392,7 @@ mod tests {
             sphere(0.02, centre - 0.012 * Vec3::Y),
             sphere(0.3, centre + Vec3::new(0.6, -0.27, 0.0)),
         ];
-        let mut contacts = Contacts::new(n, model.max_edge_length());
+        let mut contacts = Contacts::new(n, (model.max_edge_length(), model.mean_edge_length()));
         contacts.begin_step(&colliders, (u32::MAX, false), (lo, hi), 0.1, 1.0 / 60.0);
         assert_eq!(contacts.active_count(), 2);
         let t = (0.0, 0.05, 1.0 / 1200.0);

@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
 use super::ClothModel;
-use crate::error::{ClothError, count_in, positive};
+use crate::error::{ClothError, count_in, particles_within, positive};
 
 /// Smallest [`DiscSpec::sectors`].
 pub const MIN_DISC_SECTORS: u32 = 3;
@@ -54,7 +54,8 @@ pub struct DiscSpec {
     /// Patches around the centre, which is the valence of the centre particle:
     /// [`MIN_DISC_SECTORS`]`..=`[`MAX_DISC_SECTORS`].
     pub sectors: u32,
-    /// Quads along each spoke (and along each side of a patch): 1..=[`MAX_DISC_RINGS`].
+    /// Quads along each spoke (and along each side of a patch): 1..=[`MAX_DISC_RINGS`], and few
+    /// enough that the disc has at most [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES) particles.
     pub rings: u32,
     /// Radius of the hem, m.
     pub radius: f32,
@@ -70,10 +71,18 @@ impl DiscSpec {
         }
     }
 
-    /// Checks the spec; the error names the bad field.
+    /// Checks the spec; the error names the bad field: `sectors` and `rings` in their ranges,
+    /// at most [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES) particles in all (so 16 sectors take
+    /// at most 255 rings), and a finite, positive `radius`.
     pub fn validate(&self) -> Result<(), ClothError> {
         count_in("sectors", self.sectors, MIN_DISC_SECTORS, MAX_DISC_SECTORS)?;
         count_in("rings", self.rings, 1, MAX_DISC_RINGS)?;
+        particles_within(self.particle_count() as u64, || {
+            format!(
+                "a disc of sectors = {} and rings = {} has 1 + sectors · rings · (rings + 1)",
+                self.sectors, self.rings
+            )
+        })?;
         positive("radius", self.radius)
     }
 

@@ -7,7 +7,7 @@
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 
-use crate::error::{ClothError, indices_in_range, positive};
+use crate::error::{ClothError, indices_in_range, particles_within, positive};
 
 mod disc;
 mod grid;
@@ -21,7 +21,8 @@ pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
 pub use normals::GridNormals;
 pub(crate) use normals::two_rows;
-pub use springs::{SpringKind, Springs};
+use springs::check_spring_counts;
+pub use springs::{MAX_SPRINGS_PER_PARTICLE, SpringKind, Springs};
 pub use subdivided::SubdividedModel;
 
 /// A triangle whose doubled area is at most this fraction of the square of its longest edge (its
@@ -92,6 +93,26 @@ impl ClothModel {
             .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
             .map(|(a, b)| p[a as usize].distance(p[b as usize]))
             .fold(0.0, f32::max)
+    }
+
+    /// The mean length of the triangles' edges at rest, m: each triangle's three edges, over all
+    /// triangles (an edge two triangles share counts twice). 0 without triangles. What
+    /// [`MAX_THICKNESS_PER_EDGE`](super::MAX_THICKNESS_PER_EDGE) multiplies.
+    pub fn mean_edge_length(&self) -> f32 {
+        let p = &self.rest_positions;
+        let (sum, count) = self
+            .triangles
+            .chunks_exact(3)
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .fold((0.0f64, 0usize), |(sum, count), (a, b)| {
+                let d = p[a as usize].distance(p[b as usize]);
+                (sum + f64::from(d), count + 1)
+            });
+        if count == 0 {
+            0.0
+        } else {
+            (sum / count as f64) as f32
+        }
     }
 
     /// Builds the canonical grid cloth.
@@ -219,9 +240,10 @@ impl ClothModel {
     /// # Errors
     ///
     /// The whole mesh is checked before anything is built; the error names the problem and where:
+    /// - [`ClothError::TooMany`]: more than [`MAX_PARTICLES`] vertices (checked before anything is
+    ///   built), or a vertex with more than [`MAX_SPRINGS_PER_PARTICLE`] springs;
     /// - [`ClothError::InvalidMesh`]: no positions, no indices, a face size other than 3 or 4, an
-    ///   index count that is not a multiple of it, more than [`MAX_PARTICLES`] vertices, a
-    ///   non-finite position or texture coordinate (naming the vertex), a texture coordinate count
+    ///   index count that is not a multiple of it, a non-finite position or texture coordinate (naming the vertex), a texture coordinate count
     ///   that differs from the vertex count, or vertices so far apart that the distances between
     ///   them overflow `f32`;
     /// - [`ClothError::MeshIndexOutOfRange`]: an index past the last vertex (with its position in
@@ -313,6 +335,7 @@ impl ClothModel {
                 }
             }
         }
+        check_spring_counts(count, pairs.iter().map(|&(a, b, _)| (a, b)))?;
         let springs = Springs::build(positions, &pairs);
         Ok(Self {
             rest_positions: positions.to_vec(),
@@ -329,10 +352,11 @@ impl ClothModel {
 
 impl ClothModel {
     /// Checks that the model is consistent, for models assembled or edited by hand (its fields are
-    /// public): finite rest positions, one texture coordinate (and mass, if any) per particle,
-    /// triangles and faces whose indices are in range, a face size of 3 or 4, and springs whose
-    /// arrays agree, whose particles exist, whose rest lengths are finite and positive, and whose
-    /// colours partition them with no particle twice in a colour, and a `grid` (if any) that is
+    /// public): at most [`MAX_PARTICLES`] particles, finite rest positions, one texture
+    /// coordinate (and mass, if any) per particle, triangles and faces whose indices are in range,
+    /// a face size of 3 or 4, and springs whose arrays agree, whose particles exist (with at most
+    /// [`MAX_SPRINGS_PER_PARTICLE`] springs each), whose rest lengths are finite and positive, and
+    /// whose colours partition them with no particle twice in a colour, and a `grid` (if any) that is
     /// valid and has as many particles as the model. The builders ([`grid`](Self::grid),
     /// [`from_mesh`](Self::from_mesh), [`disc`](Self::disc)) always pass. [`ClothSim::new`]
     /// checks every model it is given; the solver's vector kernels and threads rely on it. The
@@ -345,6 +369,7 @@ impl ClothModel {
         if n == 0 {
             return bad("has no vertex positions".into());
         }
+        particles_within(n as u64, || "one per rest position of the model".into())?;
         if let Some((i, p)) = self
             .rest_positions
             .iter()
@@ -414,6 +439,7 @@ impl ClothModel {
         }
         in_range(&s.a)?;
         in_range(&s.b)?;
+        check_spring_counts(n, s.a.iter().copied().zip(s.b.iter().copied()))?;
         if let Some((k, r)) = s
             .rest
             .iter()
@@ -463,10 +489,11 @@ impl ClothModel {
     /// `face_size` 3.
     ///
     /// Errors name the problem: the vertex checks of [`ClothModel::from_mesh`]
-    /// ([`ClothError::InvalidMesh`]), a spring end past the last position
-    /// ([`ClothError::MeshIndexOutOfRange`], `position` being `2 · spring + end`), and a spring
-    /// from a particle to itself or between two particles at the same place
-    /// ([`ClothError::InvalidMesh`], naming the spring).
+    /// ([`ClothError::InvalidMesh`], and [`ClothError::TooMany`] past [`MAX_PARTICLES`]), a
+    /// spring end past the last position ([`ClothError::MeshIndexOutOfRange`], `position` being
+    /// `2 · spring + end`), a spring from a particle to itself or between two particles at the
+    /// same place ([`ClothError::InvalidMesh`], naming the spring), and a particle with more than
+    /// [`MAX_SPRINGS_PER_PARTICLE`] springs ([`ClothError::TooMany`]).
     ///
     /// ```
     /// use bevy_cloth::sim::{ClothModel, SpringKind};
@@ -503,6 +530,7 @@ impl ClothModel {
                 });
             }
         }
+        check_spring_counts(count, springs.iter().map(|&(a, b, _)| (a, b)))?;
         Ok(Self {
             rest_positions: positions.to_vec(),
             uvs: vec![Vec2::ZERO; count],
@@ -555,11 +583,7 @@ fn check_vertices(positions: &[Vec3], uvs: Option<&[Vec2]>) -> Result<(), ClothE
         return invalid("has no vertex positions".into());
     }
     let count = positions.len();
-    if count > MAX_PARTICLES {
-        return invalid(format!(
-            "has {count} vertices, more than the supported maximum {MAX_PARTICLES}"
-        ));
-    }
+    particles_within(count as u64, || "one per mesh vertex".into())?;
     if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
         return invalid(format!("vertex {i} has a non-finite position {p}"));
     }

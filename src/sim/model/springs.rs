@@ -23,6 +23,36 @@ impl SpringKind {
     pub const ALL: [SpringKind; 3] = [SpringKind::Structural, SpringKind::Shear, SpringKind::Bend];
 }
 
+/// Most springs one particle may have. A grid's particle has 12 and a mesh vertex about two to
+/// three times its valence; a hub with many more costs out of proportion: colouring the springs
+/// takes scratch of the particle count times this per 32, and XPBD sweeps once per colour, of
+/// which a particle's springs need as many as it has.
+pub const MAX_SPRINGS_PER_PARTICLE: usize = 256;
+
+/// Checks that no particle of `count` is an end of more than [`MAX_SPRINGS_PER_PARTICLE`] of the
+/// springs between `pairs`; the error names the first such particle.
+pub(super) fn check_spring_counts(
+    count: usize,
+    pairs: impl Iterator<Item = (u32, u32)>,
+) -> Result<(), crate::error::ClothError> {
+    let mut springs = vec![0u32; count];
+    for (a, b) in pairs {
+        for p in [a, b] {
+            let k = &mut springs[p as usize];
+            *k += 1;
+            if *k as usize > MAX_SPRINGS_PER_PARTICLE {
+                return crate::error::at_most(
+                    "springs at one particle",
+                    *k as usize,
+                    MAX_SPRINGS_PER_PARTICLE,
+                    || format!("MAX_SPRINGS_PER_PARTICLE; particle {p} has at least that many"),
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The springs of a cloth in structure-of-arrays form, ordered by colour: within one colour no two
 /// springs share a particle, so a colour can be solved in any order (or in parallel) with the same
 /// result.

@@ -3,7 +3,7 @@
 use glam::{DVec3, Vec3};
 
 use super::ClothModel;
-use crate::error::ClothError;
+use crate::error::{ClothError, particles_within};
 use crate::subdivision::{BoundaryMode, PolyMesh, Subdivider, SubdivisionError, VertexRule};
 
 /// A cloth model refined by Catmull-Clark subdivision before simulating
@@ -28,8 +28,10 @@ impl ClothModel {
     /// per-spring stiffness (the membrane stiffness of a spring grid does not depend on its
     /// spacing). Per-particle masses, if any, are interpolated with the subdivision stencils and
     /// scaled to keep their total; a uniform mass is left to the caller, who scales it by
-    /// [`SubdividedModel::mass_scale`]. UVs follow the refined surface. Errors: the subdivision
-    /// errors of [`control_mesh`](Self::control_mesh) and
+    /// [`SubdividedModel::mass_scale`]. UVs follow the refined surface. Errors:
+    /// [`ClothError::TooMany`] when the refined cloth would have more than
+    /// [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES) particles (counted before refining), the
+    /// subdivision errors of [`control_mesh`](Self::control_mesh) and
     /// [`Subdivider::new`](crate::subdivision::Subdivider::new) (a mesh that is not
     /// manifold and consistently oriented), and those of `from_mesh`.
     pub fn subdivided(
@@ -39,6 +41,14 @@ impl ClothModel {
         boundary: BoundaryMode,
     ) -> Result<SubdividedModel, ClothError> {
         let control = self.control_mesh()?;
+        // Counted from the control mesh before anything is refined.
+        let count = control.refined_vertex_count(level)?;
+        particles_within(count, || {
+            format!(
+                "subdivision level {level} refines the cloth's {} particles to that many",
+                self.particle_count()
+            )
+        })?;
         let sub = Subdivider::new(&control, level, rule, boundary)?;
         let n = sub.refined_vertex_count();
         let mut refined = vec![DVec3::ZERO; n];

@@ -42,6 +42,7 @@ use super::pairs::{
 };
 use super::vectors::Vectors;
 use crate::error::{ClothError, indices_in_range, non_negative, positive};
+use crate::sim::settings::MAX_THICKNESS_PER_EDGE;
 use joined::JoinedState;
 
 mod joined;
@@ -183,14 +184,15 @@ pub(crate) struct ClothContacts {
 impl ClothContacts {
     /// The broad phase of a step of `dt` seconds for a cloth of `thickness` and `friction` whose
     /// box at the start is `bounds`, whose particles move at most `reach` in the step, and whose
-    /// longest edge at rest is `max_edge`: copies the valid `others` in reach (see the module
-    /// docs).
+    /// longest and mean edges at rest are `max_edge` and `mean_edge` long: copies the valid
+    /// `others` in reach (see the module docs). The distance kept from each, the mean of the two
+    /// thicknesses, is at most [`MAX_THICKNESS_PER_EDGE`] times `mean_edge`.
     pub fn begin_step(
         &mut self,
         others: &[OtherCloth],
         (thickness, friction): (f32, f32),
         (bounds, reach): ((Vec3, Vec3), f32),
-        max_edge: f32,
+        (max_edge, mean_edge): (f32, f32),
         dt: f32,
     ) {
         self.start.clear();
@@ -207,8 +209,11 @@ impl ClothContacts {
             if other.validate().is_err() || other.triangles.is_empty() {
                 continue;
             }
+            // The distance kept is at most MAX_THICKNESS_PER_EDGE times this cloth's mean edge:
+            // the pairs a search meets grow with its square.
             let spacing = LayerSpacing {
-                thickness: 0.5 * (thickness + other.thickness),
+                thickness: (0.5 * (thickness + other.thickness))
+                    .min(MAX_THICKNESS_PER_EDGE * mean_edge),
                 friction: 0.5 * (friction + other.friction),
             };
             let (a0, a1) = super::bounds(other.start);

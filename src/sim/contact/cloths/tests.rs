@@ -35,7 +35,7 @@ fn under_a_copy(shift: Vec3, friction: f32, reach: f32) -> (ClothModel, ClothCon
         &[other],
         (0.005, friction),
         (bounds(lower), reach),
-        0.03,
+        (0.03, f32::INFINITY),
         1.0 / 60.0,
     );
     (model, contacts)
@@ -93,7 +93,13 @@ fn rest_on_a_copy(
             thickness: 0.005,
             friction: 0.0,
         };
-        contacts.begin_step(&[copy], (0.005, 0.0), (bounds(x), 0.002), 0.03, 1.0 / 60.0);
+        contacts.begin_step(
+            &[copy],
+            (0.005, 0.0),
+            (bounds(x), 0.002),
+            (0.03, f32::INFINITY),
+            1.0 / 60.0,
+        );
         for sub in 0..20 {
             let start = x.to_vec();
             for (x, v) in x.iter_mut().zip(&mut v) {
@@ -218,7 +224,7 @@ fn edges_of_two_cloths_are_kept_their_distance_apart() {
         }],
         (0.005, 0.0),
         (bounds(&start), 0.01),
-        3.0,
+        (3.0, f32::INFINITY),
         1.0 / 60.0,
     );
     let mut x = start.clone();
@@ -346,7 +352,7 @@ fn a_bad_other_cloth_is_a_typed_error() {
         &[out_of_range, short, not_finite],
         (0.005, 0.3),
         ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
-        0.1,
+        (0.1, f32::INFINITY),
         1.0 / 60.0,
     );
     assert!(!contacts.is_active());
@@ -354,7 +360,7 @@ fn a_bad_other_cloth_is_a_typed_error() {
         &[good],
         (0.005, 0.3),
         ((Vec3::splat(-1.0), Vec3::splat(1.0)), 1.0),
-        0.1,
+        (0.1, f32::INFINITY),
         1.0 / 60.0,
     );
     assert!(contacts.is_active());

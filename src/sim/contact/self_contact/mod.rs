@@ -68,6 +68,7 @@ use super::pairs::{
     edge_table, later_passes, map_four, max_or_infinite, pair_key, storage_order_changed,
 };
 use super::vectors::Vectors;
+use crate::error::ClothError;
 use cubes::{LastCheck, ParticleCubes};
 use grouped::ItemsByGroup;
 use patches::Patches;
@@ -79,6 +80,13 @@ mod patches;
 mod search;
 #[cfg(test)]
 mod tests;
+
+/// At most this many pairs of each kind (vertex–triangle, edge–edge) per triangle may lie within
+/// the thickness at rest, where they are exempt for good and stored. A flat grid has none up to
+/// 0.7 of its mean edge length and about 18 edge–edge pairs per triangle at
+/// [`MAX_THICKNESS_PER_EDGE`](crate::sim::MAX_THICKNESS_PER_EDGE) times it; more means a rest
+/// shape in layers closer than the thickness, whose pairs would grow without bound.
+pub(crate) const MAX_EXEMPT_PAIRS_PER_TRIANGLE: usize = 32;
 
 /// A cloth's self-contacts: its topology and exempt pairs (built once), this step's candidate
 /// pairs and the scratch of the broad phase. Nothing allocates once the candidate lists have
@@ -201,8 +209,15 @@ pub(crate) struct SelfContacts {
 
 impl SelfContacts {
     /// Self-contacts of a cloth with triangles `triangles` (three model particles each) whose
-    /// particles rest at `rest`, `thickness` apart with `friction` between layers.
-    pub fn new(triangles: &[u32], rest: &[Vec3], thickness: f32, friction: f32) -> Self {
+    /// particles rest at `rest`, `thickness` apart with `friction` between layers. Errors with
+    /// [`ClothError::TooMany`] when more than [`MAX_EXEMPT_PAIRS_PER_TRIANGLE`] pairs per
+    /// triangle of either kind lie within the thickness at rest (the search stops at one more).
+    pub fn new(
+        triangles: &[u32],
+        rest: &[Vec3],
+        thickness: f32,
+        friction: f32,
+    ) -> Result<Self, ClothError> {
         let tris: Vec<[u32; 3]> = triangles
             .chunks_exact(3)
             .map(|t| [t[0], t[1], t[2]])
@@ -266,16 +281,32 @@ impl SelfContacts {
             ..Self::default()
         };
         // The pairs within the thickness at rest are exactly the candidates of a broad phase on
-        // the rest positions with no motion.
-        contacts.find_candidates(rest, thickness, usize::MAX, NO_CULL);
+        // the rest positions with no motion; a full list stops the search.
+        let cap = MAX_EXEMPT_PAIRS_PER_TRIANGLE * contacts.tris.len();
+        contacts.find_candidates(rest, thickness, cap + 1, NO_CULL);
+        let found = contacts.vt.len().max(contacts.ee.len());
+        if found > cap {
+            return Err(ClothError::TooMany {
+                field: "pairs within self_collision.thickness at rest",
+                count: found as u64,
+                bound: cap as u64,
+                why: format!(
+                    "MAX_EXEMPT_PAIRS_PER_TRIANGLE = {MAX_EXEMPT_PAIRS_PER_TRIANGLE} of each kind \
+                     per triangle, at thickness {thickness} m: more of the rest shape lies \
+                     within the thickness of itself than of a flat cloth at the largest \
+                     thickness; lower the thickness"
+                ),
+            });
+        }
         contacts.exempt_vt = contacts.vt.iter().map(|&(p, t)| pair_key(p, t)).collect();
         contacts.exempt_ee = contacts.ee.iter().map(|&(e, f)| pair_key(e, f)).collect();
         contacts.exempt_vt.sort_unstable();
         contacts.exempt_ee.sort_unstable();
-        contacts.vt.clear();
-        contacts.ee.clear();
-        contacts.gap.clear();
-        contacts
+        // The steps' candidate lists grow to their own (capped) size; these may be larger.
+        contacts.vt = Vec::new();
+        contacts.ee = Vec::new();
+        contacts.gap = Vec::new();
+        Ok(contacts)
     }
 
     /// The thickness and friction these contacts were built with.

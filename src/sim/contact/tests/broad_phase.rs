@@ -30,7 +30,7 @@ fn the_broad_phase_skips_far_and_masked_colliders() {
         end: Pose::from_translation(Vec3::new(0.0, -0.055, 0.0)),
         ..below.clone()
     };
-    let mut c = Contacts::new(2, 0.1);
+    let mut c = Contacts::new(2, (0.1, 0.0));
     let cloth = [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0)];
     c.begin_step(
         &[near.clone(), far, masked, below, touching.clone()],
@@ -61,7 +61,7 @@ fn the_catch_up_resolves_dropped_colliders_a_particle_outran() {
         0.01,
     );
     let start = [Vec3::ZERO, Vec3::X];
-    let mut c = Contacts::new(2, 0.1);
+    let mut c = Contacts::new(2, (0.1, 0.0));
     c.begin_step(
         &[floor.clone(), far.clone()],
         (1, false),
@@ -142,8 +142,8 @@ fn a_particle_the_layers_push_into_a_collider_is_pushed_out_again() {
         v.y = -2.0;
     }
     let w = [1.0; 6];
-    let mut c = Contacts::new(6, 1.0);
-    c.set_self_contacts(Some(SelfContacts::new(&tris, &start, 0.005, 0.0)));
+    let mut c = Contacts::new(6, (1.0, 0.0));
+    c.set_self_contacts(Some(SelfContacts::new(&tris, &start, 0.005, 0.0).unwrap()));
     c.begin_step(&[floor], (u32::MAX, true), bounds(&start), 10.0, 0.01);
     c.begin_self_step(0.02);
     c.begin_substep(&start);

@@ -23,7 +23,7 @@ fn shapes() -> [ColliderShape; 4] {
 }
 
 fn active(collider: Collider, dt: f32, max_edge: f32) -> Contacts {
-    let mut contacts = Contacts::new(1, max_edge);
+    let mut contacts = Contacts::new(1, (max_edge, 0.0));
     contacts.begin_step(
         &[collider],
         (u32::MAX, true),

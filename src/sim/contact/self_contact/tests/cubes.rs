@@ -279,7 +279,7 @@ fn a_triangle_turning_beyond_the_cull_is_searched_again_though_the_cubes_allow_i
     // that turns its triangles further than the cull allowed for.
     let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
     let rest = &model.rest_positions;
-    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0).unwrap();
     let w = vec![1.0; rest.len()];
     let mut x = rest.clone();
     let mut v = vec![Vec3::ZERO; x.len()];

@@ -8,7 +8,7 @@ fn the_elements_of_patches_searched_together_lie_in_tight_cubes() {
     // searched together, the flat part beyond them is not.
     let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
     let rest = &model.rest_positions;
-    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0).unwrap();
     let mut x = folded(rest, 0.12, 0.01);
     let (start, w) = (x.clone(), vec![1.0; x.len()]);
     let mut v = vec![Vec3::ZERO; x.len()];
@@ -43,7 +43,7 @@ fn a_vertex_takes_the_least_value_of_the_patches_of_its_triangles() {
     // A 20×20 grid: its patches meet along their borders, where a vertex is a corner of
     // triangles of two to four patches.
     let model = ClothModel::grid(&GridSpec::new(20, 20, 0.03)).unwrap();
-    let c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     let h = |k: usize| unit_interval(mix64(k as u64));
     let value: Vec<f32> = (0..c.patches.len()).map(h).collect();
     let mut shared = 0;
@@ -64,7 +64,7 @@ fn elements_left_uncovered_are_at_least_the_clear_distance_apart() {
     // A 14×14 grid (3 cm) rippled along x: its patches' cones are within a wide cull, but
     // patches farther along the mesh are neither culled nor searched together.
     let model = ClothModel::grid(&GridSpec::new(14, 14, 0.03)).unwrap();
-    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     let x: Vec<Vec3> = (model.rest_positions.iter())
         .map(|p| *p + Vec3::new(0.0, 0.0, 0.03 * (p.x / 0.06).sin()))
         .collect();
@@ -117,11 +117,13 @@ fn elements_left_uncovered_are_at_least_the_clear_distance_apart() {
 #[test]
 fn neighbours_closer_than_the_thickness_at_rest_are_exempt() {
     let coarse = ClothModel::grid(&GridSpec::new(8, 8, 0.03)).unwrap();
-    let c = SelfContacts::new(&coarse.triangles, &coarse.rest_positions, 0.005, 0.0);
+    let c = SelfContacts::new(&coarse.triangles, &coarse.rest_positions, 0.005, 0.0).unwrap();
     assert_eq!(c.exempt_count(), 0);
-    // At 2 mm spacing a 5 mm thickness reaches the next ring of triangles and edges.
-    let fine = ClothModel::grid(&GridSpec::new(8, 8, 0.002)).unwrap();
-    let mut c = SelfContacts::new(&fine.triangles, &fine.rest_positions, 0.005, 0.0);
+    // At 4.5 mm spacing a 5 mm thickness (just within the mean edge length, the most a cloth
+    // takes) reaches the next ring of triangles and edges.
+    let fine = ClothModel::grid(&GridSpec::new(8, 8, 0.0045)).unwrap();
+    assert!(0.005 <= crate::sim::MAX_THICKNESS_PER_EDGE * fine.mean_edge_length());
+    let mut c = SelfContacts::new(&fine.triangles, &fine.rest_positions, 0.005, 0.0).unwrap();
     assert!(c.exempt_count() > 100, "{}", c.exempt_count());
     // So the flat cloth at rest has no candidate pairs and nothing moves.
     let start = fine.rest_positions.clone();
@@ -157,7 +159,7 @@ fn a_culled_patch_cannot_fold_while_its_vertices_stay_within_the_reach() {
     // A thin cloth, so that the reach is most of a triangle's altitude.
     let e = 1.0 / 63.0;
     let grid = ClothModel::grid(&GridSpec::new(8, 8, e)).unwrap();
-    let mut c = SelfContacts::new(&grid.triangles, &grid.rest_positions, 0.001, 0.0);
+    let mut c = SelfContacts::new(&grid.triangles, &grid.rest_positions, 0.001, 0.0).unwrap();
     c.reach = c.reach_cap;
     let flat = cull_angle(c.reach, c.altitude);
     assert!(flat > 0.0, "the thin cloth culls at {flat} rad");

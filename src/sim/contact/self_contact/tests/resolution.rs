@@ -15,7 +15,7 @@ fn falling_vertex(dip: f32) -> (SelfContacts, Vec<Vec3>, Vec<Vec3>) {
     ];
     let mut end = start.clone();
     end[3].y = -dip;
-    let contacts = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
+    let contacts = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0).unwrap();
     (contacts, start, end)
 }
 
@@ -35,7 +35,7 @@ fn a_resting_layer_is_resolved_every_few_substeps_and_sinks_at_most_the_slack() 
         .collect();
     let mut rest_apart = rest.clone();
     rest_apart[16..].iter_mut().for_each(|p| p.y = 1.0);
-    let mut contacts = SelfContacts::new(&tris, &rest_apart, thickness, 0.0);
+    let mut contacts = SelfContacts::new(&tris, &rest_apart, thickness, 0.0).unwrap();
     let mut x = rest.clone();
     x[16..].iter_mut().for_each(|p| p.y = thickness);
     let w: Vec<f32> = (0..x.len())
@@ -106,7 +106,7 @@ fn a_part_that_comes_from_far_away_is_found_and_kept_apart() {
         Vec3::new(2.3, 0.02, 2.0),
         Vec3::new(2.0, 0.02, 2.3),
     ];
-    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, 0.005, 0.0);
+    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, 0.005, 0.0).unwrap();
     let w = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
     let mut v = vec![Vec3::ZERO; 6];
     let mut slide = |c: &mut SelfContacts, x: &mut Vec<Vec3>, by: Vec3| {
@@ -146,7 +146,7 @@ fn a_push_within_a_pass_counts_toward_the_later_pairs() {
     // At rest the vertex is far away (so that neither pair is exempt).
     let mut rest = start.clone();
     rest[6].y = 1.0;
-    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &rest, 0.005, 0.0);
+    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &rest, 0.005, 0.0).unwrap();
     let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; start.len()]);
     let w = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
     // A reach wide enough for the tilted triangle to be a candidate.
@@ -194,7 +194,7 @@ fn edges_that_passed_through_each_other_are_put_back_apart() {
     let mut x = start.clone();
     x[3].y = -0.01;
     x[4].y = -0.01;
-    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
+    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0).unwrap();
     let mut v = vec![Vec3::ZERO; 6];
     let w = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0];
     resolve(&mut c, &start, &mut x, &mut v, &w);
@@ -223,7 +223,7 @@ fn edges_off_every_triangle_are_kept_their_distance_apart_on_their_side() {
         let mut x = start.clone();
         x[3].y = end;
         x[4].y = end;
-        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0);
+        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &start, 0.005, 0.0).unwrap();
         let mut v = vec![Vec3::ZERO; 6];
         let w = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0];
         resolve(&mut c, &start, &mut x, &mut v, &w);

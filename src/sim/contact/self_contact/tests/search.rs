@@ -8,7 +8,7 @@ fn the_broad_phase_finds_exactly_the_pairs_within_the_margin() {
     // pairs equal a brute-force search's (every pair sharing no vertex, closer than the
     // margin), each once.
     let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
-    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     let jitter = |i: usize, k: usize| ((i * 7919 + k * 104_729) % 1000) as f32 / 1000.0 - 0.5;
     let x: Vec<Vec3> = model
         .rest_positions
@@ -42,7 +42,7 @@ fn a_search_on_positions_that_are_not_finite_pairs_nothing() {
         .collect();
     x[5].x = f32::INFINITY;
     x[40].y = f32::NAN;
-    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     for loose in [false, true] {
         c.loose = loose;
         c.find_candidates(&x, 0.015, usize::MAX, Some((move |_| 1.0, 0.0)));
@@ -74,7 +74,7 @@ fn the_patch_pairs_find_what_the_hash_finds() {
             }
         })
         .collect();
-    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0).unwrap();
     assert!(!c.loose);
     let search = |c: &mut SelfContacts, x: &[Vec3], flat: f32, loose: bool| {
         c.loose = loose;
@@ -141,7 +141,7 @@ fn a_full_list_ends_its_search_with_the_first_candidates() {
     // margin. Capped, each list holds exactly the first candidates of the uncapped search,
     // and a full list of one kind does not cut the other short.
     let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
-    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     let x = crushed(model.rest_positions.len(), 0.004, 0);
     let (margin, flat) = (0.02, 0.5);
     c.find_candidates(&x, margin, usize::MAX, Some((move |_| flat, 0.0)));
@@ -173,7 +173,7 @@ fn a_full_list_is_searched_again_only_in_the_next_step() {
     // candidates are kept; the next step searches again.
     let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
     let n = model.rest_positions.len();
-    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     let w = vec![1.0; n];
     let mut x = crushed(n, 0.02, 0);
     let mut v = vec![Vec3::ZERO; n];
@@ -198,7 +198,7 @@ fn flat_patches_are_not_searched_and_a_fold_is() {
     // the flat layers are not searched against themselves, but every pair between the layers
     // within the margin is found.
     let model = ClothModel::grid(&GridSpec::new(16, 16, 0.03)).unwrap();
-    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, &model.rest_positions, 0.005, 0.0).unwrap();
     let margin = 0.025;
     let flat = 1.0;
     c.find_candidates(

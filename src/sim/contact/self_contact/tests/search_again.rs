@@ -9,7 +9,7 @@ fn a_skipped_check_never_lets_particles_come_closer_than_the_reach() {
     // little every substep, so the candidates must be found again now and then.
     let model = ClothModel::grid(&GridSpec::new(12, 12, 0.03)).unwrap();
     let rest = &model.rest_positions;
-    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0);
+    let mut c = SelfContacts::new(&model.triangles, rest, 0.005, 0.0).unwrap();
     let [a, b, d] = [0, 1, 12].map(|i| rest[i]);
     let normal = (b - a).cross(d - a).normalize();
     let at = |k: usize| -> Vec<Vec3> {
@@ -90,10 +90,11 @@ fn the_far_limit_holds_for_elements_with_particles_in_cubes_not_neighbouring() {
     let thickness = 0.001;
     // The cubes' size depends on the edges' lengths only.
     let size = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &place(0.1), thickness, 0.0)
+        .unwrap()
         .cubes
         .size;
     let x = place(size);
-    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, thickness, 0.0);
+    let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &x, thickness, 0.0).unwrap();
     assert!((c.cubes.size - size).abs() < 1e-6);
     let (mut moved, mut v, w) = (x.clone(), vec![Vec3::ZERO; 6], vec![1.0; 6]);
     resolve(&mut c, &x, &mut moved, &mut v, &w);
@@ -144,6 +145,7 @@ fn particles_in_blocks_not_neighbouring_search_again_past_the_wide_limit() {
         ]
     };
     let size = SelfContacts::new(&[0, 1, 2], &triangle(0.0), 0.001, 0.0)
+        .unwrap()
         .cubes
         .size;
     let place = |shift: f32| -> Vec<Vec3> {
@@ -156,7 +158,7 @@ fn particles_in_blocks_not_neighbouring_search_again_past_the_wide_limit() {
     // Searched where it starts, then slid over one substep (the first check after a search
     // takes the cubes' references from that substep, so only the slide counts).
     let slid = |by: f32| {
-        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &place(0.0), 0.001, 0.0);
+        let mut c = SelfContacts::new(&[0, 1, 2, 3, 4, 5], &place(0.0), 0.001, 0.0).unwrap();
         let (start, mut x, mut v) = (place(0.0), place(0.0), vec![Vec3::ZERO; 6]);
         resolve(&mut c, &start, &mut x, &mut v, &w);
         assert_eq!(c.searches(), 1);
@@ -178,7 +180,7 @@ fn a_mesh_of_uneven_edges_at_rest_searches_once() {
     use crate::sim::DiscSpec;
     let disc = ClothModel::disc(&DiscSpec::new(8, 12, 0.5)).unwrap();
     let x = disc.rest_positions.clone();
-    let mut c = SelfContacts::new(&disc.triangles, &x, 0.005, 0.0);
+    let mut c = SelfContacts::new(&disc.triangles, &x, 0.005, 0.0).unwrap();
     let w = vec![1.0; x.len()];
     for _ in 0..10 {
         let (mut moved, mut v) = (x.clone(), vec![Vec3::ZERO; x.len()]);
@@ -243,7 +245,7 @@ fn a_step_that_stores_the_particles_in_another_order_finds_its_pairs_again() {
     // but (3, triangle) can reach particle 3.
     let mut rest = start.clone();
     rest[4].y = 0.0;
-    let mut c = SelfContacts::new(&triangles, &rest, 0.005, 0.0);
+    let mut c = SelfContacts::new(&triangles, &rest, 0.005, 0.0).unwrap();
     let w = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
     let (mut x, mut v) = (start.clone(), vec![Vec3::ZERO; 7]);
     resolve_within(&mut c, 0.05, &start, &mut x, &mut v, &w);
