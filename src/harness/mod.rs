@@ -1,11 +1,12 @@
 //! The test and benchmark harness (feature `harness`; the crate's own tests, benchmarks and
 //! `cloth_cli` turn it on): a [`headless_app`] that steps one fixed step per update, the
-//! skinned [`character`] cape, the [`stress`] suite, the accuracy [`scenes`] and their f64
-//! [`reference`](mod@reference) solution, and state fingerprints for bit-for-bit regression
-//! checks ([`stress::state_hash`], [`scene_state_hash`]).
+//! skinned [`character`] cape, the ECS edit [`fuzz`]er, the [`stress`] suite, the accuracy
+//! [`scenes`] and their f64 [`reference`](mod@reference) solution, and state fingerprints for
+//! bit-for-bit regression checks ([`stress::state_hash`], [`scene_state_hash`]).
 //! None of it is needed to simulate cloth in a game.
 
 pub mod character;
+pub mod fuzz;
 pub mod reference;
 pub mod scenes;
 pub mod stress;

@@ -1,0 +1,252 @@
+//! The fuzzer's checks: a snapshot of every cloth before an operation, what must hold after
+//! each step (finite values, no failed step, running cloths still running from where they were)
+//! and after the last step before the next operation (rejections reported exactly where the
+//! model says the cloth is invalid).
+
+use bevy::asset::Assets;
+use bevy::ecs::prelude::*;
+use bevy::math::Vec3;
+use bevy::mesh::{Mesh, VertexAttributeValues};
+use bevy::transform::components::GlobalTransform;
+
+use super::FailureKind;
+use super::model::{Fixture, Validity};
+use crate::components::{ClothEditRejected, ClothInvalid, ClothState};
+use crate::error::ClothError;
+
+/// How far (m) a cloth's centre must have moved from its rest centre before the check for a
+/// reset to rest applies, and how close to the rest centre it must then come to count as reset.
+/// A cloth rebuilt from rest moves about a centimetre in three steps of free fall.
+const MOVED: f32 = 0.2;
+const BACK_AT_REST: f32 = 0.005;
+
+/// One cloth before an operation.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ClothBefore {
+    entity: Entity,
+    /// Its state, if it had one: steps taken, centre, and rest centre under its transform.
+    running: Option<(u64, Vec3, Vec3)>,
+    validity: Validity,
+}
+
+/// Every tracked cloth before an operation.
+#[derive(Debug, Clone)]
+pub(super) struct Snapshot(Vec<ClothBefore>);
+
+impl Snapshot {
+    /// Takes the snapshot.
+    pub(super) fn take(fx: &Fixture) -> Self {
+        let world = fx.app.world();
+        Self(
+            fx.cloths
+                .iter()
+                .map(|c| {
+                    let running = world.get::<ClothState>(c.entity).map(|s| {
+                        let transform = world
+                            .get::<GlobalTransform>(c.entity)
+                            .copied()
+                            .unwrap_or_default();
+                        let rest = mean(&s.sim().model().rest_positions);
+                        (
+                            s.steps(),
+                            mean(s.positions()),
+                            transform.transform_point(rest),
+                        )
+                    });
+                    ClothBefore {
+                        entity: c.entity,
+                        running,
+                        validity: c.validity(&fx.meshes),
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    fn get(&self, entity: Entity) -> Option<&ClothBefore> {
+        self.0.iter().find(|b| b.entity == entity)
+    }
+}
+
+fn mean(points: &[Vec3]) -> Vec3 {
+    points.iter().sum::<Vec3>() / points.len().max(1) as f32
+}
+
+/// Whether a cloth was stopped by its step rather than refused for its input.
+fn is_step_failure(e: &ClothError) -> bool {
+    matches!(
+        e.innermost(),
+        ClothError::Diverged { .. } | ClothError::Unstable { .. }
+    )
+}
+
+/// What must hold after update `step` (1-based) since the last operation: every state finite,
+/// no step failed, and every cloth that was running still running: with its state, and with its
+/// step count gone on by `step`, unless it is not invalid and has an edit of its topology
+/// pending (which it may have just been rebuilt for).
+pub(super) fn check_step(fx: &Fixture, before: &Snapshot, step: u32) -> Vec<(FailureKind, String)> {
+    let world = fx.app.world();
+    let meshes = world.resource::<Assets<Mesh>>();
+    let mut found = Vec::new();
+    for cloth in &fx.cloths {
+        let e = cloth.entity;
+        let state = world.get::<ClothState>(e);
+        let invalid = world.get::<ClothInvalid>(e);
+        if let Some(s) = state {
+            let bad = s
+                .positions()
+                .iter()
+                .chain(s.sim().velocities())
+                .position(|p| !p.is_finite());
+            if let Some(k) = bad {
+                found.push((
+                    FailureKind::NonFinite,
+                    format!(
+                        "cloth {e}: particle value {k} (positions, then velocities) is not finite"
+                    ),
+                ));
+            }
+            let mesh_bad = match meshes
+                .get(s.mesh())
+                .and_then(|m| m.attribute(Mesh::ATTRIBUTE_POSITION))
+            {
+                Some(VertexAttributeValues::Float32x3(p)) => {
+                    p.iter().flatten().any(|x| !x.is_finite())
+                }
+                _ => false,
+            };
+            if mesh_bad {
+                found.push((
+                    FailureKind::NonFinite,
+                    format!("cloth {e}: its mesh has a position that is not finite"),
+                ));
+            }
+        }
+        if let Some(ClothInvalid(error)) = invalid
+            && is_step_failure(error)
+        {
+            found.push((
+                FailureKind::StepFailure,
+                format!("cloth {e} was stopped: {error}"),
+            ));
+        }
+        let Some(&ClothBefore {
+            running: Some((steps, centre, rest_centre)),
+            ..
+        }) = before.get(e)
+        else {
+            continue;
+        };
+        let Some(s) = state else {
+            let why = invalid.map_or_else(
+                || "no ClothInvalid either".to_string(),
+                |i| format!("ClothInvalid: {}", i.0),
+            );
+            found.push((
+                FailureKind::Lost,
+                format!("running cloth {e} lost its ClothState ({why})"),
+            ));
+            continue;
+        };
+        let may_rebuild = cloth.topology_pending && cloth.validity(&fx.meshes) != Validity::Invalid;
+        if may_rebuild {
+            continue;
+        }
+        let expected = steps + step as u64;
+        if s.steps() != expected {
+            found.push((
+                FailureKind::Lost,
+                format!(
+                    "running cloth {e} is at step {} after {step} update(s), not {expected}: \
+                     rebuilt or stalled by an edit that kept its topology or was rejected",
+                    s.steps()
+                ),
+            ));
+        } else if centre.distance(rest_centre) > MOVED
+            && mean(s.positions()).distance(rest_centre) < BACK_AT_REST
+        {
+            found.push((
+                FailureKind::Lost,
+                format!("running cloth {e} was put back at rest"),
+            ));
+        }
+    }
+    found
+}
+
+/// After the last update before the next operation, compares each cloth's flags with its
+/// validity: a valid cloth runs without rejection; a cloth made invalid while running carries
+/// [`ClothEditRejected`] (and keeps running, which [`check_step`] checks); an invalid cloth
+/// that was not running carries [`ClothInvalid`] and no state. Returns the rejections expected,
+/// those reported, and the failures.
+pub(super) fn check_flags(
+    fx: &Fixture,
+    before: &Snapshot,
+) -> (usize, usize, Vec<(FailureKind, String)>) {
+    let world = fx.app.world();
+    let (mut expected, mut reported, mut found) = (0, 0, Vec::new());
+    for cloth in &fx.cloths {
+        let e = cloth.entity;
+        let was = before.get(e);
+        let running = was.is_some_and(|b| b.running.is_some());
+        let newly_invalid = was.is_none_or(|b| b.validity != Validity::Invalid);
+        let has_state = world.get::<ClothState>(e).is_some();
+        let invalid = world.get::<ClothInvalid>(e).map(|i| &i.0);
+        let rejected = world.get::<ClothEditRejected>(e).map(|r| &r.0);
+        match cloth.validity(&fx.meshes) {
+            Validity::Valid => {
+                let problem = match (has_state, invalid, rejected) {
+                    (_, Some(error), _) => Some(format!("carries ClothInvalid: {error}")),
+                    (false, None, _) => Some("was not built".to_string()),
+                    (true, None, Some(error)) => {
+                        Some(format!("still carries ClothEditRejected: {error}"))
+                    }
+                    (true, None, None) => None,
+                };
+                if let Some(problem) = problem {
+                    found.push((
+                        FailureKind::SpuriousRejection,
+                        format!("cloth {e}, whose components are all valid, {problem}"),
+                    ));
+                }
+            }
+            Validity::Invalid if running => {
+                if newly_invalid {
+                    expected += 1;
+                    match (has_state, rejected) {
+                        (true, Some(_)) => reported += 1,
+                        // Lost: `check_step` said so.
+                        (false, _) => {}
+                        (true, None) => found.push((
+                            FailureKind::Unreported,
+                            format!(
+                                "running cloth {e} was made invalid but carries no \
+                                 ClothEditRejected"
+                            ),
+                        )),
+                    }
+                }
+            }
+            Validity::Invalid => {
+                if newly_invalid {
+                    expected += 1;
+                }
+                let problem = match (has_state, invalid) {
+                    (true, _) => Some("was built"),
+                    (false, None) => Some("carries no ClothInvalid"),
+                    (false, Some(_)) => None,
+                };
+                match problem {
+                    Some(problem) => found.push((
+                        FailureKind::Unreported,
+                        format!("cloth {e}, which is invalid and was not running, {problem}"),
+                    )),
+                    None if newly_invalid => reported += 1,
+                    None => {}
+                }
+            }
+            Validity::Unknown => {}
+        }
+    }
+    (expected, reported, found)
+}
