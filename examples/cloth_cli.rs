@@ -8,6 +8,7 @@
 //! cargo run --release --example cloth_cli -- analysis
 //! cargo run --release --example cloth_cli -- work-precision --quick
 //! cargo run --release --example cloth_cli -- stress --cases 10000 --seed 1
+//! cargo run --example cloth_cli -- fuzz --seed 1 --sequences 300
 //! cargo run --release --example cloth_cli -- state-hashes --cases 500 > hashes.txt
 //! ```
 
@@ -25,6 +26,8 @@ use clap::{Parser, Subcommand};
 mod bench;
 #[path = "cloth_cli/benchmarks.rs"]
 mod benchmarks;
+#[path = "cloth_cli/fuzz.rs"]
+mod fuzz;
 #[path = "cloth_cli/machine.rs"]
 mod machine;
 #[path = "cloth_cli/plot.rs"]
@@ -127,6 +130,29 @@ enum Command {
         /// default, one with `--trace`.
         #[arg(long)]
         threads: Option<usize>,
+    },
+    /// The ECS edit fuzzer: seeded random sequences of spawns, despawns, valid and invalid
+    /// component edits, source mesh swaps and anchor, joint, collider, wind (and avian body)
+    /// changes on cloths of every kind, checked after every step (no panic, finite values, running
+    /// cloths kept running, every rejection reported). Prints the report; exits with an error if a
+    /// check failed.
+    Fuzz {
+        /// Seed (sequence i of seed s is always the same); a fresh one from the clock by default,
+        /// printed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Number of sequences.
+        #[arg(long, default_value_t = 300)]
+        sequences: usize,
+        /// Rerun only this sequence, printing every operation and step.
+        #[arg(long)]
+        sequence: Option<usize>,
+        /// Most operations per sequence.
+        #[arg(long, default_value_t = 20)]
+        operations: usize,
+        /// Valid cloth components and meshes only (checks accepted edits without rejections).
+        #[arg(long)]
+        valid_only: bool,
     },
     /// Bit-for-bit fingerprints: one line per preset scene (assets/scenes, run through the
     /// plugin) and per stress case of every integrator, with the hash of its final positions and
@@ -393,6 +419,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             frames,
             seed,
         } => state_hashes(cases, frames, seed)?,
+        Command::Fuzz {
+            seed,
+            sequences,
+            sequence,
+            operations,
+            valid_only,
+        } => {
+            let args = fuzz::Args {
+                seed,
+                sequences,
+                sequence,
+                operations,
+                valid_only,
+            };
+            if !fuzz::run(&args) {
+                return Err("fuzz checks failed (listed above)".into());
+            }
+        }
         Command::Benchmarks {
             scenes,
             frames,
