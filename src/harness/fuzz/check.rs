@@ -250,3 +250,109 @@ pub(super) fn check_flags(
     }
     (expected, reported, found)
 }
+
+#[cfg(test)]
+mod tests {
+    use bevy::mesh::Mesh;
+
+    use super::*;
+    use crate::harness::fuzz::Rng;
+
+    /// A fuzz fixture of valid cloths, all running, stepped once after `before` was taken.
+    fn stepped() -> (Fixture, Snapshot) {
+        let mut fx = Fixture::new(false, false, &mut Rng(5));
+        fx.app.update();
+        let before = Snapshot::take(&fx);
+        assert!(before.0.iter().all(|b| b.running.is_some()));
+        fx.app.update();
+        (fx, before)
+    }
+
+    fn kinds(found: &[(FailureKind, String)]) -> Vec<FailureKind> {
+        found.iter().map(|f| f.0).collect()
+    }
+
+    #[test]
+    fn running_valid_cloths_pass_every_check() {
+        let (fx, before) = stepped();
+        assert_eq!(check_step(&fx, &before, 1), vec![]);
+        assert_eq!(check_flags(&fx, &before), (0, 0, vec![]));
+    }
+
+    #[test]
+    fn a_non_finite_mesh_position_is_found() {
+        let (mut fx, before) = stepped();
+        let e = fx.cloths[0].entity;
+        let handle = fx.app.world().get::<ClothState>(e).unwrap().mesh().clone();
+        let mut meshes = fx.app.world_mut().resource_mut::<Assets<Mesh>>();
+        if let Some(VertexAttributeValues::Float32x3(p)) = meshes
+            .get_mut(&handle)
+            .unwrap()
+            .attribute_mut(Mesh::ATTRIBUTE_POSITION)
+        {
+            p[1][0] = f32::NAN;
+        }
+        assert_eq!(
+            kinds(&check_step(&fx, &before, 1)),
+            [FailureKind::NonFinite]
+        );
+    }
+
+    #[test]
+    fn a_stopped_step_a_lost_state_and_a_stalled_count_are_found() {
+        let (mut fx, before) = stepped();
+        // Checked as if two updates had run: every cloth is one step short.
+        let stalled = check_step(&fx, &before, 2);
+        assert_eq!(stalled.len(), fx.cloths.len(), "{stalled:?}");
+        assert!(stalled.iter().all(|f| f.0 == FailureKind::Lost));
+        let e = fx.cloths[0].entity;
+        let diverged = ClothError::Diverged {
+            step: 1,
+            particle: 0,
+            dt: 0.1,
+            substeps: 1,
+        };
+        let mut cloth = fx.app.world_mut().entity_mut(e);
+        cloth.remove::<ClothState>().insert(ClothInvalid(diverged));
+        assert_eq!(
+            kinds(&check_step(&fx, &before, 1)),
+            [FailureKind::StepFailure, FailureKind::Lost]
+        );
+        // A cloth whose topology edit is pending may be rebuilt, but not lose its state.
+        fx.cloths[1].topology_pending = true;
+        let found = check_step(&fx, &before, 2);
+        let pending = fx.cloths[1].entity.to_string();
+        assert!(found.iter().all(|f| !f.1.contains(&pending)), "{found:?}");
+        fx.app
+            .world_mut()
+            .entity_mut(fx.cloths[1].entity)
+            .remove::<ClothState>();
+        let found = check_step(&fx, &before, 2);
+        assert!(found.iter().any(|f| f.1.contains(&pending)), "{found:?}");
+    }
+
+    #[test]
+    fn rejections_must_be_reported_and_only_rejections() {
+        let (mut fx, before) = stepped();
+        // The model says the first cloth was made invalid; the world shows no rejection.
+        fx.cloths[0].config_ok = false;
+        let (expected, reported, found) = check_flags(&fx, &before);
+        assert_eq!((expected, reported), (1, 0));
+        assert_eq!(kinds(&found), [FailureKind::Unreported]);
+        let e = fx.cloths[0].entity;
+        let error = ClothError::PinOutOfRange { index: 9, count: 4 };
+        let rejected = ClothEditRejected(error.clone());
+        fx.app.world_mut().entity_mut(e).insert(rejected.clone());
+        assert_eq!(check_flags(&fx, &before), (1, 1, vec![]));
+        // A valid cloth must carry no rejection.
+        fx.cloths[0].config_ok = true;
+        let (_, _, found) = check_flags(&fx, &before);
+        assert_eq!(kinds(&found), [FailureKind::SpuriousRejection]);
+        let mut cloth = fx.app.world_mut().entity_mut(e);
+        cloth
+            .remove::<ClothEditRejected>()
+            .insert(ClothInvalid(error));
+        let (_, _, found) = check_flags(&fx, &before);
+        assert_eq!(kinds(&found), [FailureKind::SpuriousRejection]);
+    }
+}
