@@ -374,22 +374,26 @@ fn bad_cloth_is_reported_and_skipped_while_others_run() {
     assert!(err.to_string().contains("99"), "{err}");
     assert!(app.world().get::<ClothState>(bad).is_none());
 
-    // An invalid edit stops a running cloth; fixing it restarts the cloth.
+    // An invalid edit of a running cloth is rejected and reported; the cloth runs on, and fixing
+    // the edit clears the report.
+    let before = state(&app, good).steps();
     app.world_mut()
         .get_mut::<ClothConfig>(good)
         .unwrap()
         .solver
         .substeps = 0;
     run(&mut app, 1);
-    assert!(app.world().get::<ClothInvalid>(good).is_some());
+    assert!(app.world().get::<ClothInvalid>(good).is_none());
+    let err = &app.world().get::<ClothEditRejected>(good).unwrap().0;
+    assert!(err.to_string().contains("substeps"), "{err}");
     app.world_mut()
         .get_mut::<ClothConfig>(good)
         .unwrap()
         .solver
         .substeps = 10;
     run(&mut app, 3);
-    assert!(app.world().get::<ClothInvalid>(good).is_none());
-    assert!(state(&app, good).steps() > 0);
+    assert!(app.world().get::<ClothEditRejected>(good).is_none());
+    assert_eq!(state(&app, good).steps(), before + 4);
 }
 
 #[test]
@@ -479,7 +483,7 @@ fn subdivided_cloth_renders_the_refined_surface_and_changes_level_live() {
     run(&mut app, 1);
     let err = &app
         .world()
-        .get::<ClothInvalid>(e)
+        .get::<ClothEditRejected>(e)
         .expect("level 9 is rejected")
         .0;
     assert!(err.to_string().contains("subdivision.level"), "{err}");
@@ -575,7 +579,11 @@ fn a_cloth_simulated_at_a_subdivided_resolution_keeps_its_pins_mass_and_shape() 
         .unwrap()
         .pin(n * n, PinAnchor::Rest);
     run(&mut app, 1);
-    let err = &app.world().get::<ClothInvalid>(refined).expect("bad pin").0;
+    let err = &app
+        .world()
+        .get::<ClothEditRejected>(refined)
+        .expect("bad pin")
+        .0;
     assert!(
         err.to_string()
             .contains(&format!("has {} particles", n * n)),

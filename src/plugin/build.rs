@@ -82,6 +82,10 @@ pub(super) fn build_cloths(
     mut meshes: ResMut<Assets<Mesh>>,
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
     bindposes: Res<Assets<SkinnedMeshInverseBindposes>>,
+    (mut removed_subdivisions, mut removed_targets): (
+        RemovedComponents<ClothSubdivision>,
+        RemovedComponents<ClothTargets>,
+    ),
     mut cloths: Query<BuildQuery>,
     globals: Query<&'static GlobalTransform>,
 ) {
@@ -93,6 +97,12 @@ pub(super) fn build_cloths(
             AssetEvent::Modified { id } => Some(*id),
             _ => None,
         })
+        .collect();
+    // A cloth whose last edit was rejected is built again from what it has at its next edit (a
+    // removal included), which is accepted or rejected as a whole.
+    let removed: HashSet<Entity> = removed_subdivisions
+        .read()
+        .chain(removed_targets.read())
         .collect();
     for (
         entity,
@@ -132,6 +142,7 @@ pub(super) fn build_cloths(
                 source_changed
                     || awaiting
                     || targets_changed
+                    || rejected.is_some() && (edited || removed.contains(&entity))
                     || subdivision_changed
                         && (state.particle_map.is_some()
                             || subdivision.as_deref().is_some_and(refines_sim))

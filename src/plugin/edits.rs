@@ -9,13 +9,34 @@ use bevy::math::Vec3;
 use bevy::transform::components::GlobalTransform;
 
 use crate::components::{
-    ClothConfig, ClothEditRejected, ClothInvalid, ClothPin, ClothPins, ClothState,
+    Cloth, ClothConfig, ClothEditRejected, ClothInvalid, ClothPin, ClothPins, ClothState,
 };
 use crate::error::{ClothError, finite_vec3};
 use crate::sim::SolverSettings;
 
+type Incomplete = (Entity, Has<ClothConfig>, Has<ClothPins>);
+type IncompleteFilter = (With<Cloth>, Or<(Without<ClothConfig>, Without<ClothPins>)>);
+
+/// Gives a cloth whose [`ClothConfig`] or [`ClothPins`] was removed the default one (default
+/// settings, no pins), applied as an edit: a cloth always has both.
+pub(super) fn restore_required(
+    mut commands: Commands,
+    cloths: Query<Incomplete, IncompleteFilter>,
+) {
+    for (entity, config, pins) in &cloths {
+        let mut entity = commands.entity(entity);
+        if !config {
+            entity.insert(ClothConfig::default());
+        }
+        if !pins {
+            entity.insert(ClothPins::default());
+        }
+    }
+}
+
 /// Applies edited [`ClothConfig`]s and [`ClothPins`] to running cloths before they step. An edit
-/// that fails leaves the cloth running unchanged and is reported ([`report_edit`]).
+/// that fails leaves the cloth running unchanged and is reported ([`report_edit`]); the next
+/// edit of such a cloth rebuilds it from all its components.
 #[allow(clippy::type_complexity)]
 pub(super) fn apply_edits(
     mut commands: Commands,
@@ -32,7 +53,12 @@ pub(super) fn apply_edits(
     >,
 ) {
     for (entity, config, pins, transform, mut state, rejected) in &mut cloths {
-        if state.failure.is_some() || !(config.is_changed() || pins.is_changed()) {
+        // A cloth whose last edit was rejected runs what its components no longer say: it is
+        // built again from all of them, as a whole (in `Build`).
+        if state.failure.is_some()
+            || rejected.is_some()
+            || !(config.is_changed() || pins.is_changed())
+        {
             continue;
         }
         let config = config.is_changed().then_some(&*config);

@@ -29,7 +29,7 @@ mod poses;
 mod step;
 
 use build::{adopt_skins, build_cloths};
-use edits::apply_edits;
+use edits::{apply_edits, restore_required};
 use inputs::{WindSnapshot, colliders_present, gather_wind, wind_present};
 use mesh::{SteppedInFixedUpdate, update_render_buffers, write_meshes};
 use pin_targets::resolve_pin_targets;
@@ -196,6 +196,7 @@ impl Plugin for ClothPlugin {
                 self.schedule,
                 (
                     (
+                        restore_required,
                         apply_edits,
                         resolve_pin_targets,
                         gather_colliders.run_if(colliders_present),
@@ -213,7 +214,7 @@ impl Plugin for ClothPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    (adopt_skins, build_cloths)
+                    (adopt_skins, restore_required, build_cloths)
                         .chain()
                         .in_set(ClothSystems::Build),
                     write_meshes

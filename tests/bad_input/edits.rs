@@ -253,3 +253,32 @@ fn a_replaced_source_mesh_rebuilds_the_cloth_and_a_bad_one_is_rejected() {
     assert_eq!(sim(&app, cloth).model().particle_count(), 8);
     assert_eq!(state(&app, cloth).steps(), steps + 2);
 }
+
+#[test]
+fn a_removed_config_or_pin_set_is_replaced_by_the_default_and_the_cloth_runs_on() {
+    let mut app = app();
+    let mut config = ClothConfig::default();
+    config.solver.particle_mass = 0.002;
+    let cloth = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(GridSpec::new(8, 8, 0.05)),
+            ClothPins::new([0, 7]),
+            config,
+        ),
+    );
+    run(&mut app, 5);
+    let steps = state(&app, cloth).steps();
+    app.world_mut().entity_mut(cloth).remove::<ClothPins>();
+    run(&mut app, 1);
+    assert_eq!(
+        app.world().get::<ClothPins>(cloth),
+        Some(&ClothPins::default())
+    );
+    assert_eq!(sim(&app, cloth).pinned().count(), 0, "released");
+    app.world_mut().entity_mut(cloth).remove::<ClothConfig>();
+    run(&mut app, 1);
+    assert!(app.world().get::<ClothConfig>(cloth).is_some());
+    assert_eq!(sim(&app, cloth).settings().particle_mass, 0.001);
+    assert_eq!(state(&app, cloth).steps(), steps + 2, "it never stopped");
+}
