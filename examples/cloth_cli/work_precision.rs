@@ -20,6 +20,10 @@ use bevy_cloth::harness::scenes::{AccuracyScene, relative_max_error, relative_rm
 use bevy_cloth::sim::{Accuracy, Integrator, MAX_SUBSTEPS, SolverSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
+#[path = "work_precision/report.rs"]
+mod report;
+use report::*;
+
 /// One timed run of one configuration on one scene.
 #[derive(Debug, Clone)]
 pub struct Measurement {
@@ -339,108 +343,6 @@ fn goal_check(runs: &[Measurement], default_integrator: Integrator) -> GoalCheck
         worst_ratio_with_slack: worst_with_slack,
         uncovered_budgets: uncovered,
     }
-}
-
-fn fmt_error(m: &Measurement) -> String {
-    match (&m.error, &m.max_error, &m.failure) {
-        (Some(e), Some(max), _) => format!("{e:.2e} | {max:.2e}"),
-        (_, _, Some(f)) => format!("**unstable** ({f}) | –"),
-        _ => "? | ?".into(),
-    }
-}
-
-/// One scene's reference at one horizon: its checks and cost.
-struct ReferenceInfo {
-    scene: AccuracyScene,
-    /// Relative RMS difference to the reference at a tenth of the tolerance.
-    against_tighter: f64,
-    /// Relative largest difference to the reference started 1e-7 of the spacing away.
-    sensitivity: f64,
-    /// Relative largest difference between two f32 runs of Verlet, at its stability bound and at
-    /// twice as many substeps: both err far less than this by truncation, so it is the
-    /// positions' round-off, amplified by the scene.
-    rounding: f64,
-    steps: u64,
-    rejected: u64,
-    seconds: f64,
-}
-
-/// The tolerance check of one tolerance-mode run against the fixed runs of the same sweep.
-struct ToleranceCheck<'a> {
-    run: &'a Measurement,
-    /// The cheapest fixed run whose largest error is at most this run's.
-    same_error: Option<&'a Measurement>,
-    /// The cheapest fixed run whose largest error is within what the tolerance allows.
-    within: Option<&'a Measurement>,
-    /// The error no run can be held to: the larger of the reference's sensitivity and the f32
-    /// simulation's own (see [`ReferenceInfo`]).
-    floor: f64,
-}
-
-impl<'a> ToleranceCheck<'a> {
-    fn new(run: &'a Measurement, runs: &'a [Measurement], floor: f64) -> Self {
-        let fixed = || {
-            runs.iter()
-                .filter(|m| m.tolerance.is_none() && m.max_error.is_some())
-        };
-        let cheapest = |limit: f64| {
-            fixed()
-                .filter(|m| m.max_error.is_some_and(|e| e <= limit))
-                .min_by(|a, b| a.ms_per_frame.total_cmp(&b.ms_per_frame))
-        };
-        Self {
-            run,
-            same_error: run.max_error.and_then(cheapest),
-            within: run.tolerance.and_then(|t| cheapest(allowed(t))),
-            floor,
-        }
-    }
-
-    /// Whether the tolerance can be met at all on this scene and horizon.
-    fn reachable(&self) -> bool {
-        self.run.tolerance.is_some_and(|t| allowed(t) >= self.floor)
-    }
-
-    /// Whether the run met what its tolerance allows.
-    fn met(&self) -> bool {
-        match (self.run.tolerance, self.run.max_error) {
-            (Some(t), Some(e)) => e <= allowed(t),
-            _ => false,
-        }
-    }
-
-    /// Time of the run over that of a fixed run.
-    fn ratio(&self, other: Option<&Measurement>) -> Option<f64> {
-        other.map(|o| self.run.ms_per_frame / o.ms_per_frame)
-    }
-}
-
-fn describe(m: &Measurement) -> String {
-    match m.tolerance {
-        Some(t) => format!("tolerance {t:.0e}"),
-        None if m.integrator == Integrator::Auto => format!("auto ({})", m.method.name()),
-        None => m.integrator.name().to_string(),
-    }
-}
-
-fn fmt_run(m: Option<&Measurement>) -> String {
-    m.map_or("none".into(), |m| {
-        format!(
-            "{:.4} ({} × {}{})",
-            m.ms_per_frame,
-            describe(m),
-            m.substeps,
-            if m.method.is_explicit() {
-                String::new()
-            } else {
-                format!(", {} it.", m.iterations)
-            }
-        )
-    })
-}
-
-fn fmt_ratio(r: Option<f64>) -> String {
-    r.map_or("–".into(), |r| format!("{r:.2}"))
 }
 
 /// Runs the benchmark and writes `work-precision.md`, `work-precision.json` and a plot per horizon
