@@ -260,7 +260,7 @@ mod tests {
 
     /// A fuzz fixture of valid cloths, all running, stepped once after `before` was taken.
     fn stepped() -> (Fixture, Snapshot) {
-        let mut fx = Fixture::new(false, false, &mut Rng(5));
+        let mut fx = crate::harness::fuzz::ops::new_fixture(false, false, &mut Rng(5));
         fx.app.update();
         let before = Snapshot::take(&fx);
         assert!(before.0.iter().all(|b| b.running.is_some()));

@@ -30,7 +30,6 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, Once};
 
 use check::{Snapshot, check_flags, check_step};
-use model::Fixture;
 
 /// How sequences are drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -400,7 +399,7 @@ fn run_sequence(
 ) {
     let mut rng = Rng(sequence_seed(seed, index));
     let avian = options.avian && cfg!(feature = "avian") && index % 2 == 1;
-    let mut fixture = Fixture::new(avian, options.invalid_edits, &mut rng);
+    let mut fixture = ops::new_fixture(avian, options.invalid_edits, &mut rng);
     let max = options.max_operations.max(1);
     let operations = max.div_ceil(2) + rng.below(max as u64 / 2 + 1) as usize;
     trace(&format!(

@@ -7,7 +7,6 @@ use bevy::asset::{Assets, Handle, RenderAssetUsages};
 use bevy::ecs::prelude::*;
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 
-use super::Rng;
 use crate::components::{ClothState, MAX_CLOTH_SUBDIVISION_LEVEL};
 use crate::harness::character::Cape;
 
@@ -191,12 +190,12 @@ pub(super) struct Fixture {
 }
 
 impl Fixture {
-    /// A fresh headless app (with avian's physics when `avian`) and two or three cloths;
+    /// A fresh headless app (with avian's physics when `avian`) and no cloths yet;
     /// `invalid`: whether operations may draw invalid cloth components and meshes.
-    pub(super) fn new(avian: bool, invalid: bool, rng: &mut Rng) -> Self {
+    pub(super) fn empty(avian: bool, invalid: bool) -> Self {
         let mut app = new_app(avian);
         crate::harness::use_single_threaded_frame(&mut app);
-        let mut fixture = Self {
+        Self {
             app,
             avian,
             invalid,
@@ -208,12 +207,7 @@ impl Fixture {
             zones: Vec::new(),
             bodies: Vec::new(),
             walk: 0.0,
-        };
-        for _ in 0..2 + rng.below(2) {
-            super::ops::spawn_cloth(&mut fixture, rng, false);
         }
-        fixture.app.update();
-        fixture
     }
 
     /// A line on every cloth: steps, or why it is not running.

@@ -129,6 +129,16 @@ enum Group {
     Body,
 }
 
+/// A fresh fixture (see [`Fixture::empty`]) with two or three valid cloths, updated once.
+pub(super) fn new_fixture(avian: bool, invalid: bool, rng: &mut Rng) -> Fixture {
+    let mut fixture = Fixture::empty(avian, invalid);
+    for _ in 0..2 + rng.below(2) {
+        spawn_cloth(&mut fixture, rng, false);
+    }
+    fixture.app.update();
+    fixture
+}
+
 /// Spawns a grid, mesh or character cloth somewhere above the origin, some with pins, a config,
 /// targets or subdivision; with `bad`, sometimes one that cannot be built.
 pub(super) fn spawn_cloth(fx: &mut Fixture, rng: &mut Rng, bad: bool) -> Applied {
