@@ -98,8 +98,8 @@ pub(super) fn build_cloths(
             _ => None,
         })
         .collect();
-    // A cloth whose last edit was rejected is built again from what it has at its next edit (a
-    // removal included), which is accepted or rejected as a whole.
+    // A cloth whose last edit was rejected, or that could not be built, is built again from
+    // what it has at its next edit (a removal included), which is accepted or rejected whole.
     let removed: HashSet<Entity> = removed_subdivisions
         .read()
         .chain(removed_targets.read())
@@ -147,7 +147,7 @@ pub(super) fn build_cloths(
                         && (state.particle_map.is_some()
                             || subdivision.as_deref().is_some_and(refines_sim))
             }
-            None => !invalid || edited,
+            None => !invalid || edited || removed.contains(&entity),
         };
         let subdivision = subdivision.as_deref();
         let mut inputs = BuildInputs {

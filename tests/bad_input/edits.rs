@@ -282,3 +282,48 @@ fn a_removed_config_or_pin_set_is_replaced_by_the_default_and_the_cloth_runs_on(
     assert_eq!(sim(&app, cloth).settings().particle_mass, 0.001);
     assert_eq!(state(&app, cloth).steps(), steps + 2, "it never stopped");
 }
+
+#[test]
+fn a_cloth_refused_at_spawn_is_built_once_its_bad_targets_or_subdivision_are_removed() {
+    let mut app = app();
+    let nan = (0..64)
+        .map(|i| if i == 3 { f32::NAN } else { 0.5 })
+        .collect();
+    let targeted = app
+        .world_mut()
+        .spawn((
+            Cloth::grid(GridSpec::new(8, 8, 0.05)),
+            ClothTargets {
+                weights: TargetWeights::Values(nan),
+            },
+        ))
+        .id();
+    let subdivided = app
+        .world_mut()
+        .spawn((
+            Cloth::grid(GridSpec::new(8, 8, 0.05)),
+            ClothSubdivision {
+                level: bevy_cloth::components::MAX_CLOTH_SUBDIVISION_LEVEL + 1,
+                ..Default::default()
+            },
+        ))
+        .id();
+    run(&mut app, 2);
+    for e in [targeted, subdivided] {
+        assert!(app.world().get::<ClothInvalid>(e).is_some());
+    }
+    app.world_mut()
+        .entity_mut(targeted)
+        .remove::<ClothTargets>();
+    app.world_mut()
+        .entity_mut(subdivided)
+        .remove::<ClothSubdivision>();
+    run(&mut app, 2);
+    for e in [targeted, subdivided] {
+        assert!(
+            app.world().get::<ClothInvalid>(e).is_none(),
+            "{e} still invalid"
+        );
+        assert!(state(&app, e).steps() > 0, "{e} not stepping");
+    }
+}
