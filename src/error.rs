@@ -182,6 +182,13 @@ pub enum ClothError {
         /// Every face that uses the edge, in index order.
         faces: Vec<usize>,
     },
+    /// A cloth that must be a closed surface (one with [`Pressure`](crate::sim::Pressure)) is
+    /// not one: see [`ClothModel::check_closed`](crate::sim::ClothModel::check_closed).
+    #[error("the cloth is not a closed surface wound outward: {what}")]
+    NotClosed {
+        /// What is wrong and where, e.g. `"edge (3, 7) borders only triangle 12: …"`.
+        what: String,
+    },
     /// The simulation produced a non-finite value; the cloth is stopped instead of spreading NaN.
     #[error(
         "simulation diverged at step {step}: particle {particle} became non-finite \

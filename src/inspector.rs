@@ -148,6 +148,9 @@ fn inspector_window(
                             if let Some(r) = state.sim().accuracy_report() {
                                 ui.label(accuracy_line(&r));
                             }
+                            if let Some(line) = air_line(state.sim()) {
+                                ui.label(line);
+                            }
                         }
                         let mut c = *config;
                         config_ui(ui, &mut c);
@@ -193,6 +196,20 @@ fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f64) {
 }
 
 /// What tolerance mode chose and how its estimate compares with the tolerance.
+/// A closed cloth's volume against its built volume, and the pressure of its air (when on).
+fn air_line(sim: &crate::sim::ClothSim) -> Option<String> {
+    let (volume, built) = (sim.volume()?, sim.built_volume()?);
+    let mut line = format!(
+        "volume {:.4} m³ ({:+.2}% of built)",
+        volume,
+        100.0 * (volume / built - 1.0)
+    );
+    if let Some(p) = sim.pressure() {
+        line += &format!(", pressure {p:+.0} Pa above outside");
+    }
+    Some(line)
+}
+
 fn accuracy_line(r: &AccuracyReport) -> String {
     format!(
         "tolerance mode: {} × {} substeps, estimate {:.1e} m/s of {:.1e}{}{}",

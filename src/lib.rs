@@ -68,8 +68,9 @@ pub mod prelude {
     pub use crate::error::ClothError;
     pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{
-        ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia, Integrator,
-        SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers, WindZoneShape,
+        ClothModel, ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia,
+        Integrator, Pressure, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers,
+        WindZoneShape,
     };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
 }

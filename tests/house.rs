@@ -87,7 +87,7 @@ fn final_states_match_the_recorded_hashes() {
 }
 
 /// The top-level modules of `src/sim`, bottom up: each may use only those before it.
-const LAYERS: [&str; 12] = [
+const LAYERS: [&str; 13] = [
     "soa",
     "simd",
     "runs",
@@ -95,6 +95,7 @@ const LAYERS: [&str; 12] = [
     "settings",
     "forces",
     "state",
+    "pressure",
     "contact",
     "aero",
     "wind",

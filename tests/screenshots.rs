@@ -297,6 +297,7 @@ fn every_simulated_example_moves_its_cloth() {
         "character",
         "avian_playground",
         "laundry",
+        "inflatables",
     ] {
         let changed = changed_fraction(&load(&format!("{name}_start")), &load(name), SCENE);
         assert!(

@@ -15,6 +15,7 @@
 //! | [`settings`] | [`Integrator`], [`Stiffness`], [`SolverSettings`] and their validation | `model` (spring kinds) |
 //! | `forces` | the spring-force kernel, its linearisation, energy and frequency bound | `soa`, `simd`, `runs`, `model` |
 //! | `state` | particles, pins, [`Energy`] | `forces` |
+//! | `pressure` | the air inside a closed cloth ([`Pressure`]): its force, XPBD's volume constraint, its energy | `soa`, `model`, `settings` |
 //! | [`contact`] | collider shapes; broad phase, narrow phase and response on any particle layout; self-contacts; limits (targets with a maximum distance and backstop, tethers) | `soa`, `simd`, `settings` |
 //! | [`aero`], [`wind`] | aerodynamic forces; the wind field (`wind` uses `aero`) | — |
 //! | `integrate` | one stepper per integrator, each owning its scratch: `xpbd/` (layout, kernel, threads, driver), `explicit`, `implicit`; the [`Spread`] of threads | all of the above |
@@ -37,6 +38,7 @@ pub mod contact;
 mod forces;
 mod integrate;
 pub mod model;
+mod pressure;
 mod runs;
 pub mod settings;
 mod simd;
@@ -52,13 +54,14 @@ pub use contact::{
 pub use integrate::{CG_TOLERANCE, ScopedThread, Spread};
 pub use model::{
     ClothModel, DEGENERATE_TRIANGLE_RATIO, DiscSpec, GridNormals, GridPlane, GridSpec,
-    MAX_DISC_RINGS, MAX_DISC_SECTORS, MAX_PARTICLES, MAX_SPRINGS_PER_PARTICLE, MIN_DISC_SECTORS,
-    SpringKind, Springs, SubdividedModel, compute_normals,
+    MAX_DISC_RINGS, MAX_DISC_SECTORS, MAX_ICOSPHERE_SUBDIVISIONS, MAX_PARTICLES,
+    MAX_SPRINGS_PER_PARTICLE, MIN_DISC_SECTORS, SpringKind, Springs, SubdividedModel,
+    compute_normals,
 };
 pub use settings::{
     AUTO_MAX_STRETCH, Accuracy, ErrorUnit, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
-    MAX_THICKNESS_PER_EDGE, NONLINEAR_STABILITY_FRACTION, STABILITY_FRACTION, SelfCollision,
-    SolverSettings, Stiffness, TargetLimits, Tethers,
+    MAX_THICKNESS_PER_EDGE, NONLINEAR_STABILITY_FRACTION, Pressure, STABILITY_FRACTION,
+    STANDARD_ATMOSPHERE, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers,
 };
 pub use state::Energy;
 pub use wind::{MAX_WIND_ZONES, PlacedWindZone, WindField, WindZoneShape};

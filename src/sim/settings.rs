@@ -177,8 +177,9 @@ pub struct SolverSettings {
     /// from each particle's springs and mass (`NONLINEAR_STABILITY_FRACTION` in place of
     /// `STABILITY_FRACTION` while a spring is stretched far from rest). `substeps` stays the
     /// minimum. Ignored by XPBD and
-    /// implicit Euler, which are stable at any step, and by [`Integrator::Auto`], which runs Verlet
-    /// only within the bound.
+    /// implicit Euler, which are stable at any step (but for the air inside a closed cloth,
+    /// which implicit Euler takes explicitly: its substeps are raised to the air's bound), and by
+    /// [`Integrator::Auto`], which runs Verlet only within the bound.
     pub auto_substeps: bool,
     /// Spring stiffness per family, N/m.
     pub stiffness: Stiffness,
@@ -214,6 +215,8 @@ pub struct SolverSettings {
     /// Fixed substeps (the default), or a tolerance the solver meets by choosing the integrator
     /// and the substeps itself, step by step.
     pub accuracy: Accuracy,
+    /// The air inside a closed cloth (off by default).
+    pub pressure: Pressure,
 }
 
 impl Default for SolverSettings {
@@ -236,6 +239,7 @@ impl Default for SolverSettings {
             tethers: Tethers::default(),
             inertia: Inertia::default(),
             accuracy: Accuracy::default(),
+            pressure: Pressure::Off,
         }
     }
 }
@@ -257,6 +261,7 @@ impl SolverSettings {
         self.tethers.validate()?;
         self.inertia.validate()?;
         self.accuracy.validate()?;
+        self.pressure.validate()?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -523,4 +528,84 @@ pub enum ErrorUnit {
     Relative,
     /// Metres per second.
     Metres,
+}
+
+/// Standard atmospheric pressure, Pa: the default air outside a [`Pressure::Gas`] cloth.
+pub const STANDARD_ATMOSPHERE: f32 = 101_325.0;
+
+/// The air inside a closed cloth: a balloon, a ball, a cushion. Off by default. A cloth with
+/// pressure must be a closed surface whose triangles wind counter-clockwise seen from outside
+/// ([`ClothModel::check_closed`](super::ClothModel::check_closed));
+/// [`ClothSim::new`](super::ClothSim::new) and
+/// [`ClothSim::set_settings`](super::ClothSim::set_settings) refuse it on any other cloth. The
+/// volume is measured from the triangles each substep; the pressure pushes on every triangle
+/// along its normal, shared equally by its three corners (`p ∂V/∂x` per particle).
+///
+/// The force-based integrators apply the pressure as a force, and their stability bound counts
+/// the air's stiffness (a stiff volume or a gas well above the air outside asks for more
+/// substeps, as a stiff spring does; implicit Euler, which takes the air explicitly, too). XPBD
+/// moves the particles once per substep, after its spring sweeps, by one backward-Euler step of
+/// the air's stiffness (stable at any stiffness); like its springs, it then comes to rest a
+/// little softer than set at few substeps, and at the set stiffness as substeps grow.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, Reflect)]
+pub enum Pressure {
+    /// No air: a closed cloth collapses like a sack.
+    #[default]
+    Off,
+    /// The cloth keeps a volume, `scale` times the volume it encloses when built, as stiff as a
+    /// fluid of bulk modulus `bulk_modulus` (Pa): the pressure inside, above the air outside, is
+    /// `K (V₀ − V) / V₀` at volume `V` (`V₀` the kept volume). For XPBD this is one compliant
+    /// constraint `V − V₀` per substep, of compliance `V₀ / K` (m³/Pa).
+    Volume {
+        /// The kept volume over the built volume; 1 keeps the built shape's volume.
+        scale: f32,
+        /// How much the pressure rises as the volume shrinks, Pa (`K` above; air compressed
+        /// slowly ≈ 1.0e5, water 2.2e9).
+        bulk_modulus: f32,
+    },
+    /// An ideal gas (isothermal): the pressure inside is `p = nRT / V`, and each triangle is
+    /// pushed by `p − ambient`.
+    Gas {
+        /// Amount of gas × gas constant × temperature, `nRT`, J (= Pa·m³): the pressure inside
+        /// times the volume. [`Pressure::gas`] sets it from a pressure at a volume.
+        nrt: f32,
+        /// The pressure of the air outside, Pa ([`STANDARD_ATMOSPHERE`] at sea level; 0 in a
+        /// vacuum).
+        ambient: f32,
+    },
+}
+
+impl Pressure {
+    /// An ideal gas in air at [`STANDARD_ATMOSPHERE`] that is `gauge` Pa above it when the cloth
+    /// encloses `volume` m³ (a beach ball: a few kPa at its built volume).
+    pub fn gas(volume: f32, gauge: f32) -> Self {
+        Pressure::Gas {
+            nrt: (STANDARD_ATMOSPHERE + gauge) * volume,
+            ambient: STANDARD_ATMOSPHERE,
+        }
+    }
+
+    /// Whether there is air (anything but [`Pressure::Off`]).
+    pub fn is_on(&self) -> bool {
+        !matches!(self, Pressure::Off)
+    }
+
+    /// Checks the values: `scale` and `bulk_modulus` finite and > 0; `nrt` and `ambient` finite
+    /// and ≥ 0.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        match *self {
+            Pressure::Off => Ok(()),
+            Pressure::Volume {
+                scale,
+                bulk_modulus,
+            } => {
+                positive("pressure.scale", scale)?;
+                positive("pressure.bulk_modulus", bulk_modulus)
+            }
+            Pressure::Gas { nrt, ambient } => {
+                non_negative("pressure.nrt", nrt)?;
+                non_negative("pressure.ambient", ambient)
+            }
+        }
+    }
 }

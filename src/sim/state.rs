@@ -147,7 +147,8 @@ pub struct Energy {
     pub kinetic: f64,
     /// `-Σ m g·x` over free particles (zero at the world origin).
     pub gravitational: f64,
-    /// `Σ ½ k (|d| - L)²` over all springs.
+    /// `Σ ½ k (|d| - L)²` over all springs, plus the potential energy of the air inside a closed
+    /// cloth with [`Pressure`](super::Pressure) (zero at its built volume).
     pub elastic: f64,
 }
 

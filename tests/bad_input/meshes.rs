@@ -128,6 +128,39 @@ fn degenerate_faces_are_errors_naming_face_and_vertices() {
 }
 
 #[test]
+fn a_face_on_the_corners_of_another_is_an_error_naming_both() {
+    let p = square();
+    // The same triangle twice, once wound the other way (two faces sealed onto each other pass
+    // the edge checks: every edge borders two faces).
+    let e = err_naming(
+        ClothModel::from_mesh(&p, None, &[0, 2, 1, 1, 2, 3, 1, 2, 0], 3),
+        &["face 2", "[1, 2, 0]", "same corners as face 0"],
+    );
+    assert!(
+        matches!(e, ClothError::DegenerateFace { face: 2, .. }),
+        "{e:?}"
+    );
+    let quad = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z];
+    err_naming(
+        ClothModel::from_mesh(&quad, None, &[0, 1, 2, 3, 3, 2, 1, 0], 4),
+        &["face 1", "same corners as face 0"],
+    );
+    // Sharing three of four corners is not the same face.
+    let five = [
+        Vec3::ZERO,
+        Vec3::X,
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::Z,
+        Vec3::new(0.5, 0.0, 2.0),
+    ];
+    let r = ClothModel::from_mesh(&five, None, &[0, 1, 2, 3, 3, 2, 4, 0], 4);
+    assert!(
+        !matches!(&r, Err(e) if e.to_string().contains("same corners")),
+        "{r:?}"
+    );
+}
+
+#[test]
 fn zero_length_edges_are_errors_naming_both_vertices() {
     // Vertex 3 sits exactly on vertex 1 and an edge joins them.
     let p = [Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::X];

@@ -10,7 +10,8 @@ use crate::error::ClothError;
 use crate::sim::contact::{Contacts, SelfContacts};
 use crate::sim::forces::{SpringSet, max_frequency_bound};
 use crate::sim::integrate::Steppers;
-use crate::sim::model::ClothModel;
+use crate::sim::model::{ClothModel, enclosed_volume, volume_gradient};
+use crate::sim::pressure::Air;
 use crate::sim::settings::{Integrator, SelfCollision, SolverSettings};
 use crate::sim::state::Particles;
 use crate::sim::wind::WindScratch;
@@ -35,6 +36,15 @@ impl ClothSim {
                 what: format!("vertex {i} has a non-finite world position"),
             });
         }
+        // Only a closed surface holds air; a grid never is one.
+        let built_volume = match model.grid {
+            Some(_) => None,
+            None => model
+                .check_closed()
+                .ok()
+                .map(|_| enclosed_volume(&model.triangles, |i| positions[i]) as f32)
+                .filter(|v| *v > 0.0),
+        };
         let springs = model.springs.len();
         let mut sim = Self {
             particles: Particles {
@@ -50,6 +60,9 @@ impl ClothSim {
             active: settings.integrator,
             contacts: Contacts::new(n, (model.max_edge_length(), mean_edge)),
             wind: WindScratch::new(&model),
+            built_volume,
+            air: None,
+            air_frequency: 0.0,
             pins: Vec::new(),
             model,
             settings,
@@ -61,9 +74,26 @@ impl ClothSim {
             frame: None,
             adaptive: None,
         };
+        sim.check_air(settings)?;
         sim.prepare_self_contacts(settings.self_collision)?;
         sim.apply_settings();
         Ok(sim)
+    }
+
+    /// With [`SolverSettings::pressure`] on, checks that the cloth can hold air: a closed surface
+    /// wound outward ([`ClothModel::check_closed`]) that enclosed a positive volume where it was
+    /// built.
+    fn check_air(&self, settings: SolverSettings) -> Result<(), ClothError> {
+        if !settings.pressure.is_on() || self.built_volume.is_some() {
+            return Ok(());
+        }
+        // The model's own check names what is open or flipped; a closed model that enclosed no
+        // volume in the world was mirrored by its transform.
+        self.model.check_closed()?;
+        Err(ClothError::NotClosed {
+            what: "it enclosed no volume where it was built (was it mirrored by its transform?)"
+                .into(),
+        })
     }
 
     /// Continues the motion of `previous`, a cloth of the same topology (same particle count and
@@ -91,6 +121,7 @@ impl ClothSim {
         settings
             .self_collision
             .validate_for(self.model.mean_edge_length())?;
+        self.check_air(settings)?;
         self.prepare_self_contacts(settings.self_collision)?;
         self.settings = settings;
         self.apply_settings();
@@ -126,6 +157,27 @@ impl ClothSim {
         let mut scratch = vec![0.0; self.particles.positions.len()];
         self.omega_max =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
+        self.air = self
+            .built_volume
+            .filter(|_| self.settings.pressure.is_on())
+            .map(|built_volume| Air {
+                pressure: self.settings.pressure,
+                built_volume,
+            });
+        if let Some(air) = &self.air {
+            let p = &self.particles;
+            let mut gradient = vec![Vec3::ZERO; p.positions.len()];
+            volume_gradient(&self.model.triangles, |i| p.positions[i], &mut gradient);
+            let weighted: f32 = gradient
+                .iter()
+                .zip(&p.inv_mass)
+                .map(|(g, w)| *w * g.length_squared())
+                .sum();
+            self.air_frequency = air.frequency_squared(weighted).sqrt();
+            self.omega_max = self.omega_max.hypot(self.air_frequency);
+        } else {
+            self.air_frequency = 0.0;
+        }
         // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.
         let integrator = if self.settings.accuracy.tolerance.is_some() {
             Integrator::Auto
@@ -136,7 +188,7 @@ impl ClothSim {
             integrator,
             &self.model,
             (&self.stiffness, &self.particles.inv_mass),
-            self.contacts.limits(),
+            (self.contacts.limits(), self.air.is_some()),
         );
         self.active = self.choose_integrator(1.0 / 60.0);
         // The copy tolerance mode estimates on is made of this cloth without its own copy.

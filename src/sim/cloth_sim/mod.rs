@@ -15,6 +15,7 @@ use glam::Vec3;
 use super::contact::{Collider, Contacts, OtherCloth, Pose};
 use super::integrate::Steppers;
 use super::model::ClothModel;
+use super::pressure::Air;
 use super::settings::{Integrator, SolverSettings};
 use super::state::{Particles, PinState};
 use super::wind::{WindField, WindScratch};
@@ -62,6 +63,14 @@ pub struct ClothSim {
     contacts: Contacts,
     /// The wind at each triangle for this step.
     wind: WindScratch,
+    /// The volume a closed cloth enclosed when it was built (world space), m³; `None` for a cloth
+    /// that is not a closed surface wound outward.
+    built_volume: Option<f32>,
+    /// The air inside, while [`SolverSettings::pressure`] is on.
+    air: Option<Air>,
+    /// The highest angular frequency the air adds, rad/s (0 without air); part of `omega_max`,
+    /// and the bound of implicit Euler's substeps, which take the air explicitly.
+    air_frequency: f32,
     steps: u64,
     sleep: Sleep,
     /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).

@@ -41,7 +41,14 @@ impl ClothSim {
     /// [`MAX_SUBSTEPS`].
     pub(super) fn substep_plan(&self, dt: f32) -> (u32, u32) {
         let n = self.settings.substeps;
-        if !(self.settings.auto_substeps && self.settings.integrator.is_explicit()) {
+        let s = &self.settings;
+        // Implicit Euler takes the air of a closed cloth explicitly, so its bound applies.
+        let omega = match s.integrator {
+            i if i.is_explicit() => self.omega_max,
+            Integrator::ImplicitEuler if self.air_frequency > 0.0 => self.air_frequency,
+            _ => return (n, n),
+        };
+        if !s.auto_substeps {
             return (n, n);
         }
         let fraction = if self.overstretched() {
@@ -49,7 +56,7 @@ impl ClothSim {
         } else {
             STABILITY_FRACTION
         };
-        let wanted = n.max(self.substeps_within(dt, fraction));
+        let wanted = n.max(substeps_within(dt, fraction, omega));
         (wanted.min(MAX_SUBSTEPS), wanted)
     }
 
@@ -63,12 +70,7 @@ impl ClothSim {
     /// The fewest substeps per step of `dt` seconds with `h ≤ fraction · 2/ω_max`; `u32::MAX` if
     /// no count is.
     pub(super) fn substeps_within(&self, dt: f32, fraction: f32) -> u32 {
-        let needed = (dt * self.omega_max / (2.0 * fraction)).ceil();
-        if needed.is_finite() && needed < u32::MAX as f32 {
-            (needed as u32).max(1)
-        } else {
-            u32::MAX
-        }
+        substeps_within(dt, fraction, self.omega_max)
     }
 
     /// The integrator the current (or last) step used: the configured one, or the one
@@ -109,5 +111,16 @@ impl ClothSim {
             x[a as usize].distance_squared(x[b as usize])
                 > (rest * (1.0 + AUTO_MAX_STRETCH)).powi(2)
         })
+    }
+}
+
+/// The fewest substeps per step of `dt` seconds with `h ≤ fraction · 2/omega`; `u32::MAX` if no
+/// count is.
+fn substeps_within(dt: f32, fraction: f32, omega: f32) -> u32 {
+    let needed = (dt * omega / (2.0 * fraction)).ceil();
+    if needed.is_finite() && needed < u32::MAX as f32 {
+        (needed as u32).max(1)
+    } else {
+        u32::MAX
     }
 }

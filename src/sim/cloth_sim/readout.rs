@@ -9,7 +9,8 @@ use super::ClothSim;
 use super::Environment;
 use crate::error::ClothError;
 use crate::sim::contact::Reaction;
-use crate::sim::model::{ClothModel, SpringKind};
+use crate::sim::model::{ClothModel, SpringKind, enclosed_volume};
+use crate::sim::pressure::air_energy;
 use crate::sim::settings::SolverSettings;
 use crate::sim::state::Energy;
 
@@ -103,8 +104,35 @@ impl ClothSim {
 
     /// Kinetic, gravitational and elastic energy of the free particles (see [`Energy`]).
     pub fn energy(&self) -> Energy {
-        self.particles
-            .energy(self.spring_set(), self.settings.gravity)
+        let mut e = self
+            .particles
+            .energy(self.spring_set(), self.settings.gravity);
+        let triangles = &self.model.triangles;
+        e.elastic += air_energy(self.air.as_ref(), triangles, &self.particles.positions);
+        e
+    }
+
+    /// The volume a closed cloth encloses now, m³; `None` for a cloth that is not a closed
+    /// surface wound outward (see [`ClothModel::check_closed`](crate::sim::ClothModel::check_closed)).
+    pub fn volume(&self) -> Option<f32> {
+        self.built_volume?;
+        let x = &self.particles.positions;
+        Some(enclosed_volume(&self.model.triangles, |i| x[i]) as f32)
+    }
+
+    /// The volume a closed cloth enclosed when it was built, m³ (see [`Self::volume`]).
+    pub fn built_volume(&self) -> Option<f32> {
+        self.built_volume
+    }
+
+    /// The pressure of the air inside above the air outside now, Pa; `None` while
+    /// [`SolverSettings::pressure`](crate::sim::SolverSettings::pressure) is off. For
+    /// [`Pressure::Volume`](crate::sim::Pressure::Volume) under XPBD, the pressure its
+    /// compliance stands for (`K (V₀ − V) / V₀`).
+    pub fn pressure(&self) -> Option<f32> {
+        let air = self.air.as_ref()?;
+        let x = &self.particles.positions;
+        Some(air.gauge(enclosed_volume(&self.model.triangles, |i| x[i])) as f32)
     }
 
     /// Kinetic energy of the free particles, J.

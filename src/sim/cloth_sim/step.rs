@@ -158,6 +158,7 @@ impl ClothSim {
             stiffness: &self.stiffness,
             pins: &self.pins,
             wind: &self.wind,
+            air: self.air.as_ref(),
             particles: &mut self.particles,
             contacts: &mut self.contacts,
             contact_work: &mut self.contact_work,

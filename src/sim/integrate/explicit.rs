@@ -10,6 +10,7 @@
 use super::step::{Order, SoaState, Step, frame_shift};
 use crate::sim::forces::{ForceRuns, add_spring_forces};
 use crate::sim::model::ClothModel;
+use crate::sim::pressure::AirScratch;
 use crate::sim::soa::Soa;
 use crate::sim::state::between;
 
@@ -20,6 +21,8 @@ pub(crate) struct Explicit {
     runs: ForceRuns,
     forces: Soa,
     state: SoaState,
+    /// The air's scratch, in the particles' own order.
+    pub air: AirScratch,
 }
 
 impl Explicit {
@@ -34,7 +37,8 @@ impl Explicit {
         self.runs.set_stiffness(&s.rest, stiffness);
     }
 
-    /// Sets `forces` to gravity plus wind plus the spring forces at the positions `state.x`.
+    /// Sets `forces` to gravity plus wind plus the spring forces, plus the air's in a closed
+    /// cloth, at the positions `state.x`.
     fn compute_forces(&mut self, s: &Step) {
         let g = s.settings.gravity;
         for ((x, y, z), m) in self.forces.iter_mut().zip(&s.particles.mass) {
@@ -46,6 +50,10 @@ impl Explicit {
             }
         }
         add_spring_forces(&mut self.runs, s.springs(), &self.state.x, &mut self.forces);
+        if let Some(air) = s.air {
+            let (x, f) = (&self.state.x, &mut self.forces);
+            air.forces(&mut self.air, |i| x.get(i), |i, g| f.set(i, f.get(i) + g));
+        }
     }
 
     /// [`kick_drift`] for all three coordinates, with the forces in `forces`.

@@ -28,6 +28,7 @@ use crate::sim::forces::{
     SpringJacobians, SpringSet, add_spring_forces_and_jacobians, add_stiffness_product,
     spring_energy,
 };
+use crate::sim::pressure::{AirScratch, air_energy};
 use crate::sim::state::{Particles, between, drive_pins, energy_of};
 
 /// Conjugate gradients stops when the filtered residual is below this fraction of the larger of the
@@ -49,6 +50,8 @@ pub(crate) struct Implicit {
     /// Force accumulator.
     forces: Vec<Vec3>,
     cg: Cg,
+    /// The air's scratch, in the particles' own order.
+    pub air: AirScratch,
 }
 
 /// The linearised springs and the conjugate-gradient vectors.
@@ -108,6 +111,7 @@ impl Implicit {
                 external: v(),
                 trial: v(),
             },
+            air: AirScratch::default(),
         };
     }
 
@@ -240,6 +244,7 @@ impl Implicit {
             stiffness,
             pins,
             wind,
+            air,
             particles,
             contacts,
             contact_work,
@@ -283,8 +288,11 @@ impl Implicit {
             for (f, m) in forces.iter_mut().zip(mass.iter()) {
                 *f = *m * g;
             }
-            // Wind enters explicitly (not linearised).
+            // Wind and the air inside a closed cloth enter explicitly (not linearised).
             wind.add_forces(forces);
+            if let Some(air) = air {
+                air.forces(&mut self.air, |i| x[i], |i, f| forces[i] += f);
+            }
             s.external.copy_from_slice(forces);
             add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
             // rhs = h f - h² K v.
@@ -449,7 +457,11 @@ impl Implicit {
             }
             drive_pins(pins, t0, t1, inv_h, x, v);
             if contacts.is_active() {
-                let energy = |x: &[Vec3], v: &[Vec3]| energy_of(springs, (mass, inv_mass), g, x, v);
+                let energy = |x: &[Vec3], v: &[Vec3]| {
+                    let mut e = energy_of(springs, (mass, inv_mass), g, x, v);
+                    e.elastic += air_energy(*air, &model.triangles, x);
+                    e
+                };
                 let before = contact_work.map(|_| energy(x, v));
                 let touches = Some(&mut s.touches[..]);
                 let work = contacts.resolve(t0, t1, h, &model.triangles, inv_mass, (x, v), touches);

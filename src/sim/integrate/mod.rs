@@ -34,25 +34,32 @@ pub(crate) struct Steppers {
 
 impl Steppers {
     /// Readies the steppers `integrator` may run for `model` with per-spring `stiffness`, the
-    /// particles' inverse masses (pins at 0) and the tethers of `limits` (which XPBD projects
-    /// itself).
+    /// particles' inverse masses (pins at 0), the tethers of `limits` (which XPBD projects
+    /// itself) and, with `air`, the scratch of the air inside a closed cloth.
     pub fn prepare(
         &mut self,
         integrator: Integrator,
         model: &ClothModel,
         (stiffness, inv_mass): (&[f32], &[f32]),
-        limits: &Limits,
+        (limits, air): (&Limits, bool),
     ) {
         let auto = integrator == Integrator::Auto;
         if integrator == Integrator::ImplicitEuler {
             self.implicit
                 .prepare(model.particle_count(), model.springs.len());
+            self.implicit
+                .air
+                .prepare(air, &model.triangles, model.particle_count(), |i| i);
         }
         if integrator.is_explicit() || auto {
             self.explicit.prepare(model, stiffness);
+            self.explicit
+                .air
+                .prepare(air, &model.triangles, model.particle_count(), |i| i);
         }
         if integrator == Integrator::Xpbd || auto {
-            self.xpbd.prepare(model, (stiffness, inv_mass), limits);
+            self.xpbd
+                .prepare(model, (stiffness, inv_mass), (limits, air));
         }
     }
 

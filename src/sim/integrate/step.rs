@@ -9,6 +9,7 @@ use crate::sim::contact::{
 };
 use crate::sim::forces::SpringSet;
 use crate::sim::model::ClothModel;
+use crate::sim::pressure::{Air, air_energy};
 use crate::sim::settings::{Inertia, SolverSettings};
 use crate::sim::soa::Soa;
 use crate::sim::state::{Energy, Particles, PinState, pin_motion};
@@ -27,6 +28,8 @@ pub(crate) struct Step<'a> {
     pub pins: &'a [PinState],
     /// The wind's forces over this step.
     pub wind: &'a WindScratch,
+    /// The air inside a closed cloth, if it has any.
+    pub air: Option<&'a Air>,
     /// The particle state, in the particles' own order.
     pub particles: &'a mut Particles,
     /// The colliders in reach this step, and contact scratch.
@@ -46,7 +49,9 @@ impl Step<'_> {
 
     /// The energy of the free particles (see [`Energy`]).
     pub fn energy(&self) -> Energy {
-        self.particles.energy(self.springs(), self.settings.gravity)
+        let mut e = self.particles.energy(self.springs(), self.settings.gravity);
+        e.elastic += air_energy(self.air, &self.model.triangles, &self.particles.positions);
+        e
     }
 
     /// Adds to tracked contact work what a contact response gave the cloth (see

@@ -9,6 +9,7 @@ use std::collections::HashMap;
 
 use crate::error::{ClothError, indices_in_range, particles_within, positive};
 
+mod closed;
 mod disc;
 mod grid;
 mod normals;
@@ -17,6 +18,8 @@ mod subdivided;
 #[cfg(test)]
 mod tests;
 
+pub use closed::MAX_ICOSPHERE_SUBDIVISIONS;
+pub(crate) use closed::{enclosed_volume, volume_gradient};
 pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
 pub use normals::GridNormals;
@@ -248,8 +251,9 @@ impl ClothModel {
     ///   them overflow `f32`;
     /// - [`ClothError::MeshIndexOutOfRange`]: an index past the last vertex (with its position in
     ///   the index buffer);
-    /// - [`ClothError::DegenerateFace`]: a face that uses a vertex twice, or a triangle (for a quad,
-    ///   either triangle of its split) with zero area (see [`DEGENERATE_TRIANGLE_RATIO`]);
+    /// - [`ClothError::DegenerateFace`]: a face that uses a vertex twice, a triangle (for a quad,
+    ///   either triangle of its split) with zero area (see [`DEGENERATE_TRIANGLE_RATIO`]), or a
+    ///   face with the same corners as an earlier one;
     /// - [`ClothError::ZeroLengthEdge`]: an edge between two distinct vertices at the same position;
     /// - [`ClothError::NonManifoldEdge`]: an edge shared by more than two faces.
     ///
@@ -570,6 +574,26 @@ fn check_mesh(
     indices_in_range(indices, count)?;
     for (f, face) in indices.chunks_exact(face_size).enumerate() {
         check_face(positions, f, face)?;
+    }
+    // Two faces on the same corners would double the cloth over itself there.
+    let mut corners: Vec<([u32; 4], usize)> = indices
+        .chunks_exact(face_size)
+        .enumerate()
+        .map(|(f, face)| {
+            let mut key = [u32::MAX; 4];
+            key[..face_size].copy_from_slice(face);
+            key.sort_unstable();
+            (key, f)
+        })
+        .collect();
+    corners.sort_unstable();
+    if let Some(pair) = corners.windows(2).find(|w| w[0].0 == w[1].0) {
+        let (first, face) = (pair[0].1, pair[1].1);
+        return Err(ClothError::DegenerateFace {
+            face,
+            vertices: indices[face * face_size..(face + 1) * face_size].to_vec(),
+            reason: format!("it has the same corners as face {first}"),
+        });
     }
     Ok(())
 }

@@ -25,6 +25,7 @@ use crate::sim::contact::{
     ContactState, Limits, Near, Since, soa_clearances, soa_displaced, soa_ends, soa_since,
 };
 use crate::sim::model::ClothModel;
+use crate::sim::pressure::AirScratch;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
 use crate::sim::state::{Energy, pin_motion};
@@ -46,6 +47,9 @@ pub(crate) struct Xpbd {
     wind_dv: Soa,
     /// The tethers, projected after the sweeps of every substep.
     tethers: Tethered,
+    /// The air's scratch in storage order (a closed cloth's volume is projected after the
+    /// sweeps, before the tethers).
+    air: AirScratch,
     /// The velocities contacts set in the current substep, by storage slot (at most one per
     /// particle; see [`AheadOfEnd`]), and where each slot's is in that list (1 + its place; 0 for
     /// none).
@@ -58,12 +62,13 @@ pub(crate) struct Xpbd {
 
 impl Xpbd {
     /// Lays out `model`'s springs (if not done already) and sets their rest lengths,
-    /// compliances `1/k`, the particles' inverse masses and the tethers of `limits`.
+    /// compliances `1/k`, the particles' inverse masses, the tethers of `limits` and, with `air`,
+    /// the air's scratch.
     pub fn prepare(
         &mut self,
         model: &ClothModel,
         (stiffness, inv_mass): (&[f32], &[f32]),
-        limits: &Limits,
+        (limits, air): (&Limits, bool),
     ) {
         let (s, n) = (&model.springs, model.particle_count());
         if !self.layout.fits(s.len(), n) {
@@ -75,6 +80,9 @@ impl Xpbd {
         }
         self.layout.set_constants(&s.rest, stiffness, inv_mass);
         self.tethers.set(limits.tethers(), self.layout.storage(), n);
+        let layout = &self.layout;
+        self.air
+            .prepare(air, &model.triangles, n, |i| layout.stored(i));
     }
 
     /// Whether a step is worth sharing between two threads.
@@ -147,6 +155,11 @@ impl Xpbd {
                 self.lambda.fill(0.0);
             }
             self.sweeps(s.settings.iterations, accumulate, inv_h2, lead);
+            if let Some(air) = s.air {
+                let inv_mass = &self.layout.inv_mass;
+                let (x, d) = (&self.state.x, &mut self.state.d);
+                air.project(&mut self.air, inv_mass, (x, d), h);
+            }
             self.tethers.project(t1, &self.state.x, &mut self.state.d);
             // Contacts last, so every substep ends outside the colliders; their push-out is not
             // turned into velocity (see `contact`).

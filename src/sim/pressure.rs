@@ -1,0 +1,285 @@
+//! The air inside a closed cloth ([`Pressure`]): the pressure at an enclosed volume, the force it
+//! puts on the particles (the force-based integrators), XPBD's volume constraint, its energy and
+//! what it adds to the explicit integrators' frequency bound.
+//!
+//! The volume and its gradient come from the model's triangles (`model::volume_gradient`, one
+//! cross product per triangle). Nothing here allocates.
+
+use glam::Vec3;
+
+use super::model::{enclosed_volume, volume_gradient};
+use super::settings::Pressure;
+use super::soa::Soa;
+
+/// A closed cloth's air as its steppers see it: the model and the volumes it refers to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Air {
+    /// The model (never [`Pressure::Off`]).
+    pub pressure: Pressure,
+    /// The volume the cloth enclosed when it was built, m³.
+    pub built_volume: f32,
+}
+
+impl Air {
+    /// The volume [`Pressure::Volume`] keeps, m³ (the built volume for a gas).
+    pub fn kept_volume(&self) -> f32 {
+        match self.pressure {
+            Pressure::Volume { scale, .. } => scale * self.built_volume,
+            _ => self.built_volume,
+        }
+    }
+
+    /// The pressure inside above the air outside at volume `v`, Pa (positive pushes out).
+    pub fn gauge(&self, v: f64) -> f64 {
+        match self.pressure {
+            Pressure::Off => 0.0,
+            Pressure::Volume { bulk_modulus, .. } => {
+                let kept = self.kept_volume() as f64;
+                bulk_modulus as f64 * (kept - v) / kept
+            }
+            // A surface turned inside out encloses a negative volume: the gas's pressure is
+            // held at its value at a thousandth of the built volume rather than changing sign.
+            Pressure::Gas { nrt, ambient } => {
+                nrt as f64 / v.max(1e-3 * self.built_volume as f64) - ambient as f64
+            }
+        }
+    }
+
+    /// The air's potential energy at volume `v`, J: the work the pressure does as the volume
+    /// returns to where the pressure inside equals the air outside (the kept volume; for a gas
+    /// `nRT / ambient`, or in a vacuum the built volume), so never negative but in a vacuum.
+    pub fn energy(&self, v: f64) -> f64 {
+        match self.pressure {
+            Pressure::Off => 0.0,
+            Pressure::Volume { bulk_modulus, .. } => {
+                let kept = self.kept_volume() as f64;
+                0.5 * bulk_modulus as f64 / kept * (v - kept).powi(2)
+            }
+            Pressure::Gas { nrt, ambient } => {
+                let (nrt, ambient) = (nrt as f64, ambient as f64);
+                let built = self.built_volume as f64;
+                let rest = if ambient > 0.0 && nrt > 0.0 {
+                    nrt / ambient
+                } else {
+                    built
+                };
+                let v = v.max(1e-3 * built);
+                -nrt * (v / rest).ln() + ambient * (v - rest)
+            }
+        }
+    }
+
+    /// How stiff the air is against a change of volume at volume `v`, Pa/m³: `−dp/dV`.
+    fn volume_stiffness(&self, v: f64) -> f64 {
+        match self.pressure {
+            Pressure::Off => 0.0,
+            Pressure::Volume { bulk_modulus, .. } => {
+                bulk_modulus as f64 / self.kept_volume() as f64
+            }
+            Pressure::Gas { nrt, .. } => {
+                let floor = 1e-3 * self.built_volume as f64;
+                if v > floor { nrt as f64 / (v * v) } else { 0.0 }
+            }
+        }
+    }
+
+    /// The square of the highest angular frequency the air adds, rad²/s², given
+    /// `Σ w |∂V/∂x|²` over the free particles: the air's stiffness `−dp/dV ∇V ∇Vᵀ` is of rank
+    /// one, so its mass-weighted eigenvalue is that sum times `−dp/dV`. Added to the springs'
+    /// bound, as the eigenvalues of a sum are at most the sums of its terms' largest.
+    pub fn frequency_squared(&self, weighted_gradient: f32) -> f32 {
+        (self.volume_stiffness(self.built_volume as f64) * weighted_gradient as f64) as f32
+    }
+
+    /// Hands `add` the air's force `gauge(V) ∂V/∂x` on each particle at positions `x(i)` (in
+    /// `scratch`'s numbering).
+    pub fn forces(
+        &self,
+        scratch: &mut AirScratch,
+        x: impl Fn(usize) -> Vec3,
+        mut add: impl FnMut(usize, Vec3),
+    ) {
+        let v = volume_gradient(&scratch.triangles, x, &mut scratch.gradient);
+        let p = self.gauge(v) as f32;
+        for (i, g) in scratch.gradient.iter().enumerate() {
+            add(i, *g * p);
+        }
+    }
+
+    /// XPBD's pass for one substep of length `h`, on the positions `x + d` of its storage
+    /// (`scratch` numbered in it, `inv_mass` per slot), moving the displacements `d` by
+    /// `h² w ∇V p'`, where `p'` is the gauge at the volume the move reaches, linearised:
+    /// `p' = p / (1 + h² k Σ w |∇V|²)` with `k = −dp/dV`. It is one backward-Euler step of the
+    /// air's rank-one stiffness, stable at any stiffness and step; for [`Pressure::Volume`] it is
+    /// XPBD's projection of `C = V − V₀` with compliance `V₀ / K` (the multiplier starting at 0
+    /// each substep).
+    pub fn project(
+        &self,
+        scratch: &mut AirScratch,
+        inv_mass: &[f32],
+        (x, d): (&Soa, &mut Soa),
+        h: f32,
+    ) {
+        let at = |i: usize| x.get(i) + d.get(i);
+        let gradient = &mut scratch.gradient;
+        let v = volume_gradient(&scratch.triangles, at, gradient);
+        let weight: f64 = gradient
+            .iter()
+            .zip(inv_mass)
+            .map(|(g, w)| (*w * g.length_squared()) as f64)
+            .sum();
+        let h2 = (h * h) as f64;
+        let scale = (h2 * self.gauge(v) / (1.0 + h2 * self.volume_stiffness(v) * weight)) as f32;
+        for (i, (g, w)) in gradient.iter().zip(inv_mass).enumerate() {
+            if *w > 0.0 {
+                d.set(i, d.get(i) + *g * (*w * scale));
+            }
+        }
+    }
+}
+
+/// A stepper's scratch for the air: the model's triangles in the stepper's numbering of the
+/// particles, and the volume's gradient per particle. Empty for a cloth without air.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct AirScratch {
+    triangles: Vec<u32>,
+    gradient: Vec<Vec3>,
+}
+
+impl AirScratch {
+    /// Sizes the scratch for `triangles` over `n` particles, stored where `slot` puts them, when
+    /// `on`; frees it otherwise.
+    pub fn prepare(&mut self, on: bool, triangles: &[u32], n: usize, slot: impl Fn(u32) -> u32) {
+        self.triangles.clear();
+        if on {
+            self.triangles.extend(triangles.iter().map(|&i| slot(i)));
+            self.gradient.resize(n, Vec3::ZERO);
+        } else {
+            self.triangles.shrink_to_fit();
+            self.gradient = Vec::new();
+        }
+    }
+}
+
+/// The potential energy of `air` (none: 0) at `positions`, J (see [`Air::energy`]).
+pub(crate) fn air_energy(air: Option<&Air>, triangles: &[u32], positions: &[Vec3]) -> f64 {
+    air.map_or(0.0, |air| {
+        air.energy(enclosed_volume(triangles, |i| positions[i]))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tetrahedron with outward (counter-clockwise from outside) triangles.
+    fn tetrahedron() -> (Vec<Vec3>, Vec<u32>) {
+        let x = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        (x, vec![0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
+    }
+
+    #[test]
+    fn a_unit_corner_tetrahedron_encloses_a_sixth() {
+        let (x, t) = tetrahedron();
+        let mut g = vec![Vec3::ZERO; 4];
+        let v = volume_gradient(&t, |i| x[i] + Vec3::splat(100.0), &mut g);
+        assert!((v - 1.0 / 6.0).abs() < 1e-6, "{v}");
+        // Moving the far corner along +z by δ adds δ/6 (its base has area ½).
+        assert!(
+            (g[3] - Vec3::new(0.0, 0.0, 1.0 / 6.0)).length() < 1e-6,
+            "{:?}",
+            g[3]
+        );
+    }
+
+    #[test]
+    fn the_gradient_is_the_volumes_derivative() {
+        let (mut x, t) = tetrahedron();
+        x[1] = Vec3::new(1.2, 0.1, -0.2);
+        let mut g = vec![Vec3::ZERO; 4];
+        volume_gradient(&t, |i| x[i], &mut g);
+        let eps = 1e-3;
+        for (i, gi) in g.iter().enumerate() {
+            for axis in 0..3 {
+                let mut e = Vec3::ZERO;
+                e[axis] = eps;
+                let mut scratch = vec![Vec3::ZERO; 4];
+                let plus = volume_gradient(
+                    &t,
+                    |j| x[j] + if j == i { e } else { Vec3::ZERO },
+                    &mut scratch,
+                );
+                let minus = volume_gradient(
+                    &t,
+                    |j| x[j] - if j == i { e } else { Vec3::ZERO },
+                    &mut scratch,
+                );
+                let numeric = (plus - minus) / (2.0 * eps as f64);
+                assert!(
+                    (numeric - gi[axis] as f64).abs() < 1e-4,
+                    "{i} {axis}: {numeric} vs {}",
+                    gi[axis]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_force_is_minus_the_energys_derivative() {
+        let built = 1.0 / 6.0;
+        for pressure in [
+            Pressure::Volume {
+                scale: 1.3,
+                bulk_modulus: 2.0e3,
+            },
+            Pressure::gas(built, 500.0),
+        ] {
+            let air = Air {
+                pressure,
+                built_volume: built,
+            };
+            let v = built as f64 * 0.9;
+            let dv = 1e-6;
+            let derivative = (air.energy(v + dv) - air.energy(v - dv)) / (2.0 * dv);
+            // F = p ∇V, and the energy falls by p dV as the volume grows.
+            assert!(
+                (derivative + air.gauge(v)).abs() < 1e-3 * air.gauge(v).abs().max(1.0),
+                "{pressure:?}: {derivative} vs {}",
+                air.gauge(v)
+            );
+        }
+    }
+
+    #[test]
+    fn one_stiff_volume_projection_restores_the_kept_volume() {
+        let (x, t) = tetrahedron();
+        let built = 1.0 / 6.0;
+        let air = Air {
+            pressure: Pressure::Volume {
+                scale: 1.0,
+                bulk_modulus: 1e12,
+            },
+            built_volume: built,
+        };
+        let mut start = Soa::new(4);
+        start.load(&x);
+        let mut d = Soa::new(4);
+        d.set(3, Vec3::new(0.0, 0.0, -0.3));
+        let mut scratch = AirScratch::default();
+        scratch.prepare(true, &t, 4, |i| i);
+        let error =
+            |d: &Soa| (enclosed_volume(&t, |i| start.get(i) + d.get(i)) / built as f64 - 1.0).abs();
+        let mut errors = vec![error(&d)];
+        for _ in 0..3 {
+            air.project(&mut scratch, &[1.0; 4], (&start, &mut d), 1e-3);
+            errors.push(error(&d));
+        }
+        // Each projection is a Gauss-Newton step on the linearised constraint: the error left
+        // is of second order in the one before.
+        assert!(errors[0] > 0.25, "{errors:?}");
+        for pair in errors.windows(2) {
+            assert!(pair[1] < 2.0 * pair[0] * pair[0] + 1e-6, "{errors:?}");
+        }
+        assert!(errors[3] < 1e-5, "{errors:?}");
+    }
+}
