@@ -20,7 +20,7 @@ const CUSHION: Vec3 = Vec3::new(0.55, 0.0, 0.0);
 /// The cushion's size, m.
 const CUSHION_SIZE: Vec3 = Vec3::new(0.8, 0.2, 0.8);
 /// Where the ball is dropped from.
-const BALL: Vec3 = Vec3::new(-0.7, 1.4, 0.1);
+const BALL: Vec3 = Vec3::new(-0.35, 1.4, 0.2);
 
 fn main() {
     App::new()
@@ -109,7 +109,7 @@ fn setup(
                     bulk_modulus: 1.0e5,
                 },
                 particle_mass: 0.002,
-                damping: 1.0,
+                damping: 4.0,
                 ..default()
             },
             ..default()

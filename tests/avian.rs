@@ -1,7 +1,8 @@
 //! Headless App tests of cloth in an avian3d world (feature `avian`): avian's primitives act as
 //! the equivalent native colliders do, other shapes through parry without tunnelling, avian's
 //! layers, sensors and the opt-out are honoured, kinematic bodies drag the cloth, and the
-//! two-way coupling exchanges momentum without creating any.
+//! two-way coupling exchanges momentum without creating any; closed cloths with air hold up a
+//! crate and bounce on avian's floor.
 
 use avian3d::prelude::*;
 use bevy::prelude::*;
@@ -536,4 +537,123 @@ fn a_cloth_holding_up_a_body_does_not_fall_asleep_under_it() {
             sim(&app, cloth).is_sleeping()
         );
     }
+}
+
+/// A closed box cloth keeping its volume (`bulk_modulus`, Pa) on avian's floor, pushing bodies
+/// back, and a 10 kg, 30 cm crate dropped on it from `height`. Returns the cloth and the crate.
+fn cushion_with_crate(app: &mut App, bulk_modulus: f32, height: f32) -> (Entity, Entity) {
+    app.world_mut()
+        .spawn((RigidBody::Static, Collider::half_space(Vec3::Y)));
+    let size = Vec3::new(0.8, 0.2, 0.8);
+    let cloth = spawn_valid(
+        app,
+        (
+            Cloth::from_model(ClothModel::cuboid(size, 0.05).unwrap()),
+            ClothConfig {
+                solver: SolverSettings {
+                    pressure: Pressure::Volume {
+                        scale: 1.0,
+                        bulk_modulus,
+                    },
+                    particle_mass: 0.002,
+                    damping: 4.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            ClothPushesBodies,
+            Transform::from_xyz(0.0, 0.5 * size.y + 0.005, 0.0),
+        ),
+    );
+    let crate_ = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::cuboid(0.3, 0.3, 0.3),
+            Mass(10.0),
+            Transform::from_xyz(0.0, height, 0.0),
+        ))
+        .id();
+    (cloth, crate_)
+}
+
+#[test]
+fn a_cushion_holds_up_a_crate_dropped_on_it() {
+    let mut app = avian_app();
+    let (cloth, crate_) = cushion_with_crate(&mut app, 1.0e5, 0.45);
+    let built = sim(&app, cloth).built_volume().unwrap();
+    // The crate lands within the first second and then bobs on the air (nothing damps it but
+    // the cloth): its bottom must stay in the cushion's upper half, the volume kept.
+    run(&mut app, 60);
+    let (mut lowest, mut volume_off) = (f32::INFINITY, 0.0f32);
+    for _ in 0..180 {
+        run(&mut app, 1);
+        let at = app.world().get::<Position>(crate_).unwrap().0;
+        lowest = lowest.min(at.y - 0.15);
+        let v = sim(&app, cloth).volume().unwrap();
+        volume_off = volume_off.max((v - built).abs() / built);
+        assert!(at.xz().length() < 0.2, "the crate left the cushion: {at}");
+    }
+    eprintln!(
+        "the crate's bottom at least {lowest} m up on a 0.2 m cushion; volume within {:.2}%",
+        100.0 * volume_off
+    );
+    assert!(lowest > 0.1, "the crate sank to {lowest} m");
+    assert!(
+        volume_off < 0.03,
+        "volume off by {:.2}%",
+        100.0 * volume_off
+    );
+}
+
+#[test]
+fn a_ball_bounces_on_avians_floor() {
+    let mut app = avian_app();
+    app.world_mut()
+        .spawn((RigidBody::Static, Collider::half_space(Vec3::Y)));
+    let model = ClothModel::icosphere(0.2, 2).unwrap();
+    let volume = model.check_closed().unwrap();
+    let ball = spawn_valid(
+        &mut app,
+        (
+            Cloth::from_model(model),
+            ClothConfig {
+                solver: SolverSettings {
+                    pressure: Pressure::gas(volume, 3000.0),
+                    damping: 0.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            Transform::from_xyz(0.0, 0.8, 0.0),
+        ),
+    );
+    let centre = |app: &App| {
+        let p = sim(app, ball).positions();
+        p.iter().map(|p| p.y).sum::<f32>() / p.len() as f32
+    };
+    // Down to the floor, then up again: the lowest centre, and the highest after it.
+    let (mut low, mut high_after) = (f32::INFINITY, f32::NEG_INFINITY);
+    for _ in 0..90 {
+        run(&mut app, 1);
+        let (y, floor) = (
+            centre(&app),
+            sim(&app, ball)
+                .positions()
+                .iter()
+                .map(|p| p.y)
+                .fold(f32::INFINITY, f32::min),
+        );
+        assert!(floor > -0.01, "the ball went into the floor: {floor}");
+        if y < low {
+            (low, high_after) = (y, y);
+        }
+        high_after = high_after.max(y);
+    }
+    eprintln!("the ball's centre came down to {low} m and bounced back to {high_after} m");
+    assert!(low < 0.21, "it never reached the floor: {low}");
+    assert!(
+        high_after > low + 0.1,
+        "it did not bounce: {low} → {high_after}"
+    );
 }
