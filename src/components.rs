@@ -652,6 +652,17 @@ pub(crate) struct RenderSubdivision {
     pub(crate) normals: Vec<Vec3>,
 }
 
+/// A cloth simulated welded along its source mesh's seams ([`ClothModel::weld_seams`]) and
+/// rendered into that mesh, seams kept: each render vertex's particle, and the particles' normals
+/// (scratch) that the vertices take.
+///
+/// [`ClothModel::weld_seams`]: crate::sim::ClothModel::weld_seams
+#[derive(Debug)]
+pub(crate) struct WeldedSeams {
+    pub(crate) particle_of_vertex: Vec<u32>,
+    pub(crate) normals: Vec<Vec3>,
+}
+
 /// The running simulation of a cloth, attached by the plugin. Read it for particle positions and
 /// statistics; change the cloth through [`Cloth`], [`ClothConfig`] and [`ClothPins`].
 #[derive(Component, Debug)]
@@ -663,9 +674,14 @@ pub struct ClothState {
     /// The grid normals kernel, when the unsubdivided render mesh is a canonical grid.
     pub(crate) grid_normals: Option<crate::sim::GridNormals>,
     /// Present when the simulation runs on a refined model
-    /// ([`SubdivisionTarget::Simulation`]): for each particle of the unrefined model, its
-    /// particle in the simulation.
+    /// ([`SubdivisionTarget::Simulation`]) or on its source mesh welded along its seams: for each
+    /// particle of the unrefined model (each vertex of the source mesh), its particle in the
+    /// simulation.
     pub(crate) particle_map: Option<Vec<u32>>,
+    /// Whether the simulation runs on a refined model ([`SubdivisionTarget::Simulation`]).
+    pub(crate) refined: bool,
+    /// Present when the render mesh is the source mesh with the seams the simulation welded.
+    pub(crate) seams: Option<WeldedSeams>,
     /// Factor applied to [`SolverSettings::particle_mass`](crate::sim::SolverSettings) (below 1
     /// for a refined model, to keep the total mass).
     pub(crate) mass_scale: f32,

@@ -654,3 +654,5 @@ fn tolerance_mode_set_in_the_config_chooses_the_substeps_within_its_cap() {
 #[path = "app/subdivided.rs"]
 mod subdivided;
 use subdivided::vertex_count;
+#[path = "app/seams.rs"]
+mod seams;

@@ -17,7 +17,7 @@ use super::poses::{invertible, pose_of};
 use crate::components::{
     Cloth, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPins, ClothSkin,
     ClothSource, ClothState, ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL,
-    RenderSubdivision, SubdivisionTarget, TargetWeights,
+    RenderSubdivision, SubdivisionTarget, TargetWeights, WeldedSeams,
 };
 use crate::error::{ClothError, count_in};
 use crate::render;
@@ -116,7 +116,7 @@ pub(super) fn build_cloths(
     {
         let subdivision_changed = match (&subdivision, &state) {
             (Some(s), _) => s.is_changed(),
-            (None, Some(state)) => state.subdivision.is_some() || state.particle_map.is_some(),
+            (None, Some(state)) => state.subdivision.is_some() || state.refined,
             (None, None) => false,
         };
         // Targets added, edited or removed, or a skin: the cloth is rebuilt.
@@ -144,8 +144,7 @@ pub(super) fn build_cloths(
                     || targets_changed
                     || rejected.is_some() && (edited || removed.contains(&entity))
                     || subdivision_changed
-                        && (state.particle_map.is_some()
-                            || subdivision.as_deref().is_some_and(refines_sim))
+                        && (state.refined || subdivision.as_deref().is_some_and(refines_sim))
             }
             None => !invalid || edited || removed.contains(&entity),
         };
@@ -191,8 +190,8 @@ pub(super) fn build_cloths(
                 Err(e) => Err(e),
             },
             (None, Some(mut state)) if subdivision_changed => {
-                let result =
-                    rebuild_render(&mut state, subdivision, None, inputs.meshes).map(|mesh| {
+                let result = rebuild_render(&mut state, subdivision, (None, None), inputs.meshes)
+                    .map(|mesh| {
                         commands.entity(entity).insert(Mesh3d(mesh));
                     });
                 report_edit(&mut commands, entity, result, rejected);
@@ -236,11 +235,16 @@ fn build_state(
         ClothSource::Mesh(handle) => meshes.get(handle),
         _ => None,
     };
-    let (model, user_mesh) = match (&cloth.source, source_mesh) {
-        (ClothSource::Grid(spec), _) => (ClothModel::grid(spec)?, None),
+    let (model, user_mesh, seams) = match (&cloth.source, source_mesh) {
+        (ClothSource::Grid(spec), _) => (ClothModel::grid(spec)?, None, None),
         (ClothSource::Mesh(_), None) => return Ok(None),
         (ClothSource::Mesh(_), Some(source)) => {
             let model = render::model_from_mesh(source)?;
+            // A closed surface split along its seams is simulated welded, rendered split.
+            let (model, seams) = match model.weld_seams() {
+                Some((welded, particle_of_vertex)) => (welded, Some(particle_of_vertex)),
+                None => (model, None),
+            };
             if model.triangles.len() > 3 && shares_no_vertex(&model.triangles) {
                 warn!(
                     "a cloth mesh shares no vertex between its triangles, so its triangles move \
@@ -248,35 +252,51 @@ fn build_state(
                      every vertex) or unwelded?"
                 );
             }
-            (model, Some(render::prepare_user_mesh(source.clone())))
+            (
+                model,
+                Some(render::prepare_user_mesh(source.clone())),
+                seams,
+            )
         }
         (ClothSource::Model(shared), _) => {
             shared.model().validate()?;
-            (shared.model().clone(), None)
+            (shared.model().clone(), None, None)
         }
     };
-    let (model, user_mesh, particle_map, mass_scale) =
-        match subdivision.filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation) {
-            None => (model, user_mesh, None, 1.0),
-            Some(sub) => {
-                check_level(sub)?;
-                if targets.is_some() {
-                    return Err(ClothError::InvalidTargets {
-                        what: "a cloth with targets is simulated at its own resolution \
+    if seams.is_some() && targets.is_some() {
+        return Err(ClothError::InvalidTargets {
+            what: "a closed mesh welded along its seams takes no targets".into(),
+        });
+    }
+    let refined = subdivision.filter(|s| s.level > 0 && s.target == SubdivisionTarget::Simulation);
+    let (model, user_mesh, particle_map, mass_scale) = match refined {
+        None => (model, user_mesh, seams.clone(), 1.0),
+        Some(sub) => {
+            check_level(sub)?;
+            if targets.is_some() {
+                return Err(ClothError::InvalidTargets {
+                    what: "a cloth with targets is simulated at its own resolution \
                                (subdivide its render mesh instead)"
-                            .into(),
-                    });
-                }
-                let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
-                // The user's mesh no longer matches the particles: render the refined model.
-                (
-                    refined.model,
-                    None,
-                    Some(refined.particle_map),
-                    refined.mass_scale,
-                )
+                        .into(),
+                });
             }
-        };
+            let refined = model.subdivided(sub.level, sub.rule, sub.boundary)?;
+            // The user's mesh no longer matches the particles: render the refined model.
+            (
+                refined.model,
+                None,
+                // Pins index the source mesh's vertices: through the welding first.
+                Some(match &seams {
+                    Some(welded) => welded
+                        .iter()
+                        .map(|&p| refined.particle_map[p as usize])
+                        .collect(),
+                    None => refined.particle_map,
+                }),
+                refined.mass_scale,
+            )
+        }
+    };
     let attachment = match targets {
         None => None,
         Some(targets) => {
@@ -317,7 +337,9 @@ fn build_state(
         mesh: Handle::default(),
         subdivision: None,
         grid_normals: None,
+        refined: refined.is_some(),
         particle_map,
+        seams: None,
         mass_scale,
         render_prev: Vec::new(),
         render_curr: Vec::new(),
@@ -333,7 +355,7 @@ fn build_state(
     };
     let plan = plan_pins(&state, pins, transform)?;
     commit_pins(&mut state, plan)?;
-    let mesh = rebuild_render(&mut state, subdivision, user_mesh, meshes)?;
+    let mesh = rebuild_render(&mut state, subdivision, (user_mesh, seams), meshes)?;
     Ok(Some((state, mesh)))
 }
 
@@ -414,12 +436,13 @@ fn check_level(sub: &ClothSubdivision) -> Result<(), ClothError> {
 
 /// Sets up the render side of a cloth (subdivision stencils, buffers, a new mesh asset) for its
 /// current particles, and returns the mesh handle. Unsubdivided, the cloth renders into `user_mesh`
-/// when given (a copy of the user's source mesh, keeping all its attributes). Fails, changing
-/// nothing, when the subdivision cannot be built; a render pass that then fails stops the cloth.
+/// when given (a copy of the user's source mesh, keeping all its attributes; with `seams`, each
+/// of its vertices' particle when the simulation welded them). Fails, changing nothing, when the
+/// subdivision cannot be built; a render pass that then fails stops the cloth.
 fn rebuild_render(
     state: &mut ClothState,
     subdivision: Option<&ClothSubdivision>,
-    user_mesh: Option<Mesh>,
+    (user_mesh, seams): (Option<Mesh>, Option<Vec<u32>>),
     meshes: &mut Assets<Mesh>,
 ) -> Result<Handle<Mesh>, ClothError> {
     let model = state.sim.model();
@@ -442,8 +465,15 @@ fn rebuild_render(
         None => GridNormals::new(model),
         Some(_) => None,
     };
+    state.seams = None;
     let mesh = match (&state.subdivision, user_mesh) {
-        (None, Some(user_mesh)) => user_mesh,
+        (None, Some(user_mesh)) => {
+            state.seams = seams.map(|particle_of_vertex| WeldedSeams {
+                particle_of_vertex,
+                normals: vec![Vec3::Y; model.particle_count()],
+            });
+            user_mesh
+        }
         (None, None) => render::mesh_for_model(model),
         (Some(r), _) => render::mesh_for_subdivision(&r.subdivider),
     };

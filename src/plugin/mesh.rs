@@ -44,12 +44,37 @@ pub(super) fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<C
     });
 }
 
-/// Computes the current render positions and normals from the particles: copied, or evaluated
-/// through the subdivision stencils.
+/// Computes the current render positions and normals from the particles: copied (each render
+/// vertex its particle's, where the simulation welded the mesh's seams), or evaluated through the
+/// subdivision stencils.
 pub(super) fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
     let positions = s.sim.positions();
-    match &mut s.subdivision {
-        None => {
+    match (&mut s.subdivision, &mut s.seams) {
+        (None, Some(seams)) => {
+            // Built from the same mesh and model; checked again as the copy below is.
+            let vertices = seams.particle_of_vertex.len();
+            if s.render_curr.len() != vertices
+                || seams.normals.len() != positions.len()
+                || seams
+                    .particle_of_vertex
+                    .iter()
+                    .any(|&p| p as usize >= positions.len())
+            {
+                return Err(ClothError::InvalidMesh {
+                    what: format!(
+                        "has {} render vertices for {vertices} welded to {} particles",
+                        s.render_curr.len(),
+                        positions.len()
+                    ),
+                });
+            }
+            compute_normals(positions, &s.sim.model().triangles, &mut seams.normals);
+            for (v, &p) in seams.particle_of_vertex.iter().enumerate() {
+                s.render_curr[v] = positions[p as usize];
+                s.normals_curr[v] = seams.normals[p as usize];
+            }
+        }
+        (None, None) => {
             // Render buffers are sized from the mesh, checked against the particles at build.
             if s.render_curr.len() != positions.len() {
                 return Err(ClothError::InvalidMesh {
@@ -73,7 +98,7 @@ pub(super) fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
                 );
             }
         }
-        Some(r) => {
+        (Some(r), _) => {
             r.subdivider.apply(positions, &mut r.positions)?;
             r.subdivider.compute_normals(&r.positions, &mut r.normals)?;
             let layout = r.subdivider.topology().render_mesh();

@@ -13,6 +13,7 @@ mod closed;
 mod disc;
 mod grid;
 mod normals;
+mod seams;
 mod springs;
 mod subdivided;
 #[cfg(test)]
