@@ -99,7 +99,7 @@ impl Air {
         x: impl Fn(usize) -> Vec3,
         mut add: impl FnMut(usize, Vec3),
     ) {
-        let v = volume_gradient(&scratch.triangles, x, &mut scratch.gradient);
+        let v = scratch.volume_gradient(x);
         let p = self.gauge(v) as f32;
         for (i, g) in scratch.gradient.iter().enumerate() {
             add(i, *g * p);
@@ -120,29 +120,34 @@ impl Air {
         (x, d): (&Soa, &mut Soa),
         h: f32,
     ) {
-        let at = |i: usize| x.get(i) + d.get(i);
-        let gradient = &mut scratch.gradient;
-        let v = volume_gradient(&scratch.triangles, at, gradient);
-        let weight: f64 = gradient
+        for ((p, a), b) in scratch.positions.iter_mut().zip(x.iter()).zip(d.iter()) {
+            *p = a + b;
+        }
+        let v = scratch.volume_gradient_at_positions();
+        let gradient = &scratch.gradient;
+        let weight: f32 = gradient
             .iter()
             .zip(inv_mass)
-            .map(|(g, w)| (*w * g.length_squared()) as f64)
+            .map(|(g, w)| *w * g.length_squared())
             .sum();
         let h2 = (h * h) as f64;
-        let scale = (h2 * self.gauge(v) / (1.0 + h2 * self.volume_stiffness(v) * weight)) as f32;
-        for (i, (g, w)) in gradient.iter().zip(inv_mass).enumerate() {
-            if *w > 0.0 {
-                d.set(i, d.get(i) + *g * (*w * scale));
-            }
+        let stiffness = self.volume_stiffness(v) * weight as f64;
+        let scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32;
+        // A particle of weight 0 (pinned) moves by 0.
+        for ((dx, dy, dz), (g, w)) in d.iter_mut().zip(gradient.iter().zip(inv_mass)) {
+            let s = *w * scale;
+            (*dx, *dy, *dz) = (*dx + g.x * s, *dy + g.y * s, *dz + g.z * s);
         }
     }
 }
 
 /// A stepper's scratch for the air: the model's triangles in the stepper's numbering of the
-/// particles, and the volume's gradient per particle. Empty for a cloth without air.
+/// particles, and per particle its position (gathered once, read by every triangle it is a
+/// corner of) and the volume's gradient. Empty for a cloth without air.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct AirScratch {
     triangles: Vec<u32>,
+    positions: Vec<Vec3>,
     gradient: Vec<Vec3>,
 }
 
@@ -153,11 +158,27 @@ impl AirScratch {
         self.triangles.clear();
         if on {
             self.triangles.extend(triangles.iter().map(|&i| slot(i)));
+            self.positions.resize(n, Vec3::ZERO);
             self.gradient.resize(n, Vec3::ZERO);
         } else {
             self.triangles.shrink_to_fit();
+            self.positions = Vec::new();
             self.gradient = Vec::new();
         }
+    }
+
+    /// The enclosed volume at positions `x(i)`, with its gradient left in `gradient`.
+    fn volume_gradient(&mut self, x: impl Fn(usize) -> Vec3) -> f64 {
+        for (i, p) in self.positions.iter_mut().enumerate() {
+            *p = x(i);
+        }
+        self.volume_gradient_at_positions()
+    }
+
+    /// The enclosed volume at `positions`, with its gradient left in `gradient`.
+    fn volume_gradient_at_positions(&mut self) -> f64 {
+        let positions = &self.positions;
+        volume_gradient(&self.triangles, |i| positions[i], &mut self.gradient)
     }
 }
 

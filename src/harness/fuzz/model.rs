@@ -183,7 +183,8 @@ pub(super) struct Fixture {
     pub(super) joints: Vec<(Entity, Entity)>,
     pub(super) colliders: Vec<Entity>,
     pub(super) zones: Vec<Entity>,
-    /// avian bodies.
+    /// avian bodies (none without the `avian` feature).
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))]
     pub(super) bodies: Vec<Entity>,
     /// Time of the characters' walk, s.
     pub(super) walk: f32,
