@@ -16,9 +16,10 @@ use crate::error::ClothError;
 
 /// How far (m) a cloth's centre must have moved from its rest centre before the check for a
 /// reset to rest applies, and how close to the rest centre it must then come to count as reset.
-/// A cloth rebuilt from rest moves about a centimetre in three steps of free fall. Cloths with
-/// targets are left out: their targets (the skinned or the source mesh's pose, here the rest pose)
-/// rightly pull them back to rest within a few steps.
+/// A cloth rebuilt from rest moves about a centimetre in three steps of free fall. Only cloths
+/// without pins or targets are checked: a new pin set anchored at the rest pose, or targets (the
+/// skinned or the source mesh's pose, here the rest pose), rightly pull a cloth back to rest
+/// within a few steps.
 const MOVED: f32 = 0.2;
 const BACK_AT_REST: f32 = 0.005;
 
@@ -165,6 +166,7 @@ pub(super) fn check_step(fx: &Fixture, before: &Snapshot, step: u32) -> Vec<(Fai
                 ),
             ));
         } else if cloth.targets.is_none()
+            && cloth.pins.is_empty()
             && centre.distance(rest_centre) > MOVED
             && mean(s.positions()).distance(rest_centre) < BACK_AT_REST
         {
@@ -335,7 +337,7 @@ mod tests {
     }
 
     #[test]
-    fn a_cloth_put_back_at_rest_is_lost_unless_targets_pull_it_there() {
+    fn a_cloth_put_back_at_rest_is_lost_unless_pins_or_targets_pull_it_there() {
         let (mut fx, mut before) = stepped();
         // As if the first cloth had been a metre from its rest centre before this update, and
         // were at it now.
@@ -345,10 +347,16 @@ mod tests {
         let (steps, ..) = before.0[at].running.unwrap();
         before.0[at].running = Some((steps, now + Vec3::X, now));
         fx.cloths[0].targets = None;
+        fx.cloths[0].pins.clear();
         let found = check_step(&fx, &before, 1);
         assert_eq!(kinds(&found), [FailureKind::Lost], "{found:?}");
         assert!(found[0].1.contains("put back at rest"), "{found:?}");
         fx.cloths[0].targets = Some(super::super::model::Targets::Color);
+        assert_eq!(check_step(&fx, &before, 1), vec![]);
+        fx.cloths[0].targets = None;
+        fx.cloths[0]
+            .pins
+            .push((0, super::super::model::Anchor::Finite));
         assert_eq!(check_step(&fx, &before, 1), vec![]);
     }
 
