@@ -122,6 +122,10 @@ enum Command {
         /// Turn self-collision on in every case (thickness a quarter of the grid's spacing).
         #[arg(long)]
         self_collision: bool,
+        /// Make every case a closed cloth with air inside (an icosphere of about the grid's
+        /// particle count keeping a volume or holding a gas).
+        #[arg(long)]
+        air: bool,
         /// Run every case in tolerance mode at this tolerance (relative to the cloth's size, per
         /// second; the default cap of substeps).
         #[arg(long)]
@@ -387,6 +391,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             integrators,
             trace,
             self_collision,
+            air,
             tolerance,
             threads,
         } => {
@@ -408,7 +413,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 from..from + cases,
                 seed,
                 &chosen,
-                (self_collision, tolerance, trace),
+                (self_collision, air, tolerance, trace),
                 threads,
             ) {
                 return Err("stress cases failed (listed above)".into());

@@ -65,6 +65,11 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 }
 
 #[test]
+fn xpbd_survives_200_stress_cases_on_closed_cloths_with_air() {
+    run_with(&[Xpbd], 4000..4200, StressCase::with_air);
+}
+
+#[test]
 fn every_integrator_survives_100_stress_cases_in_tolerance_mode() {
     run_with(&Integrator::ALL, 3000..3100, |case| {
         case.with_tolerance(1e-3)

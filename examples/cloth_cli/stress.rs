@@ -30,7 +30,7 @@ struct Tally {
 }
 
 /// Runs cases `cases` of suite `seed` over `integrators` (with `self_collision`, every case has
-/// it on; with a `tolerance`, every case runs in tolerance mode) on `threads` threads (one with
+/// it on; with `air`, every case is a closed cloth with air inside; with a `tolerance`, every case runs in tolerance mode) on `threads` threads (one with
 /// `trace`); returns whether all passed. The cases are
 /// independent, and the tables and failures come out in case order whatever the thread count.
 /// With `trace`, prints every step of every case.
@@ -38,7 +38,7 @@ pub fn run(
     cases: std::ops::Range<u64>,
     seed: u64,
     integrators: &[Integrator],
-    (self_collision, tolerance, trace): (bool, Option<f32>, bool),
+    (self_collision, air, tolerance, trace): (bool, bool, Option<f32>, bool),
     threads: usize,
 ) -> bool {
     let limits = StressLimits::default();
@@ -52,6 +52,9 @@ pub fn run(
         let mut case = draw_case(seed, index, integrators, &limits);
         if self_collision {
             case = case.with_self_collision();
+        }
+        if air {
+            case = case.with_air();
         }
         if let Some(tolerance) = tolerance {
             case = case.with_tolerance(tolerance);

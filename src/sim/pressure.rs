@@ -11,6 +11,13 @@ use super::model::{enclosed_volume, volume_gradient};
 use super::settings::Pressure;
 use super::soa::Soa;
 
+/// How much higher than its linear bound the air's frequency is taken. The pressure changes as
+/// the volume breathes, and an explicit integrator that takes the air near its linear stability
+/// limit is unstable: an icosahedron of free particles kept at a stiff volume, started off it,
+/// ran away under symplectic Euler at `hω = 1.8` and stayed bounded at `1.5` (found by the stress
+/// suite's closed cloths); with the margin, the air asks for `hω ≤ 1.2`.
+pub(crate) const AIR_FREQUENCY_MARGIN: f32 = 1.5;
+
 /// A closed cloth's air as its steppers see it: the model and the volumes it refers to.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Air {
@@ -69,29 +76,65 @@ impl Air {
         }
     }
 
-    /// How stiff the air is against a change of volume at volume `v`, Pa/m³: `−dp/dV`.
+    /// How stiff the air is against a change of volume at volume `v`, Pa/m³: `−dp/dV` (for a gas
+    /// compressed below a thousandth of its built volume, its value there).
     fn volume_stiffness(&self, v: f64) -> f64 {
         match self.pressure {
             Pressure::Off => 0.0,
             Pressure::Volume { bulk_modulus, .. } => {
                 bulk_modulus as f64 / self.kept_volume() as f64
             }
+            // Below the floor the pressure is held, but the stiffness is kept at the floor's, so
+            // that XPBD's step and the explicit integrators' bound still see a stiff gas.
             Pressure::Gas { nrt, .. } => {
-                let floor = 1e-3 * self.built_volume as f64;
-                if v > floor { nrt as f64 / (v * v) } else { 0.0 }
+                let v = v.max(1e-3 * self.built_volume as f64);
+                nrt as f64 / (v * v)
             }
         }
     }
 
-    /// The square of the highest angular frequency the air adds, rad²/s², given
-    /// `Σ w |∂V/∂x|²` over the free particles: the air's stiffness `−dp/dV ∇V ∇Vᵀ` is of rank
-    /// one, so its mass-weighted eigenvalue is that sum times `−dp/dV`. Added to the springs'
-    /// bound, as the eigenvalues of a sum are at most the sums of its terms' largest.
-    pub fn frequency_squared(&self, weighted_gradient: f32) -> f32 {
-        (self.volume_stiffness(self.built_volume as f64) * weighted_gradient as f64) as f32
+    /// A bound on the highest angular frequency the air adds at `positions`, rad/s, over the
+    /// particles of weight `inv_mass` (`triangles` numbered as they are), for the integrators
+    /// that take the air as a force. The air's stiffness `∂F/∂x` has two parts: `−k ∇V ∇Vᵀ`
+    /// (`k = −dp/dV`), of rank one, whose mass-weighted eigenvalue is `k Σ w |∇V|²`; and the
+    /// pressure times the volume's second derivative, `p ∂²V/∂x²`, whose blocks are
+    /// `[x_c − x_d]× / 6` for the corners `c`, `d` opposite an edge (none on the diagonal),
+    /// bounded by rows (Gershgorin) with each row's own particle as the origin:
+    /// `|p| max_a √w_a Σ (|x_c − x_a| √w_b + |x_b − x_a| √w_c) / 6` over its triangles
+    /// `(a, b, c)`. The square of the bound is their sum (the eigenvalues of a sum are at most
+    /// the sums of its terms' largest), and it is added to the springs' the same way. The result
+    /// is that bound times [`AIR_FREQUENCY_MARGIN`].
+    pub fn frequency(&self, triangles: &[u32], positions: &[Vec3], inv_mass: &[f32]) -> f32 {
+        let mut gradient = vec![Vec3::ZERO; positions.len()];
+        let v = volume_gradient(triangles, |i| positions[i], &mut gradient);
+        let weighted: f64 = gradient
+            .iter()
+            .zip(inv_mass)
+            .map(|(g, w)| (*w * g.length_squared()) as f64)
+            .sum();
+        let mut rows = vec![0.0f32; positions.len()];
+        for t in triangles.chunks_exact(3) {
+            for k in 0..3 {
+                let (a, b, c) = (
+                    t[k] as usize,
+                    t[(k + 1) % 3] as usize,
+                    t[(k + 2) % 3] as usize,
+                );
+                let (xa, xb, xc) = (positions[a], positions[b], positions[c]);
+                rows[a] +=
+                    xc.distance(xa) * inv_mass[b].sqrt() + xb.distance(xa) * inv_mass[c].sqrt();
+            }
+        }
+        let geometric = rows
+            .iter()
+            .zip(inv_mass)
+            .map(|(r, w)| r * w.sqrt() / 6.0)
+            .fold(0.0f32, f32::max);
+        let squared = self.volume_stiffness(v) * weighted + self.gauge(v).abs() * geometric as f64;
+        AIR_FREQUENCY_MARGIN * squared.sqrt() as f32
     }
 
-    /// Hands `add` the air's force `gauge(V) ∂V/∂x` on each particle at positions `x(i)` (in
+    /// Hands `add` the air's force `p ∂V/∂x` on each particle at positions `x(i)` (in
     /// `scratch`'s numbering).
     pub fn forces(
         &self,
@@ -302,5 +345,99 @@ mod tests {
             assert!(pair[1] < 2.0 * pair[0] * pair[0] + 1e-6, "{errors:?}");
         }
         assert!(errors[3] < 1e-5, "{errors:?}");
+    }
+}
+
+#[cfg(test)]
+mod frequency_tests {
+    use super::*;
+    use crate::sim::ClothModel;
+
+    /// The largest eigenvalue of `M^{-1/2} (−∂F/∂x) M^{-1/2}` for the air's force on `x`, by
+    /// finite differences and power iteration (the matrix is symmetric).
+    fn largest_eigenvalue(air: &Air, triangles: &[u32], x: &[Vec3], inv_mass: &[f32]) -> f64 {
+        let n = x.len();
+        let force = |x: &[Vec3]| -> Vec<f64> {
+            let mut g = vec![Vec3::ZERO; n];
+            let p = air.gauge(volume_gradient(triangles, |i| x[i], &mut g));
+            g.iter()
+                .flat_map(|g| [g.x as f64 * p, g.y as f64 * p, g.z as f64 * p])
+                .collect()
+        };
+        let eps = 1e-4 * x.iter().map(|p| p.length()).fold(0.0, f32::max);
+        let mut jacobian = vec![vec![0.0f64; 3 * n]; 3 * n];
+        for j in 0..3 * n {
+            let (mut plus, mut minus) = (x.to_vec(), x.to_vec());
+            plus[j / 3][j % 3] += eps;
+            minus[j / 3][j % 3] -= eps;
+            let (fp, fm) = (force(&plus), force(&minus));
+            for i in 0..3 * n {
+                let scale = (inv_mass[i / 3] as f64 * inv_mass[j / 3] as f64).sqrt();
+                jacobian[i][j] = -(fp[i] - fm[i]) / (2.0 * eps as f64) * scale;
+            }
+        }
+        // Power iteration on A + cI (c shifts the spectrum positive).
+        let c = jacobian
+            .iter()
+            .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        let mut v: Vec<f64> = (0..3 * n).map(|i| 1.0 + (i as f64 * 0.37).sin()).collect();
+        let mut lambda = 0.0;
+        for _ in 0..2000 {
+            let w: Vec<f64> = (0..3 * n)
+                .map(|i| jacobian[i].iter().zip(&v).map(|(a, b)| a * b).sum::<f64>() + c * v[i])
+                .collect();
+            let norm = w.iter().map(|a| a * a).sum::<f64>().sqrt();
+            lambda = norm;
+            v = w.iter().map(|a| a / norm).collect();
+        }
+        lambda - c
+    }
+
+    #[test]
+    fn the_frequency_bound_holds_the_forces_largest_frequency() {
+        for (subdivisions, pressure) in [
+            (
+                0,
+                Pressure::Volume {
+                    scale: 1.0120776,
+                    bulk_modulus: 1.2e6,
+                },
+            ),
+            (
+                1,
+                Pressure::Volume {
+                    scale: 0.8,
+                    bulk_modulus: 1e5,
+                },
+            ),
+            (1, Pressure::gas(0.1, 5e4)),
+            (0, Pressure::gas(0.1, -4e4)),
+        ] {
+            let model = ClothModel::icosphere(0.3, subdivisions).unwrap();
+            let x = &model.rest_positions;
+            let air = Air {
+                pressure,
+                built_volume: model.check_closed().unwrap(),
+            };
+            let inv_mass: Vec<f32> = (0..x.len())
+                .map(|i| {
+                    if i == 0 {
+                        0.0
+                    } else {
+                        1e3 * (1.0 + (i % 3) as f32)
+                    }
+                })
+                .collect();
+            let bound = air.frequency(&model.triangles, x, &inv_mass) as f64;
+            let exact = largest_eigenvalue(&air, &model.triangles, x, &inv_mass)
+                .max(0.0)
+                .sqrt();
+            eprintln!("{subdivisions} {pressure:?}: bound {bound}, largest {exact}");
+            assert!(
+                exact <= bound / AIR_FREQUENCY_MARGIN as f64 * 1.001,
+                "{pressure:?}: {exact} > {bound}"
+            );
+        }
     }
 }

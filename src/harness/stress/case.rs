@@ -6,8 +6,8 @@ use glam::{Quat, Vec3};
 
 use crate::error::ClothError;
 use crate::sim::{
-    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Friction, GridSpec, Pose,
-    SelfCollision, SolverSettings,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Friction, GridSpec,
+    MAX_ICOSPHERE_SUBDIVISIONS, Pose, Pressure, SelfCollision, SolverSettings,
 };
 
 /// How big the cases may get.
@@ -47,6 +47,24 @@ pub struct StressCollider {
     pub rotation: Quat,
 }
 
+/// The air inside a closed case ([`StressCase::with_air`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StressAir {
+    /// [`Pressure::Volume`]: this fraction of the built volume kept at this bulk modulus, Pa.
+    Volume {
+        /// Kept over built volume.
+        scale: f32,
+        /// Bulk modulus, Pa.
+        bulk_modulus: f32,
+    },
+    /// [`Pressure::gas`]: an ideal gas this many Pa above the standard atmosphere at the built
+    /// volume (below it when negative).
+    Gas {
+        /// Gauge pressure at the built volume, Pa.
+        gauge: f32,
+    },
+}
+
 /// One drawn case (everything needed to rerun it).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StressCase {
@@ -76,6 +94,9 @@ pub struct StressCase {
     pub wind: Vec3,
     /// Whether the wind is gusty.
     pub gusts: bool,
+    /// With air, the cloth is a closed one: an icosphere of about `side`² particles, `size`
+    /// across, instead of the grid.
+    pub air: Option<StressAir>,
 }
 
 /// The first `count` (at most 4) corners of a `side`×`side` grid, as pinned particles.
@@ -141,6 +162,16 @@ impl StressCase {
         self
     }
 
+    /// The pinned particles of a cloth of `side` with `count` pins: the grid's first corners, or
+    /// a closed cloth's first particles (an icosphere's first twelve are its icosahedron's
+    /// corners, spread over it).
+    pub(super) fn pins_for(&self, side: u32, count: usize) -> Vec<u32> {
+        match self.air {
+            None => corner_pins(side, count),
+            Some(_) => (0..count.min(4) as u32).collect(),
+        }
+    }
+
     pub(super) fn isolated(&self) -> bool {
         self.pin_speed == 0.0
             && self.wind == Vec3::ZERO
@@ -160,35 +191,56 @@ impl StressCase {
                 Some(_) => self.settings.accuracy.max_substeps,
                 None => sim.substeps_for(case.dt),
             };
-            let work = (case.side * case.side) as f64 * substeps as f64 * case.steps as f64;
+            let particles = sim.positions().len() as f64;
+            let work = particles * substeps as f64 * case.steps as f64;
             if work <= limits.max_work || case.side <= 2 {
                 return Ok((sim, case));
             }
             let shrink = (limits.max_work / work).sqrt();
             case.side = ((case.side as f64 * shrink).floor() as u32).clamp(2, case.side - 1);
-            case.pins = corner_pins(case.side, self.pins.len());
+            case.pins = self.pins_for(case.side, self.pins.len());
         }
     }
 
     fn build_side(&self, side: u32) -> Result<ClothSim, ClothError> {
-        let mut model =
-            ClothModel::grid(&GridSpec::new(side, side, self.size / (side - 1) as f32))?;
+        let mut model = match self.air {
+            None => ClothModel::grid(&GridSpec::new(side, side, self.size / (side - 1) as f32))?,
+            // The most subdivisions with at most `side`² particles (10·4ˢ + 2), at least none.
+            Some(_) => {
+                let subdivisions = (1..=MAX_ICOSPHERE_SUBDIVISIONS)
+                    .take_while(|&s| 10 * 4u64.pow(s) + 2 <= (side as u64).pow(2))
+                    .last()
+                    .unwrap_or(0);
+                ClothModel::icosphere(0.5 * self.size, subdivisions)?
+            }
+        };
         if self.mass_ratio > 1.0 {
-            // Alternating heavy and light particles in a checkerboard, with smooth variation on
-            // top: neighbours differ by up to `mass_ratio`.
+            // Alternating heavy and light particles (a checkerboard on the grid), with smooth
+            // variation on top: neighbours differ by up to `mass_ratio`.
             let m = self.settings.particle_mass;
-            let masses = (0..side * side)
+            let masses = (0..model.particle_count() as u32)
                 .map(|i| {
-                    let (x, y) = (i % side, i / side);
-                    if (x + y) % 2 == 0 {
-                        m * self.mass_ratio
-                    } else {
-                        m
-                    }
+                    let heavy = match self.air {
+                        None => (i % side + i / side).is_multiple_of(2),
+                        Some(_) => i.is_multiple_of(2),
+                    };
+                    if heavy { m * self.mass_ratio } else { m }
                 })
                 .collect();
             model = model.with_particle_masses(masses)?;
         }
-        ClothSim::new(model, self.settings, |p| p + Vec3::new(0.0, 1.0, 0.0))
+        let mut settings = self.settings;
+        settings.pressure = match self.air {
+            None => settings.pressure,
+            Some(StressAir::Volume {
+                scale,
+                bulk_modulus,
+            }) => Pressure::Volume {
+                scale,
+                bulk_modulus,
+            },
+            Some(StressAir::Gas { gauge }) => Pressure::gas(model.check_closed()?, gauge),
+        };
+        ClothSim::new(model, settings, |p| p + Vec3::new(0.0, 1.0, 0.0))
     }
 }

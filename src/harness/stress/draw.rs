@@ -6,7 +6,7 @@ use std::f32::consts::TAU;
 use bevy::math::primitives::{Capsule3d, Cuboid, InfinitePlane3d, Sphere};
 use glam::{Quat, Vec3};
 
-use super::case::{StressCase, StressCollider, StressLimits, corner_pins};
+use super::case::{StressAir, StressCase, StressCollider, StressLimits, corner_pins};
 use crate::hash::{GOLDEN_GAMMA, mix64};
 use crate::sim::{ColliderShape, Integrator, SolverSettings, Stiffness, Tethers};
 
@@ -199,5 +199,46 @@ pub fn draw_case(
         collider,
         wind,
         gusts,
+        air: None,
+    }
+}
+
+impl StressCase {
+    /// The same case on a closed cloth with air inside ([`StressAir`], drawn from the case's seed
+    /// and index): an icosphere the cloth's size across, of about the grid's particle count, pinned
+    /// at as many of its first particles as the grid had corners pinned, its collider moved back
+    /// by the ball's radius. Half the cases keep a
+    /// volume (0.6–1.4 of the built one, bulk modulus 10²–10⁸ Pa), half hold a gas (−50 kPa to
+    /// +100 kPa about the air outside at the built volume).
+    pub fn with_air(mut self) -> Self {
+        let mut rng = SplitMix64(self.seed ^ self.index.wrapping_mul(0xA076_1D64_78BD_642F));
+        rng.next();
+        self.air = Some(if rng.chance(0.5) {
+            StressAir::Volume {
+                scale: rng.range(0.6, 1.4),
+                bulk_modulus: rng.log_range(1e2, 1e8),
+            }
+        } else if rng.chance(0.25) {
+            StressAir::Gas {
+                gauge: -rng.log_range(10.0, 5e4),
+            }
+        } else {
+            StressAir::Gas {
+                gauge: rng.log_range(10.0, 1e5),
+            }
+        });
+        self.pins = self.pins_for(self.side, self.pins.len());
+        // The ball is centred where the grid lay: its collider starts as far again from the
+        // grid's plane (below it, or back along its path), so as to start clear of the ball.
+        let radius = 0.5 * self.size;
+        if let Some(c) = &mut self.collider {
+            let along = c.velocity.normalize_or_zero();
+            if along == Vec3::ZERO || matches!(c.shape, ColliderShape::HalfSpace(_)) {
+                c.start.y -= radius;
+            } else {
+                c.start -= along * radius;
+            }
+        }
+        self
     }
 }

@@ -35,7 +35,7 @@ mod run;
 
 #[cfg(doc)]
 use crate::{error::ClothError, sim::MAX_SUBSTEPS};
-pub use case::{StressCase, StressCollider, StressLimits};
+pub use case::{StressAir, StressCase, StressCollider, StressLimits};
 pub use draw::draw_case;
 pub use penetration::CLEARANCE_TOLERANCE;
 pub use result::{StressOutcome, StressResult, state_hash, trace_line};

@@ -10,7 +10,7 @@ use crate::error::ClothError;
 use crate::sim::contact::{Contacts, SelfContacts};
 use crate::sim::forces::{SpringSet, max_frequency_bound};
 use crate::sim::integrate::Steppers;
-use crate::sim::model::{ClothModel, enclosed_volume, volume_gradient};
+use crate::sim::model::{ClothModel, enclosed_volume};
 use crate::sim::pressure::Air;
 use crate::sim::settings::{Integrator, SelfCollision, SolverSettings};
 use crate::sim::state::Particles;
@@ -56,6 +56,7 @@ impl ClothSim {
             stiffness: vec![0.0; springs],
             steppers: Steppers::default(),
             omega_max: 0.0,
+            spring_frequency: 0.0,
             longest_spring: model.springs.rest.iter().copied().fold(0.0, f32::max),
             active: settings.integrator,
             contacts: Contacts::new(n, (model.max_edge_length(), mean_edge)),
@@ -155,7 +156,7 @@ impl ClothSim {
             &pinned,
         );
         let mut scratch = vec![0.0; self.particles.positions.len()];
-        self.omega_max =
+        self.spring_frequency =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);
         self.air = self
             .built_volume
@@ -164,20 +165,7 @@ impl ClothSim {
                 pressure: self.settings.pressure,
                 built_volume,
             });
-        if let Some(air) = &self.air {
-            let p = &self.particles;
-            let mut gradient = vec![Vec3::ZERO; p.positions.len()];
-            volume_gradient(&self.model.triangles, |i| p.positions[i], &mut gradient);
-            let weighted: f32 = gradient
-                .iter()
-                .zip(&p.inv_mass)
-                .map(|(g, w)| *w * g.length_squared())
-                .sum();
-            self.air_frequency = air.frequency_squared(weighted).sqrt();
-            self.omega_max = self.omega_max.hypot(self.air_frequency);
-        } else {
-            self.air_frequency = 0.0;
-        }
+        self.refresh_air_frequency();
         // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.
         let integrator = if self.settings.accuracy.tolerance.is_some() {
             Integrator::Auto

@@ -51,8 +51,11 @@ pub struct ClothSim {
     pins: Vec<PinState>,
     /// Each integrator's stepper and scratch.
     pub(super) steppers: Steppers,
-    /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
+    /// Bound on the highest angular frequency of the springs and the air, rad/s: the springs'
+    /// (Gershgorin) and the air's (at the start of the step) combined.
     omega_max: f32,
+    /// Gershgorin bound on the highest angular frequency of the springs, rad/s.
+    spring_frequency: f32,
     /// The longest spring's rest length, m: a pin moving farther in one step makes
     /// [`Integrator::Auto`] choose XPBD.
     longest_spring: f32,
@@ -68,8 +71,9 @@ pub struct ClothSim {
     built_volume: Option<f32>,
     /// The air inside, while [`SolverSettings::pressure`] is on.
     air: Option<Air>,
-    /// The highest angular frequency the air adds, rad/s (0 without air); part of `omega_max`,
-    /// and the bound of implicit Euler's substeps, which take the air explicitly.
+    /// The highest angular frequency the air adds at the start of the step, rad/s (0 without
+    /// air; see `Air::frequency`); part of `omega_max`, and the bound of implicit Euler's
+    /// substeps, which take the air explicitly.
     air_frequency: f32,
     steps: u64,
     sleep: Sleep,

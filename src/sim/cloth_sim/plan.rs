@@ -73,6 +73,16 @@ impl ClothSim {
         substeps_within(dt, fraction, self.omega_max)
     }
 
+    /// Sets the air's frequency bound for the cloth as it is now (the air's stiffness grows with
+    /// its pressure and as a gas is compressed), and `omega_max` from it and the springs'.
+    pub(super) fn refresh_air_frequency(&mut self) {
+        self.air_frequency = self.air.as_ref().map_or(0.0, |air| {
+            let p = &self.particles;
+            air.frequency(&self.model.triangles, &p.positions, &p.inv_mass)
+        });
+        self.omega_max = self.spring_frequency.hypot(self.air_frequency);
+    }
+
     /// The integrator the current (or last) step used: the configured one, or the one
     /// [`Integrator::Auto`] chose for it (before the first step, its choice for a step of 1/60 s).
     pub fn active_integrator(&self) -> Integrator {

@@ -44,6 +44,9 @@ impl ClothSim {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
+        if self.air.is_some() {
+            self.refresh_air_frequency();
+        }
         match self.adaptive.take() {
             Some(mut adaptive) => {
                 let result = adaptive.step(self, dt, env, spread);
