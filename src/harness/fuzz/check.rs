@@ -17,9 +17,10 @@ use crate::error::ClothError;
 /// How far (m) a cloth's centre must have moved from its rest centre before the check for a
 /// reset to rest applies, and how close to the rest centre it must then come to count as reset.
 /// A cloth rebuilt from rest moves about a centimetre in three steps of free fall. Only cloths
-/// without pins or targets are checked: a new pin set anchored at the rest pose, or targets (the
-/// skinned or the source mesh's pose, here the rest pose), rightly pull a cloth back to rest
-/// within a few steps.
+/// without pins or targets, before the operation and after it, are checked: a new pin set
+/// anchored at the rest pose, or targets (the skinned or the source mesh's pose, here the rest
+/// pose), rightly pull a cloth back to rest within a few steps, and targets still act in the
+/// first update after they are removed (the step runs before the edit is built).
 const MOVED: f32 = 0.2;
 const BACK_AT_REST: f32 = 0.005;
 
@@ -30,6 +31,8 @@ pub(super) struct ClothBefore {
     /// Its state, if it had one: steps taken, centre, and rest centre under its transform.
     running: Option<(u64, Vec3, Vec3)>,
     validity: Validity,
+    /// Whether pins or targets held it: their pull may still act in the update after they go.
+    held: bool,
 }
 
 /// Every tracked cloth before an operation.
@@ -60,6 +63,7 @@ impl Snapshot {
                         entity: c.entity,
                         running,
                         validity: c.validity(&fx.meshes),
+                        held: c.targets.is_some() || !c.pins.is_empty(),
                     }
                 })
                 .collect(),
@@ -135,6 +139,7 @@ pub(super) fn check_step(fx: &Fixture, before: &Snapshot, step: u32) -> Vec<(Fai
         }
         let Some(&ClothBefore {
             running: Some((steps, centre, rest_centre)),
+            held,
             ..
         }) = before.get(e)
         else {
@@ -165,7 +170,8 @@ pub(super) fn check_step(fx: &Fixture, before: &Snapshot, step: u32) -> Vec<(Fai
                     s.steps()
                 ),
             ));
-        } else if cloth.targets.is_none()
+        } else if !held
+            && cloth.targets.is_none()
             && cloth.pins.is_empty()
             && centre.distance(rest_centre) > MOVED
             && mean(s.positions()).distance(rest_centre) < BACK_AT_REST
@@ -346,6 +352,7 @@ mod tests {
         let at = before.0.iter().position(|b| b.entity == e).unwrap();
         let (steps, ..) = before.0[at].running.unwrap();
         before.0[at].running = Some((steps, now + Vec3::X, now));
+        before.0[at].held = false;
         fx.cloths[0].targets = None;
         fx.cloths[0].pins.clear();
         let found = check_step(&fx, &before, 1);
@@ -357,6 +364,10 @@ mod tests {
         fx.cloths[0]
             .pins
             .push((0, super::super::model::Anchor::Finite));
+        assert_eq!(check_step(&fx, &before, 1), vec![]);
+        // Held before the operation, free after it.
+        fx.cloths[0].pins.clear();
+        before.0[at].held = true;
         assert_eq!(check_step(&fx, &before, 1), vec![]);
     }
 
