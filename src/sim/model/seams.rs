@@ -13,7 +13,8 @@ const SEAM_TOLERANCE: f32 = 1e-5;
 
 impl ClothModel {
     /// This model with the vertices its mesh split along texture or normal seams (copies at the
-    /// same position, within [`SEAM_TOLERANCE`] of the size) welded into one particle, when that
+    /// same position, within 1e-5 times the rest shape's bounding-box diagonal) welded into one
+    /// particle, when that
     /// makes it a closed surface ([`check_closed`](Self::check_closed)): the welded model (built
     /// again from its faces, with the first copy's texture coordinates and default masses) and,
     /// for each vertex of this model, its particle in the welded one. `None` when no vertices are
