@@ -14,11 +14,11 @@ const SEAM_TOLERANCE: f32 = 1e-5;
 impl ClothModel {
     /// This model with the vertices its mesh split along texture or normal seams (copies at the
     /// same position, within 1e-5 times the rest shape's bounding-box diagonal) welded into one
-    /// particle, when that
-    /// makes it a closed surface ([`check_closed`](Self::check_closed)): the welded model (built
-    /// again from its faces, with the first copy's texture coordinates and default masses) and,
-    /// for each vertex of this model, its particle in the welded one. `None` when no vertices are
-    /// copies, or the welded surface is not closed either (an open cloth keeps its seams).
+    /// particle, when that makes it a closed surface ([`check_closed`](Self::check_closed)): the
+    /// welded model (built again from its faces, with the first copy's texture coordinates and
+    /// default masses) and, for each vertex of this model, its particle in the welded one. `None`
+    /// when no vertices are copies, or the welded surface is not closed either (an open cloth
+    /// keeps its seams).
     pub fn weld_seams(&self) -> Option<(ClothModel, Vec<u32>)> {
         let first = first_copies(&self.rest_positions);
         if first.iter().enumerate().all(|(i, &f)| f as usize == i) {
