@@ -195,7 +195,6 @@ fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut Vec3, speed: f64) {
     });
 }
 
-/// What tolerance mode chose and how its estimate compares with the tolerance.
 /// A closed cloth's volume against its built volume, and the pressure of its air (when on).
 fn air_line(sim: &crate::sim::ClothSim) -> Option<String> {
     let (volume, built) = (sim.volume()?, sim.built_volume()?);
@@ -210,6 +209,7 @@ fn air_line(sim: &crate::sim::ClothSim) -> Option<String> {
     Some(line)
 }
 
+/// What tolerance mode chose and how its estimate compares with the tolerance.
 fn accuracy_line(r: &AccuracyReport) -> String {
     format!(
         "tolerance mode: {} × {} substeps, estimate {:.1e} m/s of {:.1e}{}{}",
