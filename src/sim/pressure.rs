@@ -3,7 +3,8 @@
 //! what it adds to the explicit integrators' frequency bound.
 //!
 //! The volume and its gradient come from the model's triangles (`model::volume_gradient`, one
-//! cross product per triangle). Nothing here allocates.
+//! cross product per triangle). The substep passes allocate nothing; the frequency bound, taken
+//! once per step, allocates its scratch.
 
 use glam::Vec3;
 
@@ -12,10 +13,9 @@ use super::settings::Pressure;
 use super::soa::Soa;
 
 /// How much higher than its linear bound the air's frequency is taken. The pressure changes as
-/// the volume breathes, and an explicit integrator that takes the air near its linear stability
-/// limit is unstable: an icosahedron of free particles kept at a stiff volume, started off it,
-/// ran away under symplectic Euler at `hω = 1.8` and stayed bounded at `1.5` (found by the stress
-/// suite's closed cloths); with the margin, the air asks for `hω ≤ 1.2`.
+/// the volume breathes, and an explicit integrator that takes a stiff air close to its linear
+/// stability limit runs away (the stress suite's closed cloths found it; CHANGELOG.md,
+/// 2026-12-06); with the margin, the air asks for `hω ≤ 1.2`.
 pub(crate) const AIR_FREQUENCY_MARGIN: f32 = 1.5;
 
 /// A closed cloth's air as its steppers see it: the model and the volumes it refers to.
