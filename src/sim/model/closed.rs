@@ -157,7 +157,7 @@ impl ClothModel {
         if !cells.is_finite() || cells.max_element() > u32::MAX as f32 {
             return Err(ClothError::InvalidValue {
                 field: "cuboid spacing",
-                expected: "so that each side has at most MAX_PARTICLES cells",
+                expected: "finite cell counts below 2³² per side (and at most MAX_PARTICLES particles)",
                 value: spacing as f64,
             });
         }
