@@ -652,17 +652,6 @@ pub(crate) struct RenderSubdivision {
     pub(crate) normals: Vec<Vec3>,
 }
 
-/// A cloth simulated welded along its source mesh's seams ([`ClothModel::weld_seams`]) and
-/// rendered into that mesh, seams kept: each render vertex's particle, and the particles' normals
-/// (scratch) that the vertices take.
-///
-/// [`ClothModel::weld_seams`]: crate::sim::ClothModel::weld_seams
-#[derive(Debug)]
-pub(crate) struct WeldedSeams {
-    pub(crate) particle_of_vertex: Vec<u32>,
-    pub(crate) normals: Vec<Vec3>,
-}
-
 /// The running simulation of a cloth, attached by the plugin. Read it for particle positions and
 /// statistics; change the cloth through [`Cloth`], [`ClothConfig`] and [`ClothPins`].
 #[derive(Component, Debug)]
@@ -680,8 +669,10 @@ pub struct ClothState {
     pub(crate) particle_map: Option<Vec<u32>>,
     /// Whether the simulation runs on a refined model ([`SubdivisionTarget::Simulation`]).
     pub(crate) refined: bool,
-    /// Present when the render mesh is the source mesh with the seams the simulation welded.
-    pub(crate) seams: Option<WeldedSeams>,
+    /// Present when the render mesh is the source mesh whose seams the simulation welded
+    /// ([`ClothModel::weld_seams`](crate::sim::ClothModel::weld_seams)): the particles' normals
+    /// (scratch), which each vertex takes from its particle in `particle_map`.
+    pub(crate) seam_normals: Option<Vec<Vec3>>,
     /// Factor applied to [`SolverSettings::particle_mass`](crate::sim::SolverSettings) (below 1
     /// for a refined model, to keep the total mass).
     pub(crate) mass_scale: f32,

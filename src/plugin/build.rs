@@ -17,7 +17,7 @@ use super::poses::{invertible, pose_of};
 use crate::components::{
     Cloth, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPins, ClothSkin,
     ClothSource, ClothState, ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL,
-    RenderSubdivision, SubdivisionTarget, TargetWeights, WeldedSeams,
+    RenderSubdivision, SubdivisionTarget, TargetWeights,
 };
 use crate::error::{ClothError, count_in};
 use crate::render;
@@ -190,7 +190,7 @@ pub(super) fn build_cloths(
                 Err(e) => Err(e),
             },
             (None, Some(mut state)) if subdivision_changed => {
-                let result = rebuild_render(&mut state, subdivision, (None, None), inputs.meshes)
+                let result = rebuild_render(&mut state, subdivision, (None, false), inputs.meshes)
                     .map(|mesh| {
                         commands.entity(entity).insert(Mesh3d(mesh));
                     });
@@ -339,7 +339,7 @@ fn build_state(
         grid_normals: None,
         refined: refined.is_some(),
         particle_map,
-        seams: None,
+        seam_normals: None,
         mass_scale,
         render_prev: Vec::new(),
         render_curr: Vec::new(),
@@ -355,7 +355,12 @@ fn build_state(
     };
     let plan = plan_pins(&state, pins, transform)?;
     commit_pins(&mut state, plan)?;
-    let mesh = rebuild_render(&mut state, subdivision, (user_mesh, seams), meshes)?;
+    let mesh = rebuild_render(
+        &mut state,
+        subdivision,
+        (user_mesh, seams.is_some()),
+        meshes,
+    )?;
     Ok(Some((state, mesh)))
 }
 
@@ -436,13 +441,13 @@ fn check_level(sub: &ClothSubdivision) -> Result<(), ClothError> {
 
 /// Sets up the render side of a cloth (subdivision stencils, buffers, a new mesh asset) for its
 /// current particles, and returns the mesh handle. Unsubdivided, the cloth renders into `user_mesh`
-/// when given (a copy of the user's source mesh, keeping all its attributes; with `seams`, each
-/// of its vertices' particle when the simulation welded them). Fails, changing nothing, when the
-/// subdivision cannot be built; a render pass that then fails stops the cloth.
+/// when given (a copy of the user's source mesh, keeping all its attributes; when the simulation
+/// `welded` its seams, each vertex drawn at its particle in `particle_map`). Fails, changing
+/// nothing, when the subdivision cannot be built; a render pass that then fails stops the cloth.
 fn rebuild_render(
     state: &mut ClothState,
     subdivision: Option<&ClothSubdivision>,
-    (user_mesh, seams): (Option<Mesh>, Option<Vec<u32>>),
+    (user_mesh, welded): (Option<Mesh>, bool),
     meshes: &mut Assets<Mesh>,
 ) -> Result<Handle<Mesh>, ClothError> {
     let model = state.sim.model();
@@ -465,13 +470,12 @@ fn rebuild_render(
         None => GridNormals::new(model),
         Some(_) => None,
     };
-    state.seams = None;
+    state.seam_normals = None;
     let mesh = match (&state.subdivision, user_mesh) {
         (None, Some(user_mesh)) => {
-            state.seams = seams.map(|particle_of_vertex| WeldedSeams {
-                particle_of_vertex,
-                normals: vec![Vec3::Y; model.particle_count()],
-            });
+            if welded {
+                state.seam_normals = Some(vec![Vec3::Y; model.particle_count()]);
+            }
             user_mesh
         }
         (None, None) => render::mesh_for_model(model),

@@ -49,29 +49,24 @@ pub(super) fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<C
 /// subdivision stencils.
 pub(super) fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
     let positions = s.sim.positions();
-    match (&mut s.subdivision, &mut s.seams) {
-        (None, Some(seams)) => {
-            // Built from the same mesh and model; checked again as the copy below is.
-            let vertices = seams.particle_of_vertex.len();
-            if s.render_curr.len() != vertices
-                || seams.normals.len() != positions.len()
-                || seams
-                    .particle_of_vertex
-                    .iter()
-                    .any(|&p| p as usize >= positions.len())
-            {
+    match (&mut s.subdivision, &mut s.seam_normals) {
+        (None, Some(normals)) => {
+            // The weld maps every vertex of the mesh to one of the welded model's particles
+            // (`ClothModel::weld_seams`); the buffers' sizes are checked as the copy's below.
+            let map = s.particle_map.as_deref().unwrap_or_default();
+            if s.render_curr.len() != map.len() || normals.len() != positions.len() {
                 return Err(ClothError::InvalidMesh {
                     what: format!(
-                        "has {} render vertices for {vertices} welded to {} particles",
+                        "has {} render vertices for {} welded to {} particles",
                         s.render_curr.len(),
+                        map.len(),
                         positions.len()
                     ),
                 });
             }
-            compute_normals(positions, &s.sim.model().triangles, &mut seams.normals);
-            for (v, &p) in seams.particle_of_vertex.iter().enumerate() {
-                s.render_curr[v] = positions[p as usize];
-                s.normals_curr[v] = seams.normals[p as usize];
+            compute_normals(positions, &s.sim.model().triangles, normals);
+            for ((x, n), &p) in s.render_curr.iter_mut().zip(&mut s.normals_curr).zip(map) {
+                (*x, *n) = (positions[p as usize], normals[p as usize]);
             }
         }
         (None, None) => {

@@ -3,8 +3,7 @@
 //! what it adds to the explicit integrators' frequency bound.
 //!
 //! The volume and its gradient come from the model's triangles (`model::volume_gradient`, one
-//! cross product per triangle). The substep passes allocate nothing; the frequency bound, taken
-//! once per step, allocates its scratch.
+//! cross product per triangle). Nothing here allocates once its scratch is sized.
 
 use glam::Vec3;
 
@@ -104,15 +103,22 @@ impl Air {
     /// `(a, b, c)`. The square of the bound is their sum (the eigenvalues of a sum are at most
     /// the sums of its terms' largest), and it is added to the springs' the same way. The result
     /// is that bound times [`AIR_FREQUENCY_MARGIN`].
-    pub fn frequency(&self, triangles: &[u32], positions: &[Vec3], inv_mass: &[f32]) -> f32 {
-        let mut gradient = vec![Vec3::ZERO; positions.len()];
-        let v = volume_gradient(triangles, |i| positions[i], &mut gradient);
+    pub fn frequency(
+        &self,
+        scratch: &mut BoundScratch,
+        triangles: &[u32],
+        (positions, inv_mass): (&[Vec3], &[f32]),
+    ) -> f32 {
+        let BoundScratch { gradient, rows } = scratch;
+        gradient.resize(positions.len(), Vec3::ZERO);
+        let v = volume_gradient(triangles, |i| positions[i], gradient);
         let weighted: f64 = gradient
             .iter()
             .zip(inv_mass)
             .map(|(g, w)| (*w * g.length_squared()) as f64)
             .sum();
-        let mut rows = vec![0.0f32; positions.len()];
+        rows.clear();
+        rows.resize(positions.len(), 0.0);
         for t in triangles.chunks_exact(3) {
             for k in 0..3 {
                 let (a, b, c) = (
@@ -223,6 +229,14 @@ impl AirScratch {
         let positions = &self.positions;
         volume_gradient(&self.triangles, |i| positions[i], &mut self.gradient)
     }
+}
+
+/// Scratch for [`Air::frequency`], kept between steps: the volume's gradient and the pressure
+/// term's row sums, per particle.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct BoundScratch {
+    gradient: Vec<Vec3>,
+    rows: Vec<f32>,
 }
 
 /// The potential energy of `air` (none: 0) at `positions`, J (see [`Air::energy`]).
@@ -346,11 +360,7 @@ mod tests {
         }
         assert!(errors[3] < 1e-5, "{errors:?}");
     }
-}
 
-#[cfg(test)]
-mod frequency_tests {
-    use super::*;
     use crate::sim::ClothModel;
 
     /// The largest eigenvalue of `M^{-1/2} (−∂F/∂x) M^{-1/2}` for the air's force on `x`, by
@@ -429,7 +439,8 @@ mod frequency_tests {
                     }
                 })
                 .collect();
-            let bound = air.frequency(&model.triangles, x, &inv_mass) as f64;
+            let mut scratch = BoundScratch::default();
+            let bound = air.frequency(&mut scratch, &model.triangles, (x, &inv_mass)) as f64;
             let exact = largest_eigenvalue(&air, &model.triangles, x, &inv_mass)
                 .max(0.0)
                 .sqrt();

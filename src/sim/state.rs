@@ -148,7 +148,8 @@ pub struct Energy {
     /// `-Σ m g·x` over free particles (zero at the world origin).
     pub gravitational: f64,
     /// `Σ ½ k (|d| - L)²` over all springs, plus the potential energy of the air inside a closed
-    /// cloth with [`Pressure`](super::Pressure) (zero at its built volume).
+    /// cloth with [`Pressure`](super::Pressure) (zero where the pressure inside equals the air
+    /// outside).
     pub elastic: f64,
 }
 

@@ -205,11 +205,11 @@ pub fn draw_case(
 
 impl StressCase {
     /// The same case on a closed cloth with air inside ([`StressAir`], drawn from the case's seed
-    /// and index): an icosphere the cloth's size across, of about the grid's particle count, pinned
-    /// at as many of its first particles as the grid had corners pinned, its collider moved back
-    /// by the ball's radius. Half the cases keep a
-    /// volume (0.6–1.4 of the built one, bulk modulus 10²–10⁸ Pa), half hold a gas (−50 kPa to
-    /// +100 kPa about the air outside at the built volume).
+    /// and index): an icosphere the cloth's size across, of about the grid's particle count,
+    /// pinned at as many of its first particles as the grid had corners pinned, its collider
+    /// moved back by the ball's radius. Half the cases keep a volume (0.6–1.4 of the built one,
+    /// bulk modulus 10²–10⁸ Pa), half hold a gas (−50 kPa to +100 kPa about the air outside at
+    /// the built volume).
     pub fn with_air(mut self) -> Self {
         let mut rng = SplitMix64(self.seed ^ self.index.wrapping_mul(0xA076_1D64_78BD_642F));
         rng.next();

@@ -11,7 +11,7 @@ use crate::sim::contact::{Contacts, SelfContacts};
 use crate::sim::forces::{SpringSet, max_frequency_bound};
 use crate::sim::integrate::Steppers;
 use crate::sim::model::{ClothModel, enclosed_volume};
-use crate::sim::pressure::Air;
+use crate::sim::pressure::{Air, BoundScratch};
 use crate::sim::settings::{Integrator, SelfCollision, SolverSettings};
 use crate::sim::state::Particles;
 use crate::sim::wind::WindScratch;
@@ -64,6 +64,7 @@ impl ClothSim {
             built_volume,
             air: None,
             air_frequency: 0.0,
+            air_bound: BoundScratch::default(),
             pins: Vec::new(),
             model,
             settings,

@@ -15,7 +15,7 @@ use glam::Vec3;
 use super::contact::{Collider, Contacts, OtherCloth, Pose};
 use super::integrate::Steppers;
 use super::model::ClothModel;
-use super::pressure::Air;
+use super::pressure::{Air, BoundScratch};
 use super::settings::{Integrator, SolverSettings};
 use super::state::{Particles, PinState};
 use super::wind::{WindField, WindScratch};
@@ -75,6 +75,8 @@ pub struct ClothSim {
     /// air; see `Air::frequency`); part of `omega_max`, and the bound of implicit Euler's
     /// substeps, which take the air explicitly.
     air_frequency: f32,
+    /// Scratch for the air's frequency bound.
+    air_bound: BoundScratch,
     steps: u64,
     sleep: Sleep,
     /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).

@@ -78,7 +78,8 @@ impl ClothSim {
     pub(super) fn refresh_air_frequency(&mut self) {
         self.air_frequency = self.air.as_ref().map_or(0.0, |air| {
             let p = &self.particles;
-            air.frequency(&self.model.triangles, &p.positions, &p.inv_mass)
+            let scratch = &mut self.air_bound;
+            air.frequency(scratch, &self.model.triangles, (&p.positions, &p.inv_mass))
         });
         self.omega_max = self.spring_frequency.hypot(self.air_frequency);
     }
