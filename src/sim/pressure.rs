@@ -5,7 +5,7 @@
 //! The volume and its gradient come from the model's triangles (`model::volume_gradient`, one
 //! cross product per triangle). Nothing here allocates once its scratch is sized.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::model::{enclosed_volume, volume_gradient};
 use super::settings::Pressure;
@@ -148,10 +148,13 @@ impl Air {
         x: impl Fn(usize) -> Vec3,
         mut add: impl FnMut(usize, Vec3),
     ) {
-        let v = scratch.volume_gradient(x);
-        let p = self.gauge(v) as f32;
-        for (i, g) in scratch.gradient.iter().enumerate() {
-            add(i, *g * p);
+        for (i, p) in scratch.positions.iter_mut().enumerate() {
+            *p = x(i).into();
+        }
+        let v = scratch.volume_gradient();
+        let p = self.gauge(v) as f32 / 6.0;
+        for (i, g) in scratch.six_gradient.iter().enumerate() {
+            add(i, Vec3::from(*g * p));
         }
     }
 
@@ -169,21 +172,23 @@ impl Air {
         (x, d): (&Soa, &mut Soa),
         h: f32,
     ) {
-        for ((p, a), b) in scratch.positions.iter_mut().zip(x.iter()).zip(d.iter()) {
-            *p = a + b;
+        let gathered = scratch.positions.iter_mut().zip(x.iter().zip(d.iter()));
+        for (p, (a, b)) in gathered {
+            *p = (a + b).into();
         }
-        let v = scratch.volume_gradient_at_positions();
-        let gradient = &scratch.gradient;
-        let weight: f32 = gradient
+        let v = scratch.volume_gradient();
+        let six_gradient = &scratch.six_gradient;
+        let weight: f32 = six_gradient
             .iter()
             .zip(inv_mass)
             .map(|(g, w)| *w * g.length_squared())
-            .sum();
+            .sum::<f32>()
+            / 36.0;
         let h2 = (h * h) as f64;
         let stiffness = self.volume_stiffness(v) * weight as f64;
-        let scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32;
+        let scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32 / 6.0;
         // A particle of weight 0 (pinned) moves by 0.
-        for ((dx, dy, dz), (g, w)) in d.iter_mut().zip(gradient.iter().zip(inv_mass)) {
+        for ((dx, dy, dz), (g, w)) in d.iter_mut().zip(six_gradient.iter().zip(inv_mass)) {
             let s = *w * scale;
             (*dx, *dy, *dz) = (*dx + g.x * s, *dy + g.y * s, *dz + g.z * s);
         }
@@ -192,12 +197,12 @@ impl Air {
 
 /// A stepper's scratch for the air: the model's triangles in the stepper's numbering of the
 /// particles, and per particle its position (gathered once, read by every triangle it is a
-/// corner of) and the volume's gradient. Empty for a cloth without air.
+/// corner of) and six times the volume's gradient. Empty for a cloth without air.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct AirScratch {
-    triangles: Vec<u32>,
-    positions: Vec<Vec3>,
-    gradient: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    positions: Vec<Vec3A>,
+    six_gradient: Vec<Vec3A>,
 }
 
 impl AirScratch {
@@ -206,28 +211,44 @@ impl AirScratch {
     pub fn prepare(&mut self, on: bool, triangles: &[u32], n: usize, slot: impl Fn(u32) -> u32) {
         self.triangles.clear();
         if on {
-            self.triangles.extend(triangles.iter().map(|&i| slot(i)));
-            self.positions.resize(n, Vec3::ZERO);
-            self.gradient.resize(n, Vec3::ZERO);
+            let corners = triangles.chunks_exact(3);
+            self.triangles
+                .extend(corners.map(|t| [slot(t[0]), slot(t[1]), slot(t[2])]));
+            self.positions.resize(n, Vec3A::ZERO);
+            self.six_gradient.resize(n, Vec3A::ZERO);
         } else {
             self.triangles.shrink_to_fit();
             self.positions = Vec::new();
-            self.gradient = Vec::new();
+            self.six_gradient = Vec::new();
         }
     }
 
-    /// The enclosed volume at positions `x(i)`, with its gradient left in `gradient`.
-    fn volume_gradient(&mut self, x: impl Fn(usize) -> Vec3) -> f64 {
-        for (i, p) in self.positions.iter_mut().enumerate() {
-            *p = x(i);
+    /// The volume enclosed at `positions`, m³, with six times its gradient left in
+    /// `six_gradient`: each corner gets its triangle's doubled area vector, as
+    /// [`volume_gradient`] does, with the sixth left to the caller's scale. The volume's terms are
+    /// summed in f32 over blocks of triangles and the blocks in f64, about the first corner.
+    fn volume_gradient(&mut self) -> f64 {
+        let (x, g) = (&self.positions, &mut self.six_gradient);
+        g.fill(Vec3A::ZERO);
+        let Some(&[first, ..]) = self.triangles.first() else {
+            return 0.0;
+        };
+        let origin = x[first as usize];
+        let mut six_v = 0.0f64;
+        for block in self.triangles.chunks(64) {
+            let mut sum = Vec3A::ZERO;
+            for &[a, b, c] in block {
+                let (a, b, c) = (a as usize, b as usize, c as usize);
+                let (pa, pb, pc) = (x[a], x[b], x[c]);
+                let area2 = (pb - pa).cross(pc - pa);
+                sum += (pa - origin) * area2;
+                g[a] += area2;
+                g[b] += area2;
+                g[c] += area2;
+            }
+            six_v += sum.element_sum() as f64;
         }
-        self.volume_gradient_at_positions()
-    }
-
-    /// The enclosed volume at `positions`, with its gradient left in `gradient`.
-    fn volume_gradient_at_positions(&mut self) -> f64 {
-        let positions = &self.positions;
-        volume_gradient(&self.triangles, |i| positions[i], &mut self.gradient)
+        six_v / 6.0
     }
 }
 

@@ -11,7 +11,9 @@ use crate::sim::settings::{
 impl ClothSim {
     /// An upper bound on the highest angular frequency of the cloth's springs about rest, in rad/s
     /// (Gershgorin's bound from each free particle's springs and mass; pins count as infinite mass).
-    /// Explicit integrators need a substep `h < 2/ω_max`.
+    /// Explicit integrators need a substep `h < 2/ω_max`. The air inside a closed cloth adds its
+    /// own bound, taken at the start of each step, but for a cloth set to [`Integrator::Xpbd`]
+    /// outside tolerance mode, which has no use for it (there it is the built cloth's).
     pub fn max_frequency(&self) -> f32 {
         self.omega_max
     }

@@ -44,7 +44,10 @@ impl ClothSim {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
-        if self.air.is_some() {
+        // XPBD takes the air at any stiffness: only the integrators with a stability bound, and
+        // the choices of `Auto` and tolerance mode, need the air's frequency.
+        let bounded = self.settings.integrator != Integrator::Xpbd || self.adaptive.is_some();
+        if self.air.is_some() && bounded {
             self.refresh_air_frequency();
         }
         match self.adaptive.take() {
