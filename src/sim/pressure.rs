@@ -2,8 +2,9 @@
 //! puts on the particles (the force-based integrators), XPBD's volume constraint, its energy and
 //! what it adds to the explicit integrators' frequency bound.
 //!
-//! The volume and its gradient come from the model's triangles (`model::volume_gradient`, one
-//! cross product per triangle). Nothing here allocates once its scratch is sized.
+//! The volume and its gradient come from the model's triangles, one cross product per triangle
+//! (`AirScratch` in the steppers' numbering, each substep; `model::volume_gradient` for the
+//! bound). Nothing here allocates once its scratch is sized.
 
 use glam::{Vec3, Vec3A};
 
