@@ -87,9 +87,10 @@ enum Command {
         /// Number of timed frames (after 10 warm-up frames).
         #[arg(long, default_value_t = 300)]
         frames: u32,
-        /// Copies of the scene's cloth, side by side (they step in parallel across threads).
-        #[arg(long, default_value_t = 1)]
-        copies: u32,
+        /// Copies of the scene's cloth on its layout (they step in parallel across threads);
+        /// default the scene's own `copies`.
+        #[arg(long)]
+        copies: Option<u32>,
         /// Threads of Bevy's compute task pool (default: one per core).
         #[arg(long)]
         threads: Option<usize>,

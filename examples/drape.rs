@@ -90,7 +90,7 @@ fn setup(
         ..default()
     });
     let cloth = commands
-        .spawn((Name::new("drape"), paper.bundle()))
+        .spawn((Name::new("drape"), paper.bundle()?))
         .insert((
             // Scenes show the exact simulated state; on screen, interpolate between fixed steps.
             ClothConfig {

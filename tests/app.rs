@@ -565,7 +565,9 @@ fn the_paper_scene_preset_drapes_its_cloth_over_the_sphere() {
     let scene = bevy_cloth::scene::ClothScene::load(path).unwrap();
     // The paper's Figure 5: a 32 × 32 cloth pinned at its four corners, a sphere and the floor.
     let n = 32u32;
-    let bevy_cloth::scene::SceneCloth::Grid(spec) = scene.cloth;
+    let bevy_cloth::scene::SceneCloth::Grid(spec) = scene.cloth else {
+        panic!("not a grid: {:?}", scene.cloth);
+    };
     assert_eq!((spec.nx, spec.ny), (n, n));
     assert_eq!(scene.pins, vec![0, n - 1, n * (n - 1), n * n - 1]);
     assert_eq!(scene.colliders.len(), 2);

@@ -12,24 +12,29 @@ use bevy_cloth::sim::{ClothSim, SpringKind};
 
 /// A headless app with the scene's cloth built and at rest.
 pub fn load(path: &Path) -> Result<(App, Entity, ClothScene), ClothError> {
-    let (app, entities, scene) = load_copies(path, 1)?;
+    let (app, entities, scene) = load_copies(path, Some(1))?;
     Ok((app, entities[0], scene))
 }
 
-/// A headless app with `copies` of the scene (each moved 1000 m further along +X, so that they
-/// never meet) built and at rest.
-fn load_copies(path: &Path, copies: u32) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
-    let scene = ClothScene::load(path)?;
-    let mut app = try_headless_app(scene.dt)?;
-    let mut entities = Vec::new();
-    for k in 0..copies.max(1) {
-        let mut copy = scene.clone();
-        copy.translation.x += 1000.0 * k as f32;
-        for c in &mut copy.colliders {
-            c.translation.x += 1000.0 * k as f32;
-        }
-        entities.push(copy.spawn(app.world_mut())?);
+/// A headless app with the scene's cloths built and at rest: its own copies, or `copies` of
+/// them on its layout when given.
+fn load_copies(
+    path: &Path,
+    copies: Option<u32>,
+) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
+    let mut scene = ClothScene::load(path)?;
+    if let Some(count) = copies {
+        scene.copies.count = count;
     }
+    let mut app = try_headless_app(scene.dt)?;
+    app.init_resource::<SolverClock>().add_systems(
+        FixedUpdate,
+        (
+            start_clock.before(ClothSystems::Step),
+            stop_clock.after(ClothSystems::Step),
+        ),
+    );
+    let entities = scene.spawn_copies(app.world_mut())?;
     app.update();
     for e in &entities {
         if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
@@ -39,32 +44,62 @@ fn load_copies(path: &Path, copies: u32) -> Result<(App, Vec<Entity>, ClothScene
     Ok((app, entities, scene))
 }
 
-/// Runs `frames` updates (one fixed step each), returning the wall time of each in milliseconds.
-pub fn run(app: &mut App, entity: Entity, frames: u32) -> Result<Vec<f64>, ClothError> {
-    Ok(run_counting_sleep(app, &[entity], frames)?.0)
+/// Wall time of the cloths' step ([`ClothSystems::Step`]) in the frame under way.
+#[derive(Resource, Default)]
+struct SolverClock {
+    started: Option<Instant>,
+    ms: f64,
 }
 
-/// [`run`] for several cloths; also counts the cloth-frames skipped asleep.
-fn run_counting_sleep(
-    app: &mut App,
-    entities: &[Entity],
-    frames: u32,
-) -> Result<(Vec<f64>, u32), ClothError> {
-    let mut times = Vec::with_capacity(frames as usize);
-    let mut slept = 0;
+fn start_clock(mut clock: ResMut<SolverClock>) {
+    clock.started = Some(Instant::now());
+}
+
+fn stop_clock(mut clock: ResMut<SolverClock>) {
+    if let Some(t) = clock.started.take() {
+        clock.ms += t.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+/// Runs `frames` updates (one fixed step each), returning the wall time of each in milliseconds.
+pub fn run(app: &mut App, entity: Entity, frames: u32) -> Result<Vec<f64>, ClothError> {
+    Ok(run_frames(app, &[entity], frames)?.frame_ms)
+}
+
+/// What [`run_frames`] measured.
+struct Frames {
+    /// Wall time of each whole frame, ms.
+    frame_ms: Vec<f64>,
+    /// Of it, the cloths' step, ms.
+    solver_ms: Vec<f64>,
+    /// Cloth-frames skipped asleep.
+    slept: u32,
+}
+
+/// [`run`] for several cloths, also timing the cloths' step within each frame and counting the
+/// cloth-frames skipped asleep.
+fn run_frames(app: &mut App, entities: &[Entity], frames: u32) -> Result<Frames, ClothError> {
+    let mut out = Frames {
+        frame_ms: Vec::with_capacity(frames as usize),
+        solver_ms: Vec::with_capacity(frames as usize),
+        slept: 0,
+    };
     for _ in 0..frames {
         let t = Instant::now();
         app.update();
-        times.push(t.elapsed().as_secs_f64() * 1e3);
+        out.frame_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let solver = app.world_mut().get_resource_mut::<SolverClock>();
+        out.solver_ms
+            .push(solver.map_or(f64::NAN, |mut c| std::mem::take(&mut c.ms)));
         for e in entities {
             if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
                 return Err(e.clone());
             }
             let state = app.world().get::<ClothState>(*e);
-            slept += state.is_some_and(|s| s.sim().slept_last_step()) as u32;
+            out.slept += state.is_some_and(|s| s.sim().slept_last_step()) as u32;
         }
     }
-    Ok((times, slept))
+    Ok(out)
 }
 
 /// Median, 10th and 90th percentile, min and max.
@@ -92,21 +127,26 @@ fn median_strain(sim: &ClothSim, kinds: &[SpringKind]) -> f64 {
     strain[strain.len() / 2]
 }
 
-/// Times `frames` frames of `copies` of the scene (after 10 warm-up frames) on Bevy's
+/// Times `frames` frames of the scene (its copies, or `copies` of them on its layout) (after 10 warm-up frames) on Bevy's
 /// multi-threaded executor, or its single-threaded one with static-scene transform tracking off
 /// (`harness::use_single_threaded_frame`), and returns the JSON line `bench` prints.
 pub fn bench_scene(
     scene: &Path,
     frames: u32,
-    copies: u32,
+    copies: Option<u32>,
     single_threaded: bool,
 ) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
     let (mut app, entities, parsed) = load_copies(scene, copies)?;
     if single_threaded {
         bevy_cloth::harness::use_single_threaded_frame(&mut app);
     }
-    run_counting_sleep(&mut app, &entities, 10)?;
-    let (mut times, slept) = run_counting_sleep(&mut app, &entities, frames)?;
+    run_frames(&mut app, &entities, 10)?;
+    let Frames {
+        frame_ms: mut times,
+        mut solver_ms,
+        slept,
+    } = run_frames(&mut app, &entities, frames)?;
+    let mut outside: Vec<f64> = times.iter().zip(&solver_ms).map(|(f, s)| f - s).collect();
     let state = app
         .world()
         .get::<ClothState>(entities[0])
@@ -121,6 +161,9 @@ pub fn bench_scene(
     line["scene"] = scene.display().to_string().into();
     line["frames"] = frames.into();
     line["copies"] = entities.len().into();
+    line["per_cloth_median_ms"] = (median_s * 1e3 / entities.len() as f64).into();
+    line["solver_median_ms"] = stats(&mut solver_ms)["median_ms"].clone();
+    line["outside_solver_median_ms"] = stats(&mut outside)["median_ms"].clone();
     line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
     line["executor"] = if single_threaded { "single" } else { "multi" }.into();
     line["particles"] = state.positions().len().into();

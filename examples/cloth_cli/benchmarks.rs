@@ -4,6 +4,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use bevy_cloth::scene::ClothScene;
+
 use super::bench::bench_scene;
 use super::machine;
 
@@ -20,6 +22,8 @@ struct Timing {
 
 /// What a scene's runs report about its cloth (the same in every run).
 struct SceneFacts {
+    copies: u64,
+    frames: u32,
     particles: u64,
     springs: u64,
     substeps: u64,
@@ -64,11 +68,15 @@ pub fn run(
     let started = std::time::Instant::now();
     for round in 0..runs.max(1) {
         for row in &mut rows {
+            let copies = ClothScene::load(&row.path)?.copies.count;
+            let frames = frames_for(frames, copies);
             let mut time = |single_threaded: bool| -> Result<Timing, Box<dyn std::error::Error>> {
-                let line = bench_scene(&row.path, frames, 1, single_threaded)?;
+                let line = bench_scene(&row.path, frames, None, single_threaded)?;
                 let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);
                 let count = |key: &str| line[key].as_u64().unwrap_or(0);
                 row.facts.get_or_insert_with(|| SceneFacts {
+                    copies: count("copies"),
+                    frames,
                     particles: count("particles"),
                     springs: count("springs"),
                     substeps: count("substeps"),
@@ -98,6 +106,12 @@ pub fn run(
     std::fs::write(output, report)?;
     eprintln!("wrote {}", output.display());
     Ok(())
+}
+
+/// The frames a scene of `copies` cloths is timed for: `frames / copies`, but at least 60 (a
+/// second) and at most `frames`, so that a crowd takes about as long as one cloth.
+fn frames_for(frames: u32, copies: u32) -> u32 {
+    (frames / copies.max(1)).max(60).min(frames)
 }
 
 fn median(mut values: Vec<f64>) -> f64 {
@@ -159,8 +173,8 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
          fixed step per frame (the solver's substeps, render positions and normals, the mesh \
          write and Bevy's own schedules). A row is what\n`cargo run --release --example cloth_cli \
          -- bench assets/scenes/SCENE --frames {frames} [--single-threaded]`\nmeasures: \
-         milliseconds per frame, the median of {frames} frames after 10 warm-up frames, on Bevy's \
-         single-threaded executor (static-scene transform tracking off, as \
+         milliseconds per frame, the median of {frames} frames after 10 warm-up frames (a scene of \
+         K copies, {frames}/K frames, at least 60), on Bevy's single-threaded executor (static-scene transform tracking off, as \
          `harness::use_single_threaded_frame` sets it) and on its default multi-threaded one. \
          {runs} rounds alternate the scenes and executors; a cell is the median of the rounds' \
          medians with their range in brackets, and a ratio is the median of the ratios taken \
@@ -169,8 +183,9 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
     );
     let _ = writeln!(
         w,
-        "| scene | particles | springs | integrator × substeps | single-threaded frame (ms) | \
-         multi-threaded frame (ms) | multi / single | single ÷ {REFERENCE_SCENE} | frames asleep |"
+        "| scene | copies × particles | springs (each) | integrator × substeps | single-threaded \
+         frame (ms) | multi-threaded frame (ms) | multi / single | single ÷ {REFERENCE_SCENE} | \
+         cloth-frames asleep |"
     );
     let _ = writeln!(w, "|---|---:|---:|---|---:|---:|---:|---:|---:|");
     for row in rows {
@@ -195,8 +210,9 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
         let asleep: u64 = row.rounds.iter().map(|r| r[0].asleep + r[1].asleep).sum();
         let _ = writeln!(
             w,
-            "| `{}` | {} | {} | {} × {} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
+            "| `{}` | {} × {} | {} | {} × {} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
             file_name(&row.path),
+            facts.map_or(0, |f| f.copies),
             facts.map_or(0, |f| f.particles),
             facts.map_or(0, |f| f.springs),
             facts.map_or("?", |f| f.integrator.as_str()),
@@ -204,7 +220,7 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
             fmt_spread(single),
             fmt_spread(multi),
             relative.map_or("–".into(), |r| format!("{r:.2}")),
-            2 * frames as usize * row.rounds.len(),
+            2 * facts.map_or(0, |f| f.frames as u64 * f.copies) * row.rounds.len() as u64,
         );
     }
     let _ = writeln!(

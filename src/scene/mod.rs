@@ -1,0 +1,414 @@
+//! Scene files: a RON description of a cloth, the copies of it to lay out, and its surroundings
+//! (colliders, wind), used by `cloth_cli`, the tests and the presets in `assets/scenes/`. Parsing
+//! and validation, and spawning into a world.
+//!
+//! ```ron
+//! (
+//!     cloth: Grid((nx: 16, ny: 16, spacing: 0.1)),
+//!     translation: (0.0, 2.0, 0.0),
+//!     pins: [0, 15],
+//!     dt: 0.016666668,
+//!     solver: (substeps: 20, stiffness: (structural: 5000.0, shear: 5000.0, bend: 50.0)),
+//!     colliders: [
+//!         (shape: Sphere(radius: 0.4), translation: (0.0, 1.0, 0.0), margin: 0.01),
+//!         (shape: Plane(normal: (0.0, 1.0, 0.0)), friction: (static_coefficient: 0.8, kinetic_coefficient: 0.6)),
+//!     ],
+//!     wind: Some((velocity: (6.0, 0.0, 0.0), gusts: Some((seed: 7)))),
+//! )
+//! ```
+//!
+//! A closed cloth with the air inside it, and a hundred of them on a floor they share:
+//!
+//! ```ron
+//! (
+//!     cloth: Icosphere(radius: 0.15, subdivisions: 3),
+//!     translation: (0.0, 0.5, 0.0),
+//!     solver: (pressure: Volume(scale: 1.0, bulk_modulus: 100000.0)),
+//!     copies: (count: 100, spacing: 0.5),
+//!     colliders: [(shape: Plane(normal: (0.0, 1.0, 0.0)), shared: true)],
+//! )
+//! ```
+
+mod colliders;
+mod wind;
+
+use std::path::Path;
+
+use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::ecs::prelude::*;
+use bevy::math::Vec3;
+use bevy::transform::components::Transform;
+use serde::{Deserialize, Serialize};
+
+pub use colliders::{ConstantVelocity, SceneCollider, SceneShape};
+pub use wind::{DEFAULT_SCENE_WIND_ZONE_FALLOFF, SceneWind, SceneWindZone, SceneWindZoneShape};
+
+use crate::components::{Cloth, ClothConfig, ClothPins, ClothTargets, TargetWeights};
+use crate::error::{ClothError, positive};
+use crate::plugin::ClothSystems;
+use crate::sim::{ClothModel, GridSpec, MAX_ICOSPHERE_SUBDIVISIONS, SolverSettings};
+use colliders::{finite_placement, move_at_constant_velocity, placement};
+
+/// Largest scene file [`ClothScene::load`] reads, bytes (64 MiB: room for the pins and target
+/// weights of a cloth of [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES) particles written out).
+pub const MAX_SCENE_BYTES: usize = 64 << 20;
+
+/// Most copies a scene lays out ([`SceneCopies::count`]).
+pub const MAX_SCENE_COPIES: u32 = 10_000;
+
+/// Most particles of all of a scene's copies together (16 × [`MAX_PARTICLES`](crate::sim::MAX_PARTICLES)).
+pub const MAX_SCENE_PARTICLES: usize = 16 * crate::sim::MAX_PARTICLES;
+
+/// The cloth of a scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum SceneCloth {
+    /// The canonical grid cloth.
+    Grid(GridSpec),
+    /// A closed sphere ([`ClothModel::icosphere`]), centred on the cloth's origin.
+    Icosphere {
+        /// Radius, m.
+        radius: f32,
+        /// Times the icosahedron's triangles are split in four (3: 642 particles).
+        subdivisions: u32,
+    },
+    /// A closed box ([`ClothModel::cuboid`]), centred on the cloth's origin.
+    Cuboid {
+        /// Size along X, Y and Z, m.
+        size: Vec3,
+        /// Side of its quads, about, m.
+        spacing: f32,
+    },
+}
+
+impl SceneCloth {
+    /// Checks the values and returns the number of particles, without building a large cloth
+    /// (a box is built; its size is bounded as it is).
+    pub fn particle_count(&self) -> Result<usize, ClothError> {
+        match self {
+            SceneCloth::Grid(spec) => {
+                spec.validate()?;
+                Ok(spec.nx as usize * spec.ny as usize)
+            }
+            &SceneCloth::Icosphere {
+                radius,
+                subdivisions,
+            } => {
+                positive("icosphere radius", radius)?;
+                if subdivisions > MAX_ICOSPHERE_SUBDIVISIONS {
+                    return Err(ClothError::InvalidValue {
+                        field: "icosphere subdivisions",
+                        expected: "at most MAX_ICOSPHERE_SUBDIVISIONS (8)",
+                        value: subdivisions as f64,
+                    });
+                }
+                Ok(10 * 4usize.pow(subdivisions) + 2)
+            }
+            SceneCloth::Cuboid { .. } => Ok(self.model()?.particle_count()),
+        }
+    }
+
+    /// The cloth's topology.
+    pub fn model(&self) -> Result<ClothModel, ClothError> {
+        match *self {
+            SceneCloth::Grid(spec) => ClothModel::grid(&spec),
+            SceneCloth::Icosphere {
+                radius,
+                subdivisions,
+            } => ClothModel::icosphere(radius, subdivisions),
+            SceneCloth::Cuboid { size, spacing } => ClothModel::cuboid(size, spacing),
+        }
+    }
+
+    /// The cloth component: a grid, or the model (built here) of a closed shape.
+    pub fn component(&self) -> Result<Cloth, ClothError> {
+        Ok(match self {
+            SceneCloth::Grid(spec) => Cloth::grid(*spec),
+            _ => Cloth::from_model(self.model()?),
+        })
+    }
+}
+
+fn default_count() -> u32 {
+    1
+}
+
+fn default_copy_spacing() -> f32 {
+    DEFAULT_COPY_SPACING
+}
+
+/// Default [`SceneCopies::spacing`], m: copies of a scene a few metres across never meet.
+pub const DEFAULT_COPY_SPACING: f32 = 100.0;
+
+/// Copies of a scene's cloth laid out on a square grid in the XZ plane: copy `k` sits in column
+/// `k % columns` (along +X) and row `k / columns` (along +Z), `spacing` apart, the first where the
+/// scene puts it. Each copy brings its own colliders (but those marked
+/// [`shared`](SceneCollider::shared)) and wind zones; the global wind is one.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneCopies {
+    /// Number of copies, 1..=[`MAX_SCENE_COPIES`]; default 1.
+    #[serde(default = "default_count")]
+    pub count: u32,
+    /// Copies per row; default the smallest square that holds them (`⌈√count⌉`).
+    #[serde(default)]
+    pub columns: Option<u32>,
+    /// Distance between neighbouring copies, m; default [`DEFAULT_COPY_SPACING`].
+    #[serde(default = "default_copy_spacing")]
+    pub spacing: f32,
+}
+
+impl Default for SceneCopies {
+    fn default() -> Self {
+        Self {
+            count: 1,
+            columns: None,
+            spacing: DEFAULT_COPY_SPACING,
+        }
+    }
+}
+
+impl SceneCopies {
+    /// Checks the count, columns and spacing; the error names the field.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        if !(1..=MAX_SCENE_COPIES).contains(&self.count) {
+            return Err(ClothError::InvalidValue {
+                field: "copies.count",
+                expected: "1..=MAX_SCENE_COPIES (10000)",
+                value: self.count as f64,
+            });
+        }
+        if self.columns == Some(0) {
+            return Err(ClothError::InvalidValue {
+                field: "copies.columns",
+                expected: "at least 1",
+                value: 0.0,
+            });
+        }
+        positive("copies.spacing", self.spacing)
+    }
+
+    /// The offset of copy `k` from the first, m.
+    pub fn offset(&self, k: u32) -> Vec3 {
+        let columns = self
+            .columns
+            .unwrap_or_else(|| (self.count as f64).sqrt().ceil() as u32)
+            .max(1);
+        Vec3::new((k % columns) as f32, 0.0, (k / columns) as f32) * self.spacing
+    }
+}
+
+/// What scenes need beyond [`crate::ClothPlugin`]: moving [`ConstantVelocity`] entities in
+/// `FixedUpdate` after [`ClothSystems::Step`].
+#[derive(Debug, Default, Clone, Copy)]
+pub struct ScenePlugin;
+
+impl Plugin for ScenePlugin {
+    fn build(&self, app: &mut App) {
+        app.add_systems(
+            FixedUpdate,
+            move_at_constant_velocity.after(ClothSystems::Step),
+        );
+    }
+}
+
+fn default_dt() -> f32 {
+    1.0 / 60.0
+}
+
+/// One simulated cloth with its settings and environment, as stored in a `.ron` file.
+///
+/// Every field but `cloth` has a default; unknown fields are an error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClothScene {
+    /// What to simulate.
+    pub cloth: SceneCloth,
+    /// Where the cloth's local origin is placed in the world, m.
+    #[serde(default)]
+    pub translation: Vec3,
+    /// Rotation of the cloth, as Euler angles XYZ in degrees.
+    #[serde(default)]
+    pub rotation_degrees: Vec3,
+    /// Particles pinned at their initial positions.
+    #[serde(default)]
+    pub pins: Vec<u32>,
+    /// Target weights, one per particle ([`ClothTargets`] with [`TargetWeights::Values`]): each
+    /// particle with a weight stays near its rest position under the cloth's transform (weight 0
+    /// pins it; a negative weight leaves it free). None by default.
+    #[serde(default)]
+    pub target_weights: Option<Vec<f32>>,
+    /// The fixed time step, s: [`MIN_FIXED_STEP`](crate::plugin::MIN_FIXED_STEP)`..=`
+    /// [`MAX_FIXED_STEP`](crate::plugin::MAX_FIXED_STEP).
+    #[serde(default = "default_dt")]
+    pub dt: f32,
+    /// Integrator, substeps, iterations, stiffness, mass, damping, gravity.
+    #[serde(default)]
+    pub solver: SolverSettings,
+    /// Kinematic colliders.
+    #[serde(default)]
+    pub colliders: Vec<SceneCollider>,
+    /// Wind and wind zones; none by default (no aerodynamic forces at all).
+    #[serde(default)]
+    pub wind: Option<SceneWind>,
+    /// Copies of the cloth, with its colliders and wind zones, side by side; one by default.
+    #[serde(default)]
+    pub copies: SceneCopies,
+}
+
+impl ClothScene {
+    /// Parses and validates a scene from RON text.
+    pub fn from_ron(text: &str) -> Result<Self, ClothError> {
+        let scene: Self = ron::from_str(text).map_err(|e| ClothError::Scene(e.to_string()))?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Reads, parses and validates a scene file of at most [`MAX_SCENE_BYTES`] (a longer one is
+    /// refused without being read).
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ClothError> {
+        use std::io::Read;
+        let path = path.as_ref();
+        let cannot =
+            |e: std::io::Error| ClothError::Scene(format!("cannot read {}: {e}", path.display()));
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .map_err(cannot)?
+            .take(MAX_SCENE_BYTES as u64 + 1)
+            .read_to_string(&mut text)
+            .map_err(cannot)?;
+        crate::error::at_most("scene file bytes", text.len(), MAX_SCENE_BYTES, || {
+            format!("MAX_SCENE_BYTES; reading {} stopped there", path.display())
+        })?;
+        Self::from_ron(&text).map_err(|e| ClothError::Scene(format!("{}: {e}", path.display())))
+    }
+
+    /// Checks every value the scene carries, including that the pins exist. The error names the
+    /// field and value; an error in a collider is a [`ClothError::InScene`] saying which one
+    /// (`colliders[2]`).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        crate::plugin::validate_fixed_step(self.dt)?;
+        self.solver.validate()?;
+        let count = self.cloth.particle_count()?;
+        self.copies.validate()?;
+        let all = count.saturating_mul(self.copies.count as usize);
+        crate::error::at_most("particles of all copies", all, MAX_SCENE_PARTICLES, || {
+            "MAX_SCENE_PARTICLES".to_string()
+        })?;
+        crate::error::at_most("pins", self.pins.len(), count, || {
+            format!("one per particle of the cloth, which has {count}")
+        })?;
+        if let Some(&index) = self.pins.iter().find(|&&p| p as usize >= count) {
+            return Err(ClothError::PinOutOfRange { index, count });
+        }
+        if let Some(weights) = &self.target_weights {
+            if weights.len() != count {
+                return Err(ClothError::InvalidTargets {
+                    what: format!(
+                        "target_weights has {} weights for a cloth of {count} particles",
+                        weights.len()
+                    ),
+                });
+            }
+            if let Some(&w) = weights.iter().find(|w| !w.is_finite()) {
+                return Err(ClothError::InvalidValue {
+                    field: "target_weights",
+                    expected: "finite",
+                    value: w as f64,
+                });
+            }
+        }
+        finite_placement(self.translation, self.rotation_degrees)?;
+        for (i, c) in self.colliders.iter().enumerate() {
+            c.validate().map_err(|e| ClothError::InScene {
+                location: format!("colliders[{i}]"),
+                error: Box::new(e),
+            })?;
+        }
+        if let Some(wind) = &self.wind {
+            wind.validate()?;
+        }
+        Ok(())
+    }
+
+    /// The cloth's placement.
+    pub fn transform(&self) -> Transform {
+        placement(self.translation, self.rotation_degrees)
+    }
+
+    /// Spawns the scene into a world (validated when parsed): its cloths, their colliders, and its
+    /// wind (the [`Wind`](crate::components::Wind) resource, replacing any, and
+    /// [`WindZone`](crate::components::WindZone) entities), and returns the first cloth; see
+    /// [`spawn_copies`](Self::spawn_copies) for all of them. Moving colliders need
+    /// [`ScenePlugin`] (which the harness' `headless_app` adds).
+    pub fn spawn(&self, world: &mut World) -> Result<Entity, ClothError> {
+        Ok(self.spawn_copies(world)?[0])
+    }
+
+    /// [`spawn`](Self::spawn), returning every copy's cloth entity in the order of
+    /// [`SceneCopies`] (never empty). The copies share one model.
+    pub fn spawn_copies(&self, world: &mut World) -> Result<Vec<Entity>, ClothError> {
+        self.copies.validate()?;
+        if let Some(wind) = &self.wind {
+            wind.validate()?;
+            world.insert_resource(wind.resource());
+        }
+        for c in self.colliders.iter().filter(|c| c.shared) {
+            world.spawn(c.bundle()?);
+        }
+        let (cloth, config, pins) = self.components()?;
+        let targets = self.targets();
+        let mut cloths = Vec::with_capacity(self.copies.count as usize);
+        for k in 0..self.copies.count {
+            let offset = self.copies.offset(k);
+            for c in self.colliders.iter().filter(|c| !c.shared) {
+                world.spawn(c.moved(offset).bundle()?);
+            }
+            for z in self.wind.iter().flat_map(|w| &w.zones) {
+                let mut zone = z.clone();
+                zone.translation += offset;
+                world.spawn(zone.bundle()?);
+            }
+            let mut transform = self.transform();
+            transform.translation += offset;
+            let mut entity = world.spawn((cloth.clone(), config, pins.clone(), transform));
+            if let Some(targets) = &targets {
+                entity.insert(targets.clone());
+            }
+            cloths.push(entity.id());
+        }
+        Ok(cloths)
+    }
+
+    /// The cloth's targets, when the scene gives target weights.
+    pub fn targets(&self) -> Option<ClothTargets> {
+        self.target_weights.as_ref().map(|w| ClothTargets {
+            weights: TargetWeights::Values(w.clone()),
+        })
+    }
+
+    /// The cloth's topology.
+    pub fn model(&self) -> Result<ClothModel, ClothError> {
+        self.cloth.model()
+    }
+
+    /// The components of the scene's (first) cloth entity (but its [`targets`](Self::targets),
+    /// which [`spawn`](Self::spawn) adds). Display interpolation is off, so the mesh shows exactly
+    /// the simulated state.
+    pub fn bundle(&self) -> Result<impl Bundle, ClothError> {
+        let (cloth, config, pins) = self.components()?;
+        Ok((cloth, config, pins, self.transform()))
+    }
+
+    fn components(&self) -> Result<(Cloth, ClothConfig, ClothPins), ClothError> {
+        let config = ClothConfig {
+            solver: self.solver,
+            interpolate: false,
+            ..Default::default()
+        };
+        let pins = ClothPins::new(self.pins.iter().copied());
+        Ok((self.cloth.component()?, config, pins))
+    }
+}
+
+#[cfg(test)]
+mod tests;
