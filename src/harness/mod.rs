@@ -111,23 +111,28 @@ pub fn try_headless_app_with<M>(
 }
 
 /// Loads the RON scene at `path` into a [`headless_app`], runs `frames` fixed steps and returns
-/// the [`state_hash`](stress::state_hash) of its cloth: a bit-for-bit fingerprint of
-/// the whole plugin path (pins, colliders, wind, scheduling) for regression checks.
+/// the [`state_hash`](stress::state_hash) of its cloth (of several copies, their hashes folded
+/// in order): a bit-for-bit fingerprint of the whole plugin path (pins, colliders, wind,
+/// scheduling) for regression checks.
 pub fn scene_state_hash(path: &std::path::Path, frames: u32) -> Result<u64, ClothError> {
     let scene = crate::scene::ClothScene::load(path)?;
     let mut app = try_headless_app(scene.dt)?;
-    let entity = scene.spawn(app.world_mut())?;
+    let entities = scene.spawn_copies(app.world_mut())?;
     for _ in 0..=frames {
         app.update();
     }
-    if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
-        return Err(e.clone());
+    let mut folded = 0u64;
+    for entity in entities {
+        if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(entity) {
+            return Err(e.clone());
+        }
+        let state =
+            app.world()
+                .get::<ClothState>(entity)
+                .ok_or_else(|| ClothError::InvalidMesh {
+                    what: format!("{}: the cloth was not built", path.display()),
+                })?;
+        folded = folded.rotate_left(17) ^ stress::state_hash(state.sim());
     }
-    let state = app
-        .world()
-        .get::<ClothState>(entity)
-        .ok_or_else(|| ClothError::InvalidMesh {
-            what: format!("{}: the cloth was not built", path.display()),
-        })?;
-    Ok(stress::state_hash(state.sim()))
+    Ok(folded)
 }
