@@ -25,9 +25,27 @@ pub(crate) struct Air {
     pub pressure: Pressure,
     /// The volume the cloth enclosed when it was built, m³.
     pub built_volume: f32,
+    /// The farthest the air moves a particle in one XPBD substep, m (see [`Air::project`]).
+    pub max_move: f32,
 }
 
 impl Air {
+    /// The air of a cloth with `triangles` over `rest` positions that enclosed `built_volume`
+    /// when built. Its [`max_move`](Self::max_move) is half the rest triangles' mean edge.
+    pub fn new(pressure: Pressure, built_volume: f32, triangles: &[u32], rest: &[Vec3]) -> Self {
+        let edges: f64 = triangles
+            .chunks_exact(3)
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .map(|(a, b)| rest[a as usize].distance(rest[b as usize]) as f64)
+            .sum();
+        let mean = edges / triangles.len().max(1) as f64;
+        Self {
+            pressure,
+            built_volume,
+            max_move: (0.5 * mean) as f32,
+        }
+    }
+
     /// The volume [`Pressure::Volume`] keeps, m³ (the built volume for a gas).
     pub fn kept_volume(&self) -> f32 {
         match self.pressure {
@@ -166,6 +184,11 @@ impl Air {
     /// air's rank-one stiffness, stable at any stiffness and step; for [`Pressure::Volume`] it is
     /// XPBD's projection of `C = V − V₀` with compliance `V₀ / K` (the multiplier starting at 0
     /// each substep).
+    ///
+    /// Where the surface is crushed or torn inside out, a high pressure over a volume gradient
+    /// that has almost vanished asks for moves far larger than the cloth; the whole move is then
+    /// scaled down so that no particle moves more than [`max_move`](Self::max_move) (still along
+    /// `w ∇V`, so the momentum it adds stays zero for equal masses).
     pub fn project(
         &self,
         scratch: &mut AirScratch,
@@ -179,15 +202,20 @@ impl Air {
         }
         let v = scratch.volume_gradient();
         let six_gradient = &scratch.six_gradient;
-        let weight: f32 = six_gradient
-            .iter()
-            .zip(inv_mass)
-            .map(|(g, w)| *w * g.length_squared())
-            .sum::<f32>()
-            / 36.0;
+        let (mut weight, mut farthest) = (0.0f32, 0.0f32);
+        for (g, w) in six_gradient.iter().zip(inv_mass) {
+            let g2 = g.length_squared();
+            weight += *w * g2;
+            farthest = farthest.max(*w * *w * g2);
+        }
+        weight /= 36.0;
         let h2 = (h * h) as f64;
         let stiffness = self.volume_stiffness(v) * weight as f64;
-        let scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32 / 6.0;
+        let mut scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32 / 6.0;
+        let farthest = scale.abs() * farthest.sqrt();
+        if farthest > self.max_move {
+            scale *= self.max_move / farthest;
+        }
         // A particle of weight 0 (pinned) moves by 0.
         for ((dx, dy, dz), (g, w)) in d.iter_mut().zip(six_gradient.iter().zip(inv_mass)) {
             let s = *w * scale;
@@ -337,6 +365,7 @@ mod tests {
             let air = Air {
                 pressure,
                 built_volume: built,
+                max_move: f32::INFINITY,
             };
             let v = built as f64 * 0.9;
             let dv = 1e-6;
@@ -360,6 +389,7 @@ mod tests {
                 bulk_modulus: 1e12,
             },
             built_volume: built,
+            max_move: f32::INFINITY,
         };
         let mut start = Soa::new(4);
         start.load(&x);
@@ -381,6 +411,44 @@ mod tests {
             assert!(pair[1] < 2.0 * pair[0] * pair[0] + 1e-6, "{errors:?}");
         }
         assert!(errors[3] < 1e-5, "{errors:?}");
+    }
+
+    #[test]
+    fn a_crushed_ball_is_not_thrown_farther_than_max_move() {
+        let model = ClothModel::icosphere(0.3, 2).unwrap();
+        let built = model.check_closed().unwrap();
+        let air = Air::new(
+            Pressure::gas(built, 5.0e4),
+            built,
+            &model.triangles,
+            &model.rest_positions,
+        );
+        assert!(
+            air.max_move > 0.01 && air.max_move < 0.1,
+            "{}",
+            air.max_move
+        );
+        // Crushed to a hundredth of its size, below the volume the gas's pressure is held at, so
+        // that its gradient has almost vanished; one particle is a thousand times lighter than the
+        // rest (a stress case's mass ratio).
+        let n = model.particle_count();
+        let crushed: Vec<Vec3> = model.rest_positions.iter().map(|p| 0.01 * *p).collect();
+        let inv_mass: Vec<f32> = (0..n).map(|i| if i == 0 { 1.0e6 } else { 1.0e3 }).collect();
+        let farthest = |max_move: f32| {
+            let mut start = Soa::new(n);
+            start.load(&crushed);
+            let mut d = Soa::new(n);
+            let mut scratch = AirScratch::default();
+            scratch.prepare(true, &model.triangles, n, |i| i);
+            let air = Air { max_move, ..air };
+            air.project(&mut scratch, &inv_mass, (&start, &mut d), 1.0 / 600.0);
+            d.iter().map(|v| v.length()).fold(0.0, f32::max)
+        };
+        let free = farthest(f32::INFINITY);
+        let held = farthest(air.max_move);
+        assert!(free > 2.0 * air.max_move, "{free} vs {}", air.max_move);
+        assert!(held <= air.max_move * 1.0001, "{held} vs {}", air.max_move);
+        assert!(held >= air.max_move * 0.999, "{held} vs {}", air.max_move);
     }
 
     use crate::sim::ClothModel;
@@ -451,6 +519,7 @@ mod tests {
             let air = Air {
                 pressure,
                 built_volume: model.check_closed().unwrap(),
+                max_move: f32::INFINITY,
             };
             let inv_mass: Vec<f32> = (0..x.len())
                 .map(|i| {

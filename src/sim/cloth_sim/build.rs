@@ -162,9 +162,14 @@ impl ClothSim {
         self.air = self
             .built_volume
             .filter(|_| self.settings.pressure.is_on())
-            .map(|built_volume| Air {
-                pressure: self.settings.pressure,
-                built_volume,
+            .map(|built_volume| {
+                let m = &self.model;
+                Air::new(
+                    self.settings.pressure,
+                    built_volume,
+                    &m.triangles,
+                    &m.rest_positions,
+                )
             });
         self.refresh_air_frequency();
         // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.
