@@ -202,13 +202,8 @@ impl Air {
         }
         let v = scratch.volume_gradient();
         let six_gradient = &scratch.six_gradient;
-        let (mut weight, mut farthest) = (0.0f32, 0.0f32);
-        for (g, w) in six_gradient.iter().zip(inv_mass) {
-            let g2 = g.length_squared();
-            weight += *w * g2;
-            farthest = farthest.max(*w * *w * g2);
-        }
-        weight /= 36.0;
+        let (weight, farthest) = weight_and_farthest(six_gradient, inv_mass);
+        let weight = weight / 36.0;
         let h2 = (h * h) as f64;
         let stiffness = self.volume_stiffness(v) * weight as f64;
         let mut scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32 / 6.0;
@@ -222,6 +217,33 @@ impl Air {
             (*dx, *dy, *dz) = (*dx + g.x * s, *dy + g.y * s, *dz + g.z * s);
         }
     }
+}
+
+/// `Σ w |g|²` and `max w² |g|²` over the particles, in eight independent lanes (so that the
+/// loop is vectorised), the rest one by one.
+fn weight_and_farthest(g: &[Vec3A], w: &[f32]) -> (f32, f32) {
+    const L: usize = 8;
+    let (mut sum, mut max) = ([0.0f32; L], [0.0f32; L]);
+    let (gs, ws) = (g.chunks_exact(L), w.chunks_exact(L));
+    let rest = gs.remainder().iter().zip(ws.remainder());
+    for (g, w) in gs.zip(ws) {
+        for l in 0..L {
+            let wg2 = w[l] * g[l].length_squared();
+            sum[l] += wg2;
+            let m = w[l] * wg2;
+            max[l] = if m > max[l] { m } else { max[l] };
+        }
+    }
+    let (mut total, mut farthest) = (sum.iter().sum::<f32>(), 0.0f32);
+    for m in max {
+        farthest = farthest.max(m);
+    }
+    for (g, w) in rest {
+        let wg2 = w * g.length_squared();
+        total += wg2;
+        farthest = farthest.max(w * wg2);
+    }
+    (total, farthest)
 }
 
 /// A stepper's scratch for the air: the model's triangles in the stepper's numbering of the
@@ -243,6 +265,11 @@ impl AirScratch {
             let corners = triangles.chunks_exact(3);
             self.triangles
                 .extend(corners.map(|t| [slot(t[0]), slot(t[1]), slot(t[2])]));
+            // What `volume_gradient`'s unchecked reads and writes rest on.
+            assert!(
+                self.triangles.iter().flatten().all(|&i| (i as usize) < n),
+                "a triangle's corner past the stepper's {n} particles"
+            );
             self.positions.resize(n, Vec3A::ZERO);
             self.six_gradient.resize(n, Vec3A::ZERO);
         } else {
@@ -257,7 +284,7 @@ impl AirScratch {
     /// [`volume_gradient`] does, with the sixth left to the caller's scale. The volume's terms are
     /// summed in f32 over blocks of triangles and the blocks in f64, about the first corner.
     fn volume_gradient(&mut self) -> f64 {
-        let (x, g) = (&self.positions, &mut self.six_gradient);
+        let (x, g) = (&self.positions[..], &mut self.six_gradient[..]);
         g.fill(Vec3A::ZERO);
         let Some(&[first, ..]) = self.triangles.first() else {
             return 0.0;
@@ -268,12 +295,20 @@ impl AirScratch {
             let mut sum = Vec3A::ZERO;
             for &[a, b, c] in block {
                 let (a, b, c) = (a as usize, b as usize, c as usize);
-                let (pa, pb, pc) = (x[a], x[b], x[c]);
-                let area2 = (pb - pa).cross(pc - pa);
-                sum += (pa - origin) * area2;
-                g[a] += area2;
-                g[b] += area2;
-                g[c] += area2;
+                // SAFETY: `prepare` checked every corner against `n`, the length it gave
+                // `positions` and `six_gradient`, which nothing else resizes.
+                unsafe {
+                    let (pa, pb, pc) = (
+                        *x.get_unchecked(a),
+                        *x.get_unchecked(b),
+                        *x.get_unchecked(c),
+                    );
+                    let area2 = (pb - pa).cross(pc - pa);
+                    sum += (pa - origin) * area2;
+                    *g.get_unchecked_mut(a) += area2;
+                    *g.get_unchecked_mut(b) += area2;
+                    *g.get_unchecked_mut(c) += area2;
+                }
             }
             six_v += sum.element_sum() as f64;
         }
