@@ -10,7 +10,7 @@ use bevy_cloth::prelude::*;
 use bevy_cloth::scene::ClothScene;
 use bevy_cloth::sim::{ClothSim, SpringKind};
 
-/// A headless app with the scene's cloth built and at rest.
+/// A headless app with one copy of the scene built and at rest.
 pub fn load(path: &Path) -> Result<(App, Entity, ClothScene), ClothError> {
     let (app, entities, scene) = load_copies(path, Some(1))?;
     Ok((app, entities[0], scene))

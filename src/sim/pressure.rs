@@ -223,6 +223,8 @@ impl Air {
 /// loop is vectorised), the rest one by one.
 fn weight_and_farthest(g: &[Vec3A], w: &[f32]) -> (f32, f32) {
     const L: usize = 8;
+    let n = g.len().min(w.len());
+    let (g, w) = (&g[..n], &w[..n]);
     let (mut sum, mut max) = ([0.0f32; L], [0.0f32; L]);
     let (gs, ws) = (g.chunks_exact(L), w.chunks_exact(L));
     let rest = gs.remainder().iter().zip(ws.remainder());
