@@ -10,6 +10,7 @@ use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, Mesh3d};
 use bevy::platform::collections::HashSet;
 use bevy::transform::components::GlobalTransform;
+use std::time::Duration;
 
 use super::edits::{commit_pins, plan_pins, report_edit, run_settings};
 use super::mesh::refresh_render;
@@ -350,6 +351,7 @@ fn build_state(
         attachment,
         target_pins: Vec::new(),
         failure: None,
+        step_time: Duration::ZERO,
         dirty: true,
         at_rest: false,
     };

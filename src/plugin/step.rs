@@ -4,6 +4,7 @@
 
 use bevy::ecs::prelude::*;
 use bevy::math::Vec3;
+use bevy::platform::time::Instant;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::Time;
 
@@ -112,10 +113,12 @@ pub(crate) fn step_cloths(
 
 /// One cloth's step; a failure stops it.
 fn step_one(state: &mut ClothState, dt: f32, env: &Environment, spread: Option<&dyn Spread>) {
+    let started = Instant::now();
     let stepped = match spread {
         Some(spread) => state.sim.step_in_parallel(dt, env, spread),
         None => state.sim.step_in(dt, env),
     };
+    state.step_time = started.elapsed();
     state.failure = stepped.err();
 }
 
