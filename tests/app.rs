@@ -28,11 +28,14 @@ fn exactly_n_fixed_steps_run() {
     let mut app = app();
     let e = spawn(&mut app, hanging(8));
     assert_eq!(state(&app, e).steps(), 0);
+    assert_eq!(state(&app, e).last_step_time(), std::time::Duration::ZERO);
     app.insert_resource(TimeUpdateStrategy::FixedTimesteps(3));
     for _ in 0..7 {
         app.update();
     }
     assert_eq!(state(&app, e).steps(), 21);
+    // Each step is timed where the plugin steps the cloth.
+    assert!(state(&app, e).last_step_time() > std::time::Duration::ZERO);
     app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
     run(&mut app, 5);
     assert_eq!(state(&app, e).steps(), 26);
