@@ -136,7 +136,8 @@ impl SceneCollider {
 }
 
 /// Moves an entity's `Transform` at a constant velocity (m/s) every fixed step, after the cloths
-/// stepped (so a collider's first step is from where it was spawned). Added by [`ScenePlugin`]; used by scene colliders with a `velocity`.
+/// stepped (so a collider's first step is from where it was spawned). Added by
+/// [`ScenePlugin`](super::ScenePlugin); used by scene colliders with a `velocity`.
 #[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
 pub struct ConstantVelocity(pub Vec3);
 
