@@ -215,7 +215,8 @@ fn default_dt() -> f32 {
     1.0 / 60.0
 }
 
-/// One simulated cloth with its settings and environment, as stored in a `.ron` file.
+/// A simulated cloth with its settings and environment, and how many copies of it to lay out, as
+/// stored in a `.ron` file.
 ///
 /// Every field but `cloth` has a default; unknown fields are an error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
