@@ -160,18 +160,26 @@ impl Air {
     }
 
     /// Hands `add` the air's force `p ∂V/∂x` on each particle at positions `x(i)` (in
-    /// `scratch`'s numbering).
+    /// `scratch`'s numbering, of weights `inv_mass`), for a substep of `h` seconds. As in
+    /// [`Air::project`], a force that alone would move a particle more than
+    /// [`max_move`](Self::max_move) in the substep (`h² w |F|`) is scaled down, all of them alike.
     pub fn forces(
         &self,
         scratch: &mut AirScratch,
         x: impl Fn(usize) -> Vec3,
+        (inv_mass, h): (&[f32], f32),
         mut add: impl FnMut(usize, Vec3),
     ) {
         for (i, p) in scratch.positions.iter_mut().enumerate() {
             *p = x(i).into();
         }
         let v = scratch.volume_gradient();
-        let p = self.gauge(v) as f32 / 6.0;
+        let mut p = self.gauge(v) as f32 / 6.0;
+        let (_, farthest) = weight_and_farthest(&scratch.six_gradient, inv_mass);
+        let reach = h * h * p.abs() * farthest.sqrt();
+        if reach > self.max_move {
+            p *= self.max_move / reach;
+        }
         for (i, g) in scratch.six_gradient.iter().enumerate() {
             add(i, Vec3::from(*g * p));
         }

@@ -547,6 +547,10 @@ pub const STANDARD_ATMOSPHERE: f32 = 101_325.0;
 /// moves the particles once per substep, after its spring sweeps, by one backward-Euler step of
 /// the air's stiffness (stable at any stiffness); like its springs, it then comes to rest a
 /// little softer than set at few substeps, and at the set stiffness as substeps grow.
+///
+/// In every integrator, an air that alone would move a particle more than half the rest
+/// triangles' mean edge in one substep (a ball crushed flat or torn inside out by a fast
+/// collider, its gas held at a high pressure) is scaled down to that, all particles alike.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, Reflect)]
 pub enum Pressure {
     /// No air: a closed cloth collapses like a sack.

@@ -39,7 +39,7 @@ impl Explicit {
 
     /// Sets `forces` to gravity plus wind plus the spring forces, plus the air's in a closed
     /// cloth, at the positions `state.x`.
-    fn compute_forces(&mut self, s: &Step) {
+    fn compute_forces(&mut self, s: &Step, h: f32) {
         let g = s.settings.gravity;
         for ((x, y, z), m) in self.forces.iter_mut().zip(&s.particles.mass) {
             (*x, *y, *z) = (*m * g.x, *m * g.y, *m * g.z);
@@ -52,7 +52,13 @@ impl Explicit {
         add_spring_forces(&mut self.runs, s.springs(), &self.state.x, &mut self.forces);
         if let Some(air) = s.air {
             let (x, f) = (&self.state.x, &mut self.forces);
-            air.forces(&mut self.air, |i| x.get(i), |i, g| f.set(i, f.get(i) + g));
+            let weights = (&s.particles.inv_mass[..], h);
+            air.forces(
+                &mut self.air,
+                |i| x.get(i),
+                weights,
+                |i, g| f.set(i, f.get(i) + g),
+            );
         }
     }
 
@@ -80,7 +86,7 @@ impl Explicit {
         for sub in 0..n {
             let (t0, t1) = (sub as f32 / n as f32, (sub + 1) as f32 / n as f32);
             self.state.begin_substep(s.contacts);
-            self.compute_forces(s);
+            self.compute_forces(s, h);
             self.kick_drift_all(&s.particles.inv_mass, h, keep, h);
             // The frame's unfelt motion over the substep, so that the next forces see the free
             // particles and the pins at the same time. The substep's start goes with it: the
@@ -139,7 +145,7 @@ impl Explicit {
                     .x
                     .set(pin.particle as usize, between(pin.from, pin.to, mid));
             }
-            self.compute_forces(s);
+            self.compute_forces(s, h);
             let last = sub + 1 == n;
             // Close this substep's drift and (unless it is the last) open the next one's.
             self.kick_drift_all(&s.particles.inv_mass, h, keep, if last { half } else { h });

@@ -291,7 +291,8 @@ impl Implicit {
             // Wind and the air inside a closed cloth enter explicitly (not linearised).
             wind.add_forces(forces);
             if let Some(air) = air {
-                air.forces(&mut self.air, |i| x[i], |i, f| forces[i] += f);
+                let weights = (&inv_mass[..], h);
+                air.forces(&mut self.air, |i| x[i], weights, |i, f| forces[i] += f);
             }
             s.external.copy_from_slice(forces);
             add_spring_forces_and_jacobians(springs, x, forces, &mut s.jacobians);
