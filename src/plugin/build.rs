@@ -2,6 +2,8 @@
 //! replaced and edited cloths built and validated (simulation, attachment to targets, render
 //! side), and failures reported once as [`ClothInvalid`].
 
+use std::time::Duration;
+
 use bevy::asset::{AssetEvent, AssetId, Assets, Handle};
 use bevy::ecs::prelude::*;
 use bevy::log::{error, warn};
@@ -10,7 +12,6 @@ use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, Mesh3d};
 use bevy::platform::collections::HashSet;
 use bevy::transform::components::GlobalTransform;
-use std::time::Duration;
 
 use super::edits::{commit_pins, plan_pins, report_edit, run_settings};
 use super::mesh::refresh_render;

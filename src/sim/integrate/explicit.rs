@@ -38,7 +38,7 @@ impl Explicit {
     }
 
     /// Sets `forces` to gravity plus wind plus the spring forces, plus the air's in a closed
-    /// cloth, at the positions `state.x`.
+    /// cloth (for a substep of `h`), at the positions `state.x`.
     fn compute_forces(&mut self, s: &Step, h: f32) {
         let g = s.settings.gravity;
         for ((x, y, z), m) in self.forces.iter_mut().zip(&s.particles.mass) {
