@@ -23,7 +23,6 @@ struct Timing {
 /// What a scene's runs report about its cloth (the same in every run).
 struct SceneFacts {
     copies: u64,
-    frames: u32,
     particles: u64,
     springs: u64,
     substeps: u64,
@@ -32,6 +31,8 @@ struct SceneFacts {
 
 struct SceneRows {
     path: PathBuf,
+    /// Frames timed per run ([`frames_for`] its copies).
+    frames: u32,
     facts: Option<SceneFacts>,
     /// Per round: single-threaded, multi-threaded.
     rounds: Vec<[Timing; 2]>,
@@ -57,26 +58,28 @@ pub fn run(
     if paths.is_empty() {
         return Err(format!("no .ron scene in {}", scenes.display()).into());
     }
-    let mut rows: Vec<SceneRows> = paths
+    let mut rows = paths
         .into_iter()
-        .map(|path| SceneRows {
-            path,
-            facts: None,
-            rounds: Vec::new(),
+        .map(|path| {
+            let copies = ClothScene::load(&path)?.copies.count;
+            Ok(SceneRows {
+                frames: frames_for(frames, copies),
+                path,
+                facts: None,
+                rounds: Vec::new(),
+            })
         })
-        .collect();
+        .collect::<Result<Vec<_>, bevy_cloth::prelude::ClothError>>()?;
     let started = std::time::Instant::now();
     for round in 0..runs.max(1) {
         for row in &mut rows {
-            let copies = ClothScene::load(&row.path)?.copies.count;
-            let frames = frames_for(frames, copies);
+            let frames = row.frames;
             let mut time = |single_threaded: bool| -> Result<Timing, Box<dyn std::error::Error>> {
                 let line = bench_scene(&row.path, frames, None, single_threaded)?;
                 let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);
                 let count = |key: &str| line[key].as_u64().unwrap_or(0);
                 row.facts.get_or_insert_with(|| SceneFacts {
                     copies: count("copies"),
-                    frames,
                     particles: count("particles"),
                     springs: count("springs"),
                     substeps: count("substeps"),
@@ -174,8 +177,8 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
          write and Bevy's own schedules). A row is what\n`cargo run --release --example cloth_cli \
          -- bench assets/scenes/SCENE --frames {frames} [--single-threaded]`\nmeasures: \
          milliseconds per frame, the median of {frames} frames after 10 warm-up frames (a scene of \
-         K copies, {frames}/K frames, at least 60), on Bevy's single-threaded executor (static-scene transform tracking off, as \
-         `harness::use_single_threaded_frame` sets it) and on its default multi-threaded one. \
+         K copies, {frames}/K frames, at least 60), on Bevy's single-threaded executor \
+         (static-scene transform tracking off, as `harness::use_single_threaded_frame` sets it) and on its default multi-threaded one. \
          {runs} rounds alternate the scenes and executors; a cell is the median of the rounds' \
          medians with their range in brackets, and a ratio is the median of the ratios taken \
          within each round. Machines like this one are shared and noisy: compare ratios, not \
@@ -220,7 +223,7 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
             fmt_spread(single),
             fmt_spread(multi),
             relative.map_or("–".into(), |r| format!("{r:.2}")),
-            2 * facts.map_or(0, |f| f.frames as u64 * f.copies) * row.rounds.len() as u64,
+            2 * facts.map_or(0, |f| f.copies) * row.frames as u64 * row.rounds.len() as u64,
         );
     }
     let _ = writeln!(

@@ -30,9 +30,10 @@ struct Tally {
 }
 
 /// Runs cases `cases` of suite `seed` over `integrators` (with `self_collision`, every case has
-/// it on; with `air`, every case is a closed cloth with air inside; with a `tolerance`, every case runs in tolerance mode) on `threads` threads (one with
-/// `trace`); returns whether all passed. The cases are
-/// independent, and the tables and failures come out in case order whatever the thread count.
+/// it on; with `air`, every case is a closed cloth with air inside; with a `tolerance`, every case
+/// runs in tolerance mode) on `threads` threads (one with `trace`); returns whether all passed.
+/// The cases are independent, and the tables and failures come out in case order whatever the
+/// thread count.
 /// With `trace`, prints every step of every case.
 pub fn run(
     cases: std::ops::Range<u64>,

@@ -46,7 +46,7 @@ pub use wind::{DEFAULT_SCENE_WIND_ZONE_FALLOFF, SceneWind, SceneWindZone, SceneW
 use crate::components::{Cloth, ClothConfig, ClothPins, ClothTargets, TargetWeights};
 use crate::error::{ClothError, positive};
 use crate::plugin::ClothSystems;
-use crate::sim::{ClothModel, GridSpec, MAX_ICOSPHERE_SUBDIVISIONS, SolverSettings};
+use crate::sim::{ClothModel, GridSpec, SolverSettings};
 use colliders::{finite_placement, move_at_constant_velocity, placement};
 
 /// Largest scene file [`ClothScene::load`] reads, bytes (64 MiB: room for the pins and target
@@ -94,14 +94,7 @@ impl SceneCloth {
                 subdivisions,
             } => {
                 positive("icosphere radius", radius)?;
-                if subdivisions > MAX_ICOSPHERE_SUBDIVISIONS {
-                    return Err(ClothError::InvalidValue {
-                        field: "icosphere subdivisions",
-                        expected: "at most MAX_ICOSPHERE_SUBDIVISIONS (8)",
-                        value: subdivisions as f64,
-                    });
-                }
-                Ok(10 * 4usize.pow(subdivisions) + 2)
+                ClothModel::icosphere_particle_count(subdivisions)
             }
             SceneCloth::Cuboid { .. } => Ok(self.model()?.particle_count()),
         }

@@ -14,8 +14,8 @@ use super::soa::Soa;
 
 /// How much higher than its linear bound the air's frequency is taken. The pressure changes as
 /// the volume breathes, and an explicit integrator that takes a stiff air close to its linear
-/// stability limit runs away (the stress suite's closed cloths found it; CHANGELOG.md,
-/// 2026-12-06); with the margin, the air asks for `hω ≤ 1.2`.
+/// stability limit runs away (the stress suite's closed cloths show it); with the margin, the air
+/// asks for `hω ≤ 1.2`.
 pub(crate) const AIR_FREQUENCY_MARGIN: f32 = 1.5;
 
 /// A closed cloth's air as its steppers see it: the model and the volumes it refers to.
@@ -25,24 +25,32 @@ pub(crate) struct Air {
     pub pressure: Pressure,
     /// The volume the cloth enclosed when it was built, m³.
     pub built_volume: f32,
-    /// The farthest the air moves a particle in one XPBD substep, m (see [`Air::project`]).
+    /// The farthest the air alone moves a particle in one substep, m (see [`Air::project`] and
+    /// [`Air::forces`]).
     pub max_move: f32,
 }
 
 impl Air {
-    /// The air of a cloth with `triangles` over `rest` positions that enclosed `built_volume`
-    /// when built. Its [`max_move`](Self::max_move) is half the rest triangles' mean edge.
-    pub fn new(pressure: Pressure, built_volume: f32, triangles: &[u32], rest: &[Vec3]) -> Self {
-        let edges: f64 = triangles
-            .chunks_exact(3)
-            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
-            .map(|(a, b)| rest[a as usize].distance(rest[b as usize]) as f64)
-            .sum();
-        let mean = edges / triangles.len().max(1) as f64;
+    /// The air of a cloth that enclosed `built_volume` when built, its rest triangles' edges
+    /// `mean_edge` long on average ([`ClothModel::mean_edge_length`]): its
+    /// [`max_move`](Self::max_move) is half that.
+    ///
+    /// [`ClothModel::mean_edge_length`]: super::ClothModel::mean_edge_length
+    pub fn new(pressure: Pressure, built_volume: f32, mean_edge: f32) -> Self {
         Self {
             pressure,
             built_volume,
-            max_move: (0.5 * mean) as f32,
+            max_move: 0.5 * mean_edge,
+        }
+    }
+
+    /// The factor that brings a move of `reach` (m, the farthest any particle would go) within
+    /// [`max_move`](Self::max_move): 1 when it is already.
+    fn within_reach(&self, reach: f32) -> f32 {
+        if reach > self.max_move {
+            self.max_move / reach
+        } else {
+            1.0
         }
     }
 
@@ -174,12 +182,9 @@ impl Air {
             *p = x(i).into();
         }
         let v = scratch.volume_gradient();
-        let mut p = self.gauge(v) as f32 / 6.0;
+        let p = self.gauge(v) as f32 / 6.0;
         let (_, farthest) = weight_and_farthest(&scratch.six_gradient, inv_mass);
-        let reach = h * h * p.abs() * farthest.sqrt();
-        if reach > self.max_move {
-            p *= self.max_move / reach;
-        }
+        let p = p * self.within_reach(h * h * p.abs() * farthest.sqrt());
         for (i, g) in scratch.six_gradient.iter().enumerate() {
             add(i, Vec3::from(*g * p));
         }
@@ -214,11 +219,8 @@ impl Air {
         let weight = weight / 36.0;
         let h2 = (h * h) as f64;
         let stiffness = self.volume_stiffness(v) * weight as f64;
-        let mut scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32 / 6.0;
-        let farthest = scale.abs() * farthest.sqrt();
-        if farthest > self.max_move {
-            scale *= self.max_move / farthest;
-        }
+        let scale = (h2 * self.gauge(v) / (1.0 + h2 * stiffness)) as f32 / 6.0;
+        let scale = scale * self.within_reach(scale.abs() * farthest.sqrt());
         // A particle of weight 0 (pinned) moves by 0.
         for ((dx, dy, dz), (g, w)) in d.iter_mut().zip(six_gradient.iter().zip(inv_mass)) {
             let s = *w * scale;
@@ -459,15 +461,10 @@ mod tests {
     }
 
     #[test]
-    fn a_crushed_ball_is_not_thrown_farther_than_max_move() {
+    fn a_crushed_ball_is_not_thrown_farther_than_max_move_by_the_step_or_the_force() {
         let model = ClothModel::icosphere(0.3, 2).unwrap();
         let built = model.check_closed().unwrap();
-        let air = Air::new(
-            Pressure::gas(built, 5.0e4),
-            built,
-            &model.triangles,
-            &model.rest_positions,
-        );
+        let air = Air::new(Pressure::gas(built, 5.0e4), built, model.mean_edge_length());
         assert!(
             air.max_move > 0.01 && air.max_move < 0.1,
             "{}",
@@ -479,21 +476,44 @@ mod tests {
         let n = model.particle_count();
         let crushed: Vec<Vec3> = model.rest_positions.iter().map(|p| 0.01 * *p).collect();
         let inv_mass: Vec<f32> = (0..n).map(|i| if i == 0 { 1.0e6 } else { 1.0e3 }).collect();
+        let h = 1.0 / 600.0;
+        // The farthest move XPBD's step makes, and the farthest one the force makes in a substep
+        // (`h² w |F|`), with the air's `max_move` at `max_move`.
         let farthest = |max_move: f32| {
+            let air = Air { max_move, ..air };
+            let mut scratch = AirScratch::default();
+            scratch.prepare(true, &model.triangles, n, |i| i);
             let mut start = Soa::new(n);
             start.load(&crushed);
             let mut d = Soa::new(n);
-            let mut scratch = AirScratch::default();
-            scratch.prepare(true, &model.triangles, n, |i| i);
-            let air = Air { max_move, ..air };
-            air.project(&mut scratch, &inv_mass, (&start, &mut d), 1.0 / 600.0);
-            d.iter().map(|v| v.length()).fold(0.0, f32::max)
+            air.project(&mut scratch, &inv_mass, (&start, &mut d), h);
+            let projected = d.iter().map(|v| v.length()).fold(0.0, f32::max);
+            let mut pushed = 0.0f32;
+            air.forces(
+                &mut scratch,
+                |i| crushed[i],
+                (&inv_mass, h),
+                |i, f| {
+                    pushed = pushed.max(h * h * inv_mass[i] * f.length());
+                },
+            );
+            [projected, pushed]
         };
-        let free = farthest(f32::INFINITY);
-        let held = farthest(air.max_move);
-        assert!(free > 2.0 * air.max_move, "{free} vs {}", air.max_move);
-        assert!(held <= air.max_move * 1.0001, "{held} vs {}", air.max_move);
-        assert!(held >= air.max_move * 0.999, "{held} vs {}", air.max_move);
+        let (free, held) = (farthest(f32::INFINITY), farthest(air.max_move));
+        for k in 0..2 {
+            let (free, held) = (free[k], held[k]);
+            assert!(free > 2.0 * air.max_move, "{k}: {free} vs {}", air.max_move);
+            assert!(
+                held <= air.max_move * 1.0001,
+                "{k}: {held} vs {}",
+                air.max_move
+            );
+            assert!(
+                held >= air.max_move * 0.999,
+                "{k}: {held} vs {}",
+                air.max_move
+            );
+        }
     }
 
     use crate::sim::ClothModel;

@@ -6,8 +6,8 @@ use glam::{Quat, Vec3};
 
 use crate::error::ClothError;
 use crate::sim::{
-    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Friction, GridSpec,
-    MAX_ICOSPHERE_SUBDIVISIONS, Pose, Pressure, SelfCollision, SolverSettings,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Friction, GridSpec, Pose, Pressure,
+    SelfCollision, SolverSettings,
 };
 
 /// How big the cases may get.
@@ -205,12 +205,13 @@ impl StressCase {
     fn build_side(&self, side: u32) -> Result<ClothSim, ClothError> {
         let mut model = match self.air {
             None => ClothModel::grid(&GridSpec::new(side, side, self.size / (side - 1) as f32))?,
-            // The most subdivisions with at most `side`² particles (10·4ˢ + 2), at least none.
+            // The most subdivisions with at most `side`² particles, at least none.
             Some(_) => {
-                let subdivisions = (1..=MAX_ICOSPHERE_SUBDIVISIONS)
-                    .take_while(|&s| 10 * 4u64.pow(s) + 2 <= (side as u64).pow(2))
-                    .last()
-                    .unwrap_or(0);
+                let fits = |s: u32| {
+                    ClothModel::icosphere_particle_count(s)
+                        .is_ok_and(|n| n <= (side as usize).pow(2))
+                };
+                let subdivisions = (1..).take_while(|&s| fits(s)).last().unwrap_or(0);
                 ClothModel::icosphere(0.5 * self.size, subdivisions)?
             }
         };

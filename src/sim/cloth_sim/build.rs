@@ -163,13 +163,8 @@ impl ClothSim {
             .built_volume
             .filter(|_| self.settings.pressure.is_on())
             .map(|built_volume| {
-                let m = &self.model;
-                Air::new(
-                    self.settings.pressure,
-                    built_volume,
-                    &m.triangles,
-                    &m.rest_positions,
-                )
+                let mean_edge = self.model.mean_edge_length();
+                Air::new(self.settings.pressure, built_volume, mean_edge)
             });
         self.refresh_air_frequency();
         // Tolerance mode chooses between XPBD and Verlet, as `Auto` does.

@@ -79,16 +79,7 @@ impl ClothModel {
     /// positive, more than [`MAX_ICOSPHERE_SUBDIVISIONS`].
     pub fn icosphere(radius: f32, subdivisions: u32) -> Result<Self, ClothError> {
         positive("icosphere radius", radius)?;
-        if subdivisions > MAX_ICOSPHERE_SUBDIVISIONS {
-            return Err(ClothError::InvalidValue {
-                field: "icosphere subdivisions",
-                expected: "at most MAX_ICOSPHERE_SUBDIVISIONS (8)",
-                value: subdivisions as f64,
-            });
-        }
-        particles_within(10 * 4u64.pow(subdivisions) + 2, || {
-            format!("an icosphere of {subdivisions} subdivisions")
-        })?;
+        Self::icosphere_particle_count(subdivisions)?;
         let phi = (1.0 + 5f32.sqrt()) / 2.0;
         let mut points: Vec<Vec3> = [
             (-1.0, phi, 0.0),
@@ -142,6 +133,23 @@ impl ClothModel {
             .collect();
         let positions: Vec<Vec3> = points.iter().map(|p| *p * radius).collect();
         Self::from_mesh(&positions, Some(&uvs), &triangles, 3)
+    }
+
+    /// The number of particles of an [`icosphere`](Self::icosphere) of `subdivisions`,
+    /// `10·4ˢ + 2`, without building it. Errors: more than [`MAX_ICOSPHERE_SUBDIVISIONS`].
+    pub fn icosphere_particle_count(subdivisions: u32) -> Result<usize, ClothError> {
+        if subdivisions > MAX_ICOSPHERE_SUBDIVISIONS {
+            return Err(ClothError::InvalidValue {
+                field: "icosphere subdivisions",
+                expected: "at most MAX_ICOSPHERE_SUBDIVISIONS (8)",
+                value: subdivisions as f64,
+            });
+        }
+        let count = 10 * 4u64.pow(subdivisions) + 2;
+        particles_within(count, || {
+            format!("an icosphere of {subdivisions} subdivisions")
+        })?;
+        Ok(count as usize)
     }
 
     /// A box of size `size` (m, each side positive) centred on the origin, its faces divided into
