@@ -63,6 +63,7 @@ impl Coordinate {
     }
 
     /// All the storage's values.
+    #[inline(always)]
     fn all(&self) -> &[f32] {
         // SAFETY: a `Page` is an array of `PAGE` f32 with no padding (`repr(C)`, its size a
         // multiple of its alignment), and a `Vec`'s pages lie one after another.
@@ -72,6 +73,7 @@ impl Coordinate {
     }
 
     /// All the storage's values, to write.
+    #[inline(always)]
     fn all_mut(&mut self) -> &mut [f32] {
         // SAFETY: as in `all`; the borrow is exclusive.
         unsafe {
@@ -85,7 +87,7 @@ impl Coordinate {
 
 impl std::ops::Deref for Coordinate {
     type Target = [f32];
-    #[inline]
+    #[inline(always)]
     fn deref(&self) -> &[f32] {
         let (offset, len) = (self.offset, self.len);
         &self.all()[offset..offset + len]
@@ -93,7 +95,7 @@ impl std::ops::Deref for Coordinate {
 }
 
 impl std::ops::DerefMut for Coordinate {
-    #[inline]
+    #[inline(always)]
     fn deref_mut(&mut self) -> &mut [f32] {
         let (offset, len) = (self.offset, self.len);
         &mut self.all_mut()[offset..offset + len]
@@ -207,13 +209,13 @@ impl Soa {
     }
 
     /// Vector `i`.
-    #[inline]
+    #[inline(always)]
     pub fn get(&self, i: usize) -> Vec3 {
         Vec3::new(self.x[i], self.y[i], self.z[i])
     }
 
     /// Sets vector `i`.
-    #[inline]
+    #[inline(always)]
     pub fn set(&mut self, i: usize, v: Vec3) {
         (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
     }

@@ -28,6 +28,7 @@ pub enum ColliderShape {
 impl ColliderShape {
     /// Signed distance from local point `p` to the surface (negative inside) and the outward unit
     /// normal of the nearest surface point. Exact for every shape.
+    #[inline(always)]
     pub fn signed_distance(&self, p: Vec3) -> (f32, Vec3) {
         match *self {
             ColliderShape::Sphere(s) => radial(p, s.radius),
@@ -265,6 +266,7 @@ fn around(centre: Vec3, half: Vec3) -> (Vec3, Vec3) {
 }
 
 /// Distance to a ball of radius `r` about the origin, with the radial normal (+Y at the centre).
+#[inline(always)]
 fn radial(p: Vec3, r: f32) -> (f32, Vec3) {
     let len = p.length();
     let n = if len > 1e-12 { p / len } else { Vec3::Y };
