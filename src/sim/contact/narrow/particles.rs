@@ -62,7 +62,7 @@ pub(super) fn collide_particles<S: ContactState, D: Distance>(
 
 /// Particles tested together: each one's contact is a chain of square roots and divisions, and
 /// running the stages of several side by side lets the processor overlap their chains.
-const BATCH: usize = 8;
+pub(super) const BATCH: usize = 8;
 
 /// Up to [`BATCH`] stored particles waiting for their contact test.
 #[derive(Default)]
@@ -101,10 +101,16 @@ fn collide_batch<S: ContactState, D: Distance>(
     state: &mut S,
     lanes: &[usize],
 ) -> f64 {
-    let margin = c.collider.margin;
+    let (margin, (pose0, pose1, _)) = (c.collider.margin, poses);
+    let mut paths = [Path::default(); BATCH];
+    for (p, &i) in paths.iter_mut().zip(lanes) {
+        *p = Path::of(&*state, i, (pose0, pose1));
+    }
+    let ends = shape.1.at_each(&paths.map(|p| p.local));
+    let starts = shape.1.at_each(&paths.map(|p| p.local0));
     let mut found = [Found::Clear; BATCH];
-    for (f, &i) in found.iter_mut().zip(lanes) {
-        *f = find(margin, shape, poses, &*state, i, false);
+    for (k, f) in found.iter_mut().enumerate().take(lanes.len()) {
+        *f = find(margin, shape, poses, (paths[k], ends[k], starts[k]), false);
     }
     let mut responses = [Response::default(); BATCH];
     for ((r, f), &i) in responses.iter_mut().zip(&found).zip(lanes) {
@@ -193,7 +199,9 @@ fn collide_particle<S: ContactState, D: Distance>(
     state: &mut S,
     i: usize,
 ) -> f64 {
-    match find(c.collider.margin, shape, poses, &*state, i, true) {
+    let path = Path::of(&*state, i, (poses.0, poses.1));
+    let (end, start) = (shape.1.at(path.local), shape.1.at(path.local0));
+    match find(c.collider.margin, shape, poses, (path, end, start), true) {
         Found::Contact(hit) => {
             let r = response(c, hit, (poses.1, h), &*state, i);
             push_out(state, i, (r.x, r.v), (r.normal, r.vc), c.reacted())
@@ -202,32 +210,58 @@ fn collide_particle<S: ContactState, D: Distance>(
     }
 }
 
-/// Whether particle `i`, against a collider with `margin` between `pose0` and `pose1` (`still`
-/// when they are equal), touches it and where. A particle that started the substep clear goes
-/// back to where its path first came within the margin; without `search`, such a path, and one
-/// that must be searched for whether it went through, is left as [`Found::Search`].
+/// A particle's path over a substep: where it starts and ends, in the world and in the
+/// collider's frame at the substep's start and end.
+#[derive(Clone, Copy, Default)]
+struct Path {
+    start: Vec3,
+    end: Vec3,
+    local0: Vec3,
+    local: Vec3,
+}
+
+impl Path {
+    /// Particle `i`'s path against a collider moving from `pose0` to `pose1`.
+    #[inline(always)]
+    fn of<S: ContactState>(state: &S, i: usize, (pose0, pose1): (&Pose, &Pose)) -> Self {
+        let (end, start) = (state.position(i), state.start(i));
+        Self {
+            start,
+            end,
+            local0: pose0.inverse_transform_point(start),
+            local: pose1.inverse_transform_point(end),
+        }
+    }
+}
+
+/// Whether a particle on `path` touches a collider with `margin` between `pose0` and `pose1`
+/// (`still` when they are equal), and where; `end` and `start` are the collider's distance and
+/// normal at the path's ends. A particle that started the substep clear goes back to where its
+/// path first came within the margin; without `search`, such a path, and one that must be
+/// searched for whether it went through, is left as [`Found::Search`].
 #[inline(always)]
-fn find<S: ContactState, D: Distance>(
+fn find<D: Distance>(
     margin: f32,
     (shape, distance): (&Shape, &D),
-    (pose0, pose1, still): (&Pose, &Pose, bool),
-    state: &S,
-    i: usize,
+    (_, _, still): (&Pose, &Pose, bool),
+    (path, end, start): (Path, (f32, Vec3), (f32, Vec3)),
     search: bool,
 ) -> Found {
-    let (x, start) = (state.position(i), state.start(i));
-    let mut local = pose1.inverse_transform_point(x);
-    let (mut d, mut normal) = distance.at(local);
+    let Path {
+        start: x0,
+        end: x,
+        local0,
+        mut local,
+    } = path;
+    let ((mut d, mut normal), (d0, n0)) = (end, start);
     // The signed distance changes no faster than the point moves: a particle that ends the
     // substep farther from a collider at rest than it travelled cannot have passed through it.
-    if d >= margin && still && d - margin > x.distance(start) {
+    if d >= margin && still && d - margin > x.distance(x0) {
         return Found::Clear;
     }
     // A particle that started the substep clear goes back to where its path (in the collider's
     // frame) first came within the margin, whether it ends outside (it passed through) or
     // inside: the nearest surface of its end point may be the far side of a thin collider.
-    let local0 = pose0.inverse_transform_point(start);
-    let (d0, n0) = distance.at(local0);
     if !search && d0 > margin && (local - local0).length() > margin {
         return Found::Search;
     }
@@ -265,7 +299,7 @@ fn find<S: ContactState, D: Distance>(
         local,
         d,
         normal,
-        start,
+        start: x0,
     })
 }
 
