@@ -265,7 +265,12 @@ fn find<D: Distance>(
     if !search && d0 > margin && (local - local0).length() > margin {
         return Found::Search;
     }
-    match sweep(distance, (local0, d0), local, margin) {
+    // A path that started in contact, or (left unsearched above) is too short, has nothing to
+    // sweep.
+    let swept = (search && d0 > margin)
+        .then(|| sweep(distance, (local0, d0), local, margin))
+        .flatten();
+    match swept {
         Some((hit, hit_d, hit_n)) => (local, d, normal) = (hit, hit_d, hit_n),
         None => {
             // Started in contact: it went through if it ends inside where the nearest surface
