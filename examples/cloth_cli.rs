@@ -88,7 +88,8 @@ enum Command {
         #[arg(long, default_value_t = 300)]
         frames: u32,
         /// Copies of the scene's cloth on its layout (they step in parallel across threads);
-        /// default the scene's own `copies`.
+        /// default the scene's own `copies`. 0 times the App with no cloth: Bevy's schedules
+        /// alone.
         #[arg(long)]
         copies: Option<u32>,
         /// Threads of Bevy's compute task pool (default: one per core).

@@ -17,7 +17,7 @@ pub fn load(path: &Path) -> Result<(App, Entity, ClothScene), ClothError> {
 }
 
 /// A headless app with the scene's cloths built and at rest: its own copies, or `copies` of
-/// them on its layout when given.
+/// them on its layout when given (none for 0: the App alone).
 fn load_copies(
     path: &Path,
     copies: Option<u32>,
@@ -27,7 +27,11 @@ fn load_copies(
         scene.copies.count = count;
     }
     let mut app = try_headless_app(scene.dt)?;
-    let entities = scene.spawn_copies(app.world_mut())?;
+    let entities = if scene.copies.count == 0 {
+        Vec::new()
+    } else {
+        scene.spawn_copies(app.world_mut())?
+    };
     app.update();
     for e in &entities {
         if let Some(ClothInvalid(e)) = app.world().get::<ClothInvalid>(*e) {
@@ -123,6 +127,15 @@ pub fn bench_scene(
         slept,
     } = run_frames(&mut app, &entities, frames)?;
     let mut outside: Vec<f64> = times.iter().zip(&solver_ms).map(|(f, s)| f - s).collect();
+    let executor = if single_threaded { "single" } else { "multi" };
+    if entities.is_empty() {
+        // The App without cloths: what Bevy's schedules cost by themselves.
+        let mut line = stats(&mut times);
+        line["scene"] = scene.display().to_string().into();
+        (line["frames"], line["copies"], line["executor"]) =
+            (frames.into(), 0.into(), executor.into());
+        return Ok(line);
+    }
     let state = app
         .world()
         .get::<ClothState>(entities[0])
@@ -141,7 +154,7 @@ pub fn bench_scene(
     line["cloth_steps_median_ms"] = stats(&mut solver_ms)["median_ms"].clone();
     line["outside_cloth_steps_median_ms"] = stats(&mut outside)["median_ms"].clone();
     line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
-    line["executor"] = if single_threaded { "single" } else { "multi" }.into();
+    line["executor"] = executor.into();
     line["particles"] = state.positions().len().into();
     line["springs"] = sim.model().springs.len().into();
     line["substeps"] = sim.substeps_for(parsed.dt).into();

@@ -31,6 +31,8 @@ struct SceneFacts {
 
 struct SceneRows {
     path: PathBuf,
+    /// `Some(0)`: the scene's App with no cloth (Bevy's schedules alone); `None`: its cloths.
+    copies: Option<u32>,
     /// Frames timed per run ([`frames_for`] its copies).
     frames: u32,
     facts: Option<SceneFacts>,
@@ -65,17 +67,29 @@ pub fn run(
             Ok(SceneRows {
                 frames: frames_for(frames, copies),
                 path,
+                copies: None,
                 facts: None,
                 rounds: Vec::new(),
             })
         })
         .collect::<Result<Vec<_>, bevy_cloth::prelude::ClothError>>()?;
+    // The reference scene's App without its cloth: what the executors cost by themselves.
+    if let Some(reference) = rows.iter().find(|r| file_name(&r.path) == REFERENCE_SCENE) {
+        let bare = SceneRows {
+            path: reference.path.clone(),
+            copies: Some(0),
+            frames,
+            facts: None,
+            rounds: Vec::new(),
+        };
+        rows.push(bare);
+    }
     let started = std::time::Instant::now();
     for round in 0..runs.max(1) {
         for row in &mut rows {
-            let frames = row.frames;
+            let (frames, copies) = (row.frames, row.copies);
             let mut time = |single_threaded: bool| -> Result<Timing, Box<dyn std::error::Error>> {
-                let line = bench_scene(&row.path, frames, None, single_threaded)?;
+                let line = bench_scene(&row.path, frames, copies, single_threaded)?;
                 let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);
                 let count = |key: &str| line[key].as_u64().unwrap_or(0);
                 row.facts.get_or_insert_with(|| SceneFacts {
@@ -83,12 +97,12 @@ pub fn run(
                     particles: count("particles"),
                     springs: count("springs"),
                     substeps: count("substeps"),
-                    integrator: line["integrator"].as_str().unwrap_or("?").to_string(),
+                    integrator: line["integrator"].as_str().unwrap_or("–").to_string(),
                 });
                 eprintln!(
                     "round {}/{runs}, {} ({}): {:.3} ms ({:.0} s so far)",
                     round + 1,
-                    row.path.display(),
+                    row_name(row),
                     if single_threaded { "single" } else { "multi" },
                     number("median_ms"),
                     started.elapsed().as_secs_f64()
@@ -148,13 +162,23 @@ fn description(path: &Path) -> String {
         .join(" ")
 }
 
+/// A row's name in the tables: the scene file, marked when it is the App without cloths.
+fn row_name(row: &SceneRows) -> String {
+    match row.copies {
+        Some(0) => format!("`{}`, no cloth", file_name(&row.path)),
+        _ => format!("`{}`", file_name(&row.path)),
+    }
+}
+
 fn file_name(path: &Path) -> String {
     path.file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
 }
 
 fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
-    let reference = rows.iter().find(|r| file_name(&r.path) == REFERENCE_SCENE);
+    let reference = rows
+        .iter()
+        .find(|r| r.copies.is_none() && file_name(&r.path) == REFERENCE_SCENE);
     let mut out = String::new();
     let w = &mut out;
     let _ = writeln!(w, "# Benchmarks\n");
@@ -213,8 +237,8 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
         let asleep: u64 = row.rounds.iter().map(|r| r[0].asleep + r[1].asleep).sum();
         let _ = writeln!(
             w,
-            "| `{}` | {} × {} | {} | {} × {} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
-            file_name(&row.path),
+            "| {} | {} × {} | {} | {} × {} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
+            row_name(row),
             facts.map_or(0, |f| f.copies),
             facts.map_or(0, |f| f.particles),
             facts.map_or(0, |f| f.springs),
@@ -239,8 +263,8 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
         if let Some(t) = order.get(order.len() / 2).map(|r| &r[0]) {
             let _ = writeln!(
                 w,
-                "| `{}` | {:.3} | {:.3} | {:.3} |",
-                file_name(&row.path),
+                "| {} | {:.3} | {:.3} | {:.3} |",
+                row_name(row),
                 t.p10_ms,
                 t.median_ms,
                 t.p90_ms
@@ -249,12 +273,17 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
     }
     let _ = writeln!(w, "\n## The scenes\n");
     for row in rows {
-        let _ = writeln!(
-            w,
-            "- `{}`: {}",
-            file_name(&row.path),
-            description(&row.path)
-        );
+        let text = match row.copies {
+            Some(0) => String::from(
+                "The same headless App with no cloth spawned (`--copies 0`): Bevy's own \
+                 schedules, which the multi-threaded executor hands to its worker threads and \
+                 back. On the single-threaded executor they take microseconds; the difference \
+                 between the two columns is what the multi-threaded executor costs any frame \
+                 on this machine, before any cloth.",
+            ),
+            _ => description(&row.path),
+        };
+        let _ = writeln!(w, "- {}: {text}", row_name(row));
     }
     let _ = writeln!(
         w,
