@@ -235,15 +235,18 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
             )
         });
         let asleep: u64 = row.rounds.iter().map(|r| r[0].asleep + r[1].asleep).sum();
+        // The App without cloths has no cloth to describe.
+        let cloth = match facts.filter(|f| f.copies > 0) {
+            Some(f) => format!(
+                "{} × {} | {} | {} × {}",
+                f.copies, f.particles, f.springs, f.integrator, f.substeps
+            ),
+            None => "0 | – | –".to_string(),
+        };
         let _ = writeln!(
             w,
-            "| {} | {} × {} | {} | {} × {} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
+            "| {} | {cloth} | {} | {} | {ratio:.2} | {} | {asleep} of {} |",
             row_name(row),
-            facts.map_or(0, |f| f.copies),
-            facts.map_or(0, |f| f.particles),
-            facts.map_or(0, |f| f.springs),
-            facts.map_or("?", |f| f.integrator.as_str()),
-            facts.map_or(0, |f| f.substeps),
             fmt_spread(single),
             fmt_spread(multi),
             relative.map_or("–".into(), |r| format!("{r:.2}")),
