@@ -1,6 +1,6 @@
 //! Headless App tests of wind and pin release: wind pushes a cloth downwind, aerodynamic force
-//! grows with the square of the relative speed, a flag in steady wind keeps bounded energy, and a
-//! released cloth falls at g until re-pinned.
+//! grows with the square of the relative speed, a flag in steady wind keeps bounded energy, a
+//! released cloth falls at g until re-pinned, and the sphere-and-wind scene keeps its accuracy.
 
 use std::f32::consts::FRAC_PI_2;
 
@@ -278,4 +278,45 @@ fn the_flag_wind_preset_spawns_its_air_and_flies_downwind() {
     let fly = (0..24).map(|j| p[j * 36 + 35].x).sum::<f32>() / 24.0;
     assert!(fly > 0.04 + 0.8 * 1.4, "free edge at x = {fly}");
     assert!(p.iter().all(|q| q.is_finite()));
+}
+
+/// The particle positions of `grid64_sphere_wind.ron` (the 64×64 cloth blown over a sphere by
+/// gusts) after `frames` fixed steps of `substeps` substeps each.
+fn sphere_and_wind_after(frames: u32, substeps: u32) -> Vec<Vec3> {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/scenes/grid64_sphere_wind.ron"
+    );
+    let mut scene = bevy_cloth::scene::ClothScene::load(path).unwrap();
+    scene.solver.substeps = substeps;
+    let mut app = bevy_cloth::harness::headless_app(scene.dt);
+    let cloth = scene.spawn(app.world_mut()).unwrap();
+    app.update();
+    run(&mut app, frames);
+    state(&app, cloth).positions().to_vec()
+}
+
+/// What commit ef6d8fd, before the frame-cost work on contacts and wind, gave for
+/// [`the_sphere_and_wind_scene_is_as_accurate_against_four_times_the_substeps`]'s distance
+/// (its own `cloth_cli simulate` of the scene at 20 and at 80 substeps for 60 frames), m,
+/// rounded up in the fourth digit.
+const BEFORE_RMS: f32 = 0.1954;
+
+/// The sphere-and-wind scene's error, measured as the RMS distance of its particles after one
+/// second from those of the same scene at four times the substeps, is no larger than before the
+/// contacts and the wind were made cheaper: a cheaper step must not cost accuracy.
+#[test]
+fn the_sphere_and_wind_scene_is_as_accurate_against_four_times_the_substeps() {
+    let (coarse, fine) = (sphere_and_wind_after(60, 20), sphere_and_wind_after(60, 80));
+    let squares: f32 = coarse
+        .iter()
+        .zip(&fine)
+        .map(|(a, b)| a.distance_squared(*b))
+        .sum();
+    let rms = (squares / coarse.len() as f32).sqrt();
+    assert!(
+        rms <= BEFORE_RMS,
+        "RMS distance from 4× the substeps: {rms} m, more than {BEFORE_RMS} m before"
+    );
+    println!("RMS distance from 4× the substeps: {rms} m");
 }
