@@ -136,7 +136,8 @@ impl ActiveCollider {
         };
     }
 
-    /// Its reaction and the point the reaction's moment is taken about, for [`push_out`].
+    /// Its reaction and the point the reaction's moment is taken about, for
+    /// [`push_out`](particles::push_out).
     fn reacted(&mut self) -> (&mut Reaction, Vec3) {
         (&mut self.reaction, self.origin)
     }
@@ -241,7 +242,8 @@ pub(crate) trait ContactState {
 /// comes within the margin, so the exact test would leave it alone. This bound holds for colliders
 /// that do not rotate during the substep; rotating ones get the exact test everywhere.
 ///
-/// Returns the work the colliders did on the particles' motion, J (see [`push_out`]).
+/// Returns the work the colliders did on the particles' motion, J (see
+/// [`push_out`](particles::push_out)).
 pub(super) fn resolve<S: ContactState>(
     active: &mut [ActiveCollider],
     clearance: &mut Vec<f32>,
@@ -254,7 +256,7 @@ pub(super) fn resolve<S: ContactState>(
 
 /// [`resolve`] for the stored particles `only` (where given; the triangles, for the colliders
 /// that test them, all the same): after a pass over every particle, those that something else
-/// moved since.
+/// moved since (each listed once).
 pub(super) fn resolve_among<S: ContactState>(
     active: &mut [ActiveCollider],
     clearance: &mut Vec<f32>,
@@ -379,7 +381,7 @@ impl Distance for Plane {
 /// Which particles a collider's contacts look at in a substep.
 #[derive(Clone, Copy)]
 enum Visit<'a> {
-    /// These (stored particles).
+    /// These (stored particles, each once: a batch reads all its particles before it moves any).
     Only(&'a [u32]),
     /// Those whose clearance from what the collider stays clear of, less its radius (see
     /// `ColliderShape::near`), may be within reach (a collider that does not turn in the substep).

@@ -101,7 +101,7 @@ fn collide_batch<S: ContactState, D: Distance>(
     state: &mut S,
     lanes: &[usize],
 ) -> f64 {
-    let (margin, (pose0, pose1, _)) = (c.collider.margin, poses);
+    let (margin, (pose0, pose1, still)) = (c.collider.margin, poses);
     let mut paths = [Path::default(); BATCH];
     for (p, &i) in paths.iter_mut().zip(lanes) {
         *p = Path::of(&*state, i, (pose0, pose1));
@@ -110,7 +110,7 @@ fn collide_batch<S: ContactState, D: Distance>(
     let starts = shape.1.at_each(&paths.map(|p| p.local0));
     let mut found = [Found::Clear; BATCH];
     for (k, f) in found.iter_mut().enumerate().take(lanes.len()) {
-        *f = find(margin, shape, poses, (paths[k], ends[k], starts[k]), false);
+        *f = find(margin, shape, still, (paths[k], ends[k], starts[k]), false);
     }
     let mut responses = [Response::default(); BATCH];
     for ((r, f), &i) in responses.iter_mut().zip(&found).zip(lanes) {
@@ -201,7 +201,7 @@ fn collide_particle<S: ContactState, D: Distance>(
 ) -> f64 {
     let path = Path::of(&*state, i, (poses.0, poses.1));
     let (end, start) = (shape.1.at(path.local), shape.1.at(path.local0));
-    match find(c.collider.margin, shape, poses, (path, end, start), true) {
+    match find(c.collider.margin, shape, poses.2, (path, end, start), true) {
         Found::Contact(hit) => {
             let r = response(c, hit, (poses.1, h), &*state, i);
             push_out(state, i, (r.x, r.v), (r.normal, r.vc), c.reacted())
@@ -234,16 +234,16 @@ impl Path {
     }
 }
 
-/// Whether a particle on `path` touches a collider with `margin` between `pose0` and `pose1`
-/// (`still` when they are equal), and where; `end` and `start` are the collider's distance and
-/// normal at the path's ends. A particle that started the substep clear goes back to where its
+/// Whether a particle on `path` touches a collider with `margin` (`still` if it does not move
+/// in the substep), and where; `end` and `start` are the collider's distance and normal at the
+/// path's ends. A particle that started the substep clear goes back to where its
 /// path first came within the margin; without `search`, such a path, and one that must be
 /// searched for whether it went through, is left as [`Found::Search`].
 #[inline(always)]
 fn find<D: Distance>(
     margin: f32,
     (shape, distance): (&Shape, &D),
-    (_, _, still): (&Pose, &Pose, bool),
+    still: bool,
     (path, end, start): (Path, (f32, Vec3), (f32, Vec3)),
     search: bool,
 ) -> Found {
