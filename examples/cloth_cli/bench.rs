@@ -126,7 +126,6 @@ pub fn bench_scene(
         mut solver_ms,
         slept,
     } = run_frames(&mut app, &entities, frames)?;
-    let mut outside: Vec<f64> = times.iter().zip(&solver_ms).map(|(f, s)| f - s).collect();
     let executor = if single_threaded { "single" } else { "multi" };
     if entities.is_empty() {
         // The App without cloths: what Bevy's schedules cost by themselves.
@@ -136,6 +135,7 @@ pub fn bench_scene(
             (frames.into(), 0.into(), executor.into());
         return Ok(line);
     }
+    let mut outside: Vec<f64> = times.iter().zip(&solver_ms).map(|(f, s)| f - s).collect();
     let state = app
         .world()
         .get::<ClothState>(entities[0])

@@ -32,15 +32,26 @@ impl ColliderShape {
     pub fn signed_distance(&self, p: Vec3) -> (f32, Vec3) {
         match *self {
             ColliderShape::Sphere(s) => radial(p, s.radius),
-            ColliderShape::Capsule(c) => {
-                let axis = Vec3::new(0.0, p.y.clamp(-c.half_length, c.half_length), 0.0);
-                radial(p - axis, c.radius)
-            }
+            ColliderShape::Capsule(c) => radial(p - capsule_axis(p, c.half_length), c.radius),
             ColliderShape::Cuboid(b) => box_distance(p, b.half_size),
             ColliderShape::HalfSpace(plane) => {
                 let n = Vec3::from(plane.normal);
                 (p.dot(n), n)
             }
+        }
+    }
+
+    /// [`Self::signed_distance`] of each point: for spheres and capsules coordinate by coordinate,
+    /// so that the square roots and divisions run in vectors, each lane's operations the scalar
+    /// ones in order (the results are the same bit for bit).
+    #[inline(always)]
+    pub(crate) fn signed_distances<const N: usize>(&self, p: &[Vec3; N]) -> [(f32, Vec3); N] {
+        match *self {
+            ColliderShape::Sphere(s) => radial_each(p, s.radius),
+            ColliderShape::Capsule(c) => {
+                radial_each(&p.map(|p| p - capsule_axis(p, c.half_length)), c.radius)
+            }
+            _ => std::array::from_fn(|k| self.signed_distance(p[k])),
         }
     }
 
@@ -265,12 +276,38 @@ fn around(centre: Vec3, half: Vec3) -> (Vec3, Vec3) {
     (centre - half, centre + half)
 }
 
+/// Below this distance from a ball's centre, [`radial`] takes +Y as the normal.
+const CENTRE: f32 = 1e-12;
+
 /// Distance to a ball of radius `r` about the origin, with the radial normal (+Y at the centre).
 #[inline(always)]
 fn radial(p: Vec3, r: f32) -> (f32, Vec3) {
     let len = p.length();
-    let n = if len > 1e-12 { p / len } else { Vec3::Y };
+    let n = if len > CENTRE { p / len } else { Vec3::Y };
     (len - r, n)
+}
+
+/// [`radial`] of each point, coordinate by coordinate (see
+/// [`ColliderShape::signed_distances`]).
+#[inline(always)]
+fn radial_each<const N: usize>(p: &[Vec3; N], r: f32) -> [(f32, Vec3); N] {
+    let [x, y, z] = [p.map(|p| p.x), p.map(|p| p.y), p.map(|p| p.z)];
+    let len: [f32; N] = std::array::from_fn(|k| (x[k] * x[k] + y[k] * y[k] + z[k] * z[k]).sqrt());
+    let [nx, ny, nz] = [x, y, z].map(|c| std::array::from_fn::<f32, N, _>(|k| c[k] / len[k]));
+    std::array::from_fn(|k| {
+        let n = if len[k] > CENTRE {
+            Vec3::new(nx[k], ny[k], nz[k])
+        } else {
+            Vec3::Y
+        };
+        (len[k] - r, n)
+    })
+}
+
+/// The point of a capsule's axis (along local Y, `half_length` each way) nearest `p`.
+#[inline(always)]
+fn capsule_axis(p: Vec3, half_length: f32) -> Vec3 {
+    Vec3::new(0.0, p.y.clamp(-half_length, half_length), 0.0)
 }
 
 /// Exact signed distance to an axis-aligned box of half size `h`, with the outward normal of the

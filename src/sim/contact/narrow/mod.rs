@@ -327,37 +327,11 @@ impl Distance for ColliderShape {
         self.signed_distance(p)
     }
 
-    /// Spheres and capsules in vectors: the same arithmetic, lane by lane.
+    /// Spheres and capsules in vectors (see [`ColliderShape::signed_distances`]).
     #[inline(always)]
     fn at_each(&self, p: &[Vec3; BATCH]) -> [(f32, Vec3); BATCH] {
-        match *self {
-            ColliderShape::Sphere(s) => radial_each(p, s.radius),
-            ColliderShape::Capsule(c) => {
-                let axis = |p: Vec3| Vec3::new(0.0, p.y.clamp(-c.half_length, c.half_length), 0.0);
-                radial_each(&p.map(|p| p - axis(p)), c.radius)
-            }
-            _ => std::array::from_fn(|k| self.at(p[k])),
-        }
+        self.signed_distances(p)
     }
-}
-
-/// `radial` (the distance to a ball of radius `r` about the origin, see
-/// [`ColliderShape::signed_distance`]) of each point, coordinate by coordinate so that the square
-/// roots and divisions run in vectors; each lane's operations are the scalar ones, in order.
-#[inline(always)]
-fn radial_each(p: &[Vec3; BATCH], r: f32) -> [(f32, Vec3); BATCH] {
-    let [x, y, z] = [p.map(|p| p.x), p.map(|p| p.y), p.map(|p| p.z)];
-    let len: [f32; BATCH] =
-        std::array::from_fn(|k| (x[k] * x[k] + y[k] * y[k] + z[k] * z[k]).sqrt());
-    let [nx, ny, nz] = [x, y, z].map(|c| std::array::from_fn::<f32, BATCH, _>(|k| c[k] / len[k]));
-    std::array::from_fn(|k| {
-        let n = if len[k] > 1e-12 {
-            Vec3::new(nx[k], ny[k], nz[k])
-        } else {
-            Vec3::Y
-        };
-        (len[k] - r, n)
-    })
 }
 
 impl Distance for &Shape {

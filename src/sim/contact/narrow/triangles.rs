@@ -24,7 +24,6 @@ pub(super) fn collide_triangles<S: ContactState>(
     let Shape::Primitive(ColliderShape::Sphere(sphere)) = c.collider.shape else {
         return false;
     };
-    let origin = c.origin;
     let mut moved = false;
     let reach = sphere.radius + c.collider.margin;
     let (centre0, centre) = (pose0.translation, pose1.translation);
@@ -92,7 +91,7 @@ pub(super) fn collide_triangles<S: ContactState>(
                 &mut x,
                 &mut v,
             );
-            *work += push_out(state, i, (x, v), (-dir, vc), (&mut c.reaction, origin));
+            *work += push_out(state, i, (x, v), (-dir, vc), c.reacted());
         }
     }
     moved
