@@ -47,7 +47,7 @@ mod state;
 pub mod wind;
 
 pub use aero::{AeroParams, GustSampler, Gusts};
-pub use cloth_sim::{AccuracyReport, ClothSim, Environment, SelfContactStats};
+pub use cloth_sim::{AccuracyReport, ClothSim, Cut, Environment, SelfContactStats, Split};
 pub use contact::{
     Collider, ColliderShape, Friction, OtherCloth, Pose, Reaction, Shape, Surface, Target,
 };
@@ -61,7 +61,8 @@ pub use model::{
 pub use settings::{
     AUTO_MAX_STRETCH, Accuracy, ErrorUnit, Inertia, Integrator, MAX_ITERATIONS, MAX_SUBSTEPS,
     MAX_THICKNESS_PER_EDGE, NONLINEAR_STABILITY_FRACTION, Pressure, STABILITY_FRACTION,
-    STANDARD_ATMOSPHERE, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers,
+    STANDARD_ATMOSPHERE, SelfCollision, SolverSettings, Stiffness, TargetLimits, TearSprings,
+    Tearing, Tethers,
 };
 pub use state::Energy;
 pub use wind::{MAX_WIND_ZONES, PlacedWindZone, WindField, WindZoneShape};

@@ -217,6 +217,8 @@ pub struct SolverSettings {
     pub accuracy: Accuracy,
     /// The air inside a closed cloth (off by default).
     pub pressure: Pressure,
+    /// Tearing under strain (off by default).
+    pub tearing: Tearing,
 }
 
 impl Default for SolverSettings {
@@ -240,6 +242,7 @@ impl Default for SolverSettings {
             inertia: Inertia::default(),
             accuracy: Accuracy::default(),
             pressure: Pressure::Off,
+            tearing: Tearing::default(),
         }
     }
 }
@@ -262,6 +265,7 @@ impl SolverSettings {
         self.inertia.validate()?;
         self.accuracy.validate()?;
         self.pressure.validate()?;
+        self.tearing.validate()?;
         for (field, v) in [
             ("gravity.x", self.gravity.x),
             ("gravity.y", self.gravity.y),
@@ -421,6 +425,59 @@ impl Tethers {
     /// Checks the slack is finite and non-negative.
     pub fn validate(&self) -> Result<(), ClothError> {
         non_negative("tethers.slack", self.slack)
+    }
+}
+
+/// Tearing under strain: a spring stretched past `1 + max_stretch` times its rest length tears
+/// the cloth at one of its ends, across the spring, so the two sides separate there
+/// ([`ClothSim::tear`](super::ClothSim::tear)). At most `max_per_step` particles split in a step,
+/// so an overloaded cloth unravels over several steps rather than in one. Off by default; cuts
+/// from the API tear a cloth whether it is on or not.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Reflect)]
+#[serde(default, deny_unknown_fields)]
+pub struct Tearing {
+    /// Whether springs tear when stretched past the limit.
+    pub enabled: bool,
+    /// Stretch past which a spring tears, as a fraction of its rest length (positive).
+    pub max_stretch: f32,
+    /// The most particles that split in one step (at least 1).
+    pub max_per_step: u32,
+    /// Which springs tear: the structural ones only, or the bending and shear springs too.
+    pub springs: TearSprings,
+}
+
+/// The springs that tear ([`Tearing::springs`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Reflect)]
+pub enum TearSprings {
+    /// Springs along the cloth's edges: the material itself.
+    #[default]
+    Structural,
+    /// Every spring, so a cloth also tears where it is folded or sheared hard.
+    All,
+}
+
+impl Default for Tearing {
+    /// Off; 50% stretch, 8 splits a step, structural springs.
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            max_stretch: 0.5,
+            max_per_step: 8,
+            springs: TearSprings::Structural,
+        }
+    }
+}
+
+impl Tearing {
+    /// Checks the stretch is finite and positive and the cap at least 1.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        positive("tearing.max_stretch", self.max_stretch)?;
+        count_in("tearing.max_per_step", self.max_per_step, 1, u32::MAX)
+    }
+
+    /// Whether a spring of `kind` tears.
+    pub fn tears(&self, kind: SpringKind) -> bool {
+        self.springs == TearSprings::All || kind == SpringKind::Structural
     }
 }
 

@@ -69,6 +69,7 @@ impl ClothSim {
             model,
             settings,
             steps: 0,
+            tears: 0,
             sleep: Sleep::default(),
             contact_work: None,
             step_start: Vec::with_capacity(n),
@@ -84,9 +85,9 @@ impl ClothSim {
 
     /// With [`SolverSettings::pressure`] on, checks that the cloth can hold air: a closed surface
     /// wound outward ([`ClothModel::check_closed`]) that enclosed a positive volume where it was
-    /// built.
+    /// built. A torn cloth holds no air whatever the setting.
     fn check_air(&self, settings: SolverSettings) -> Result<(), ClothError> {
-        if !settings.pressure.is_on() || self.built_volume.is_some() {
+        if !settings.pressure.is_on() || self.built_volume.is_some() || self.tears > 0 {
             return Ok(());
         }
         // The model's own check names what is open or flipped; a closed model that enclosed no

@@ -7,8 +7,8 @@
 //! buffer a step touches is sized when the cloth is built (or when pins or settings change).
 //!
 //! The `impl` is split by concern: `build` (construction, settings), `plan` (integrator and
-//! substeps), `pins` (pins, targets, frame), `step`, `watchdog` (runaways), `sleep` and `readout`
-//! (what a cloth reports).
+//! substeps), `pins` (pins, targets, frame), `step`, `watchdog` (runaways), `sleep`, `readout`
+//! (what a cloth reports) and `tear` (cuts and tears).
 
 use glam::Vec3;
 
@@ -27,6 +27,7 @@ mod plan;
 mod readout;
 mod sleep;
 mod step;
+mod tear;
 #[cfg(test)]
 mod tests;
 mod watchdog;
@@ -34,6 +35,7 @@ mod watchdog;
 pub use adaptive::AccuracyReport;
 pub use readout::SelfContactStats;
 use sleep::Sleep;
+pub use tear::{Cut, Split};
 use watchdog::Runaway;
 
 /// A simulated cloth: its model, particle state (structure of arrays) and pins.
@@ -78,6 +80,8 @@ pub struct ClothSim {
     /// Scratch for the air's frequency bound.
     air_bound: BoundScratch,
     steps: u64,
+    /// Particles split by tears since the cloth was built.
+    tears: u64,
     sleep: Sleep,
     /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).
     contact_work: Option<f64>,

@@ -115,6 +115,20 @@ impl Limits {
         self.targets.clone_from(&other.targets);
     }
 
+    /// Takes `other`'s targets and gives each copy a tear made (`(particle, copy)`, in order) the
+    /// targets of its particle, after them.
+    pub fn inherit_targets(&mut self, other: &Limits, copies: &[(u32, u32)]) {
+        self.targets.clone_from(&other.targets);
+        for &(particle, copy) in copies {
+            for t in other.targets.iter().filter(|t| t.particle == particle) {
+                self.targets.push(Moving {
+                    particle: copy,
+                    ..*t
+                });
+            }
+        }
+    }
+
     /// Whether a target moves during the next step.
     pub fn moving(&self) -> bool {
         self.targets

@@ -5,7 +5,6 @@
 //! arbitrary triangle or quad mesh. Nothing here runs per step.
 
 use glam::{Vec2, Vec3};
-use std::collections::HashMap;
 
 use crate::error::{ClothError, indices_in_range, particles_within, positive};
 
@@ -16,6 +15,7 @@ mod normals;
 mod seams;
 mod springs;
 mod subdivided;
+mod tear;
 #[cfg(test)]
 mod tests;
 
@@ -25,9 +25,10 @@ pub use disc::{DiscSpec, MAX_DISC_RINGS, MAX_DISC_SECTORS, MIN_DISC_SECTORS};
 pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
 pub use normals::GridNormals;
 pub(crate) use normals::two_rows;
-use springs::check_spring_counts;
 pub use springs::{MAX_SPRINGS_PER_PARTICLE, SpringKind, Springs};
+use springs::{check_spring_counts, face_springs, face_triangles};
 pub use subdivided::SubdividedModel;
+pub(crate) use tear::Splitter;
 
 /// A triangle whose doubled area is at most this fraction of the square of its longest edge (its
 /// height is at most a millionth of that edge) counts as having zero area: [`ClothModel::from_mesh`]
@@ -278,68 +279,8 @@ impl ClothModel {
     ) -> Result<Self, ClothError> {
         check_mesh(positions, uvs, indices, face_size)?;
         let count = positions.len();
-
-        // Undirected edge -> its uses, one per face: the face, and for each end of the edge (the
-        // smaller index first) that end's other neighbour in the face (the third corner of a
-        // triangle, for both ends).
-        type Uses = Vec<(usize, [u32; 2])>;
-        let mut edges: HashMap<(u32, u32), Uses> = HashMap::new();
-        let mut edge_order: Vec<(u32, u32)> = Vec::new();
-        let mut pairs = Vec::new();
-        let mut triangles = Vec::with_capacity(indices.len() / face_size * 3 * (face_size - 2));
-        for (f, face) in indices.chunks_exact(face_size).enumerate() {
-            for k in 0..face_size {
-                let (a, b) = (face[k], face[(k + 1) % face_size]);
-                // The corner before `a` and the corner after `b` (the same vertex in a triangle).
-                let (before_a, after_b) = (
-                    face[(k + face_size - 1) % face_size],
-                    face[(k + 2) % face_size],
-                );
-                let key = (a.min(b), a.max(b));
-                let across = if a < b {
-                    [before_a, after_b]
-                } else {
-                    [after_b, before_a]
-                };
-                edges
-                    .entry(key)
-                    .or_insert_with(|| {
-                        edge_order.push(key);
-                        Vec::new()
-                    })
-                    .push((f, across));
-            }
-            if face_size == 4 {
-                pairs.push((face[0], face[2], SpringKind::Shear));
-                pairs.push((face[1], face[3], SpringKind::Shear));
-                triangles
-                    .extend_from_slice(&[face[0], face[1], face[2], face[0], face[2], face[3]]);
-            } else {
-                triangles.extend_from_slice(face);
-            }
-        }
-        // A quad's straight bend spring through a vertex is found from both edges that pass
-        // straight through it; make it once.
-        let mut bends = std::collections::HashSet::new();
-        for key in &edge_order {
-            let uses = &edges[key];
-            if uses.len() > 2 {
-                return Err(ClothError::NonManifoldEdge {
-                    a: key.0,
-                    b: key.1,
-                    faces: uses.iter().map(|&(f, _)| f).collect(),
-                });
-            }
-            pairs.push((key.0, key.1, SpringKind::Structural));
-            if let [(_, first), (_, second)] = uses[..] {
-                let ends = if face_size == 4 { 2 } else { 1 };
-                for (p, q) in first.into_iter().zip(second).take(ends) {
-                    if p != q && bends.insert((p.min(q), p.max(q))) {
-                        pairs.push((p, q, SpringKind::Bend));
-                    }
-                }
-            }
-        }
+        let pairs = face_springs(indices, face_size)?;
+        let triangles = face_triangles(indices, face_size);
         check_spring_counts(count, pairs.iter().map(|&(a, b, _)| (a, b)))?;
         let springs = Springs::build(positions, &pairs);
         Ok(Self {

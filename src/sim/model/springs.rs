@@ -3,6 +3,9 @@
 
 use bevy::reflect::Reflect;
 use glam::Vec3;
+use std::collections::HashMap;
+
+use crate::error::ClothError;
 use serde::{Deserialize, Serialize};
 
 /// The three spring families of a Provot mass-spring cloth.
@@ -34,7 +37,7 @@ pub const MAX_SPRINGS_PER_PARTICLE: usize = 256;
 pub(super) fn check_spring_counts(
     count: usize,
     pairs: impl Iterator<Item = (u32, u32)>,
-) -> Result<(), crate::error::ClothError> {
+) -> Result<(), ClothError> {
     let mut springs = vec![0u32; count];
     for (a, b) in pairs {
         for p in [a, b] {
@@ -192,4 +195,82 @@ fn greedy_edge_coloring(nodes: usize, edges: impl Iterator<Item = (u32, u32)> + 
         colors.push(color as u32);
     }
     colors
+}
+
+/// The springs [`ClothModel::from_mesh`](super::ClothModel::from_mesh) builds on faces of `face_size` corners: structural along
+/// every edge, bend across every interior edge, and for quads both diagonals as shear. Fails on an
+/// edge shared by more than two faces.
+pub(crate) fn face_springs(
+    indices: &[u32],
+    face_size: usize,
+) -> Result<Vec<(u32, u32, SpringKind)>, ClothError> {
+    // Undirected edge -> its uses, one per face: the face, and for each end of the edge (the
+    // smaller index first) that end's other neighbour in the face (the third corner of a
+    // triangle, for both ends).
+    type Uses = Vec<(usize, [u32; 2])>;
+    let mut edges: HashMap<(u32, u32), Uses> = HashMap::new();
+    let mut edge_order: Vec<(u32, u32)> = Vec::new();
+    let mut pairs = Vec::new();
+    for (f, face) in indices.chunks_exact(face_size).enumerate() {
+        for k in 0..face_size {
+            let (a, b) = (face[k], face[(k + 1) % face_size]);
+            // The corner before `a` and the corner after `b` (the same vertex in a triangle).
+            let (before_a, after_b) = (
+                face[(k + face_size - 1) % face_size],
+                face[(k + 2) % face_size],
+            );
+            let key = (a.min(b), a.max(b));
+            let across = if a < b {
+                [before_a, after_b]
+            } else {
+                [after_b, before_a]
+            };
+            edges
+                .entry(key)
+                .or_insert_with(|| {
+                    edge_order.push(key);
+                    Vec::new()
+                })
+                .push((f, across));
+        }
+        if face_size == 4 {
+            pairs.push((face[0], face[2], SpringKind::Shear));
+            pairs.push((face[1], face[3], SpringKind::Shear));
+        }
+    }
+    // A quad's straight bend spring through a vertex is found from both edges that pass
+    // straight through it; make it once.
+    let mut bends = std::collections::HashSet::new();
+    for key in &edge_order {
+        let uses = &edges[key];
+        if uses.len() > 2 {
+            return Err(ClothError::NonManifoldEdge {
+                a: key.0,
+                b: key.1,
+                faces: uses.iter().map(|&(f, _)| f).collect(),
+            });
+        }
+        pairs.push((key.0, key.1, SpringKind::Structural));
+        if let [(_, first), (_, second)] = uses[..] {
+            let ends = if face_size == 4 { 2 } else { 1 };
+            for (p, q) in first.into_iter().zip(second).take(ends) {
+                if p != q && bends.insert((p.min(q), p.max(q))) {
+                    pairs.push((p, q, SpringKind::Bend));
+                }
+            }
+        }
+    }
+    Ok(pairs)
+}
+
+/// The triangles [`ClothModel::from_mesh`](super::ClothModel::from_mesh) draws faces of `face_size` corners with: a triangle as
+/// it is, a quad split along its first diagonal.
+pub(super) fn face_triangles(indices: &[u32], face_size: usize) -> Vec<u32> {
+    if face_size == 3 {
+        return indices.to_vec();
+    }
+    indices
+        .chunks_exact(4)
+        .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
+        .collect()
 }

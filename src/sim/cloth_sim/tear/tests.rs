@@ -1,0 +1,285 @@
+use glam::Vec3;
+
+use super::{Cut, Split};
+use crate::error::ClothError;
+use crate::sim::{
+    ClothModel, ClothSim, GridPlane, GridSpec, Integrator, Pressure, SolverSettings, Tearing,
+};
+
+const DT: f32 = 1.0 / 60.0;
+
+/// A vertical `n`×`n` grid, 2 cm apart, pinned at its top corners.
+fn hanging(n: u32, settings: SolverSettings) -> ClothSim {
+    let spec = GridSpec::new(n, n, 0.02).with_plane(GridPlane::Vertical);
+    let mut sim = ClothSim::new(ClothModel::grid(&spec).unwrap(), settings, |p| p).unwrap();
+    let top = [0, n - 1].map(|i| (i, sim.positions()[i as usize]));
+    sim.set_pins(top).unwrap();
+    sim
+}
+
+/// Each face's corners all lie in one piece, and springs join only particles of one piece.
+fn assert_pieces_separate(sim: &ClothSim) -> (usize, Vec<u32>) {
+    let model = sim.model();
+    let (count, piece) = model.pieces();
+    for face in model.faces.chunks_exact(model.face_size) {
+        let p = piece[face[0] as usize];
+        assert!(
+            face.iter().all(|&c| piece[c as usize] == p),
+            "face {face:?} spans pieces"
+        );
+    }
+    for (&a, &b) in model.springs.a.iter().zip(&model.springs.b) {
+        assert_eq!(piece[a as usize], piece[b as usize]);
+    }
+    (count, piece)
+}
+
+#[test]
+fn a_grid_cut_along_its_middle_row_falls_as_two_pieces() {
+    let mut sim = hanging(64, SolverSettings::default());
+    for _ in 0..30 {
+        sim.step(DT).unwrap();
+    }
+    let mass: f64 = sim.masses().iter().map(|&m| f64::from(m)).sum();
+    let row = 32 * 64;
+    let point = sim.positions()[row + 32];
+    let splits = sim
+        .tear(&[Cut::Plane {
+            point,
+            normal: Vec3::Y,
+        }])
+        .unwrap();
+    // Every particle of the row is split in two; the copies follow the cloth's.
+    assert_eq!(splits.len(), 64, "{splits:?}");
+    assert!(
+        splits
+            .iter()
+            .all(|s| (row..row + 64).contains(&(s.particle as usize)))
+    );
+    assert_eq!(sim.positions().len(), 64 * 65);
+    let (count, piece) = assert_pieces_separate(&sim);
+    assert_eq!(count, 2);
+    // The row's own particles went one way, their copies the other.
+    for s in &splits {
+        assert_ne!(piece[s.particle as usize], piece[s.copy as usize]);
+        assert_eq!(sim.positions()[s.copy as usize], s.position);
+    }
+    let total: f64 = sim.masses().iter().map(|&m| f64::from(m)).sum();
+    assert!(
+        (total - mass).abs() < 1e-7 * mass,
+        "mass {mass} became {total}"
+    );
+    // The upper piece hangs on; the lower one falls free.
+    let lowest = |sim: &ClothSim, which: u32| {
+        sim.positions()
+            .iter()
+            .zip(&piece)
+            .filter(|(_, p)| **p == which)
+            .map(|(x, _)| x.y)
+            .fold(f32::INFINITY, f32::min)
+    };
+    let hanging_piece = piece[0];
+    let falling_piece = 1 - hanging_piece;
+    let (top0, bottom0) = (lowest(&sim, hanging_piece), lowest(&sim, falling_piece));
+    for _ in 0..30 {
+        sim.step(DT).unwrap();
+    }
+    let fell = bottom0 - lowest(&sim, falling_piece);
+    assert!(
+        fell > 0.9 * 0.5 * 9.81 * 0.25,
+        "the lower piece fell {fell} m in 0.5 s"
+    );
+    assert!((lowest(&sim, hanging_piece) - top0).abs() < 0.05);
+}
+
+#[test]
+fn a_ray_punches_a_hole_and_a_blade_cuts_a_slit() {
+    let mut sim = hanging(24, SolverSettings::default());
+    sim.step(DT).unwrap();
+    let centre = sim.positions()[12 * 24 + 12];
+    let before = sim.positions().len();
+    let splits = sim
+        .tear(&[Cut::Ray {
+            origin: centre - Vec3::Z,
+            direction: Vec3::Z,
+            radius: 0.05,
+        }])
+        .unwrap();
+    assert!(!splits.is_empty());
+    let (count, piece) = assert_pieces_separate(&sim);
+    assert_eq!(count, 2, "the hole's disc is a piece of its own");
+    let disc = piece[12 * 24 + 12];
+    let in_disc = piece.iter().filter(|&&p| p == disc).count();
+    assert!(
+        in_disc > 4 && in_disc < 64,
+        "{in_disc} particles in the disc"
+    );
+    assert_eq!(sim.positions().len(), before + splits.len());
+
+    // A slit from one side to the middle: still one piece, but no spring crosses it.
+    let mut sim = hanging(24, SolverSettings::default());
+    sim.step(DT).unwrap();
+    let (start, end) = (sim.positions()[10 * 24], sim.positions()[10 * 24 + 12]);
+    let splits = sim
+        .tear(&[Cut::Segment {
+            start: start - 0.03 * Vec3::X,
+            end,
+            radius: 0.01,
+        }])
+        .unwrap();
+    assert!(splits.len() >= 10, "{splits:?}");
+    let (count, _) = assert_pieces_separate(&sim);
+    assert_eq!(count, 1);
+    let x = sim.positions();
+    let model = sim.model();
+    let crosses = model
+        .springs
+        .a
+        .iter()
+        .zip(&model.springs.b)
+        .filter(|&(&a, &b)| {
+            let (p, q) = (x[a as usize], x[b as usize]);
+            let below = |v: Vec3| v.y < start.y - 1e-4;
+            let above = |v: Vec3| v.y > start.y + 1e-4;
+            let inside = p.x.max(q.x) < end.x - 0.015;
+            inside && (below(p) && above(q) || above(p) && below(q))
+        })
+        .count();
+    assert_eq!(crosses, 0, "springs cross the slit");
+}
+
+/// The largest structural stretch a heavy hanging cloth reaches over its first second.
+fn peak_stretch(settings: SolverSettings) -> f32 {
+    let mut sim = hanging(16, settings);
+    let mut peak = 0.0f32;
+    for _ in 0..60 {
+        sim.step(DT).unwrap();
+        peak = peak.max(sim.max_strain(crate::sim::SpringKind::Structural));
+    }
+    peak
+}
+
+#[test]
+fn a_cloth_tears_past_its_threshold_and_never_below_it() {
+    let settings = SolverSettings {
+        integrator: Integrator::Xpbd,
+        particle_mass: 0.05,
+        ..SolverSettings::default()
+    };
+    let peak = peak_stretch(settings);
+    assert!(peak > 0.05, "the load stretches the springs: {peak}");
+    let run = |max_stretch: f32| {
+        let tearing = Tearing {
+            enabled: true,
+            max_stretch,
+            ..Tearing::default()
+        };
+        let mut sim = hanging(
+            16,
+            SolverSettings {
+                tearing,
+                ..settings
+            },
+        );
+        let mut splits = Vec::new();
+        for _ in 0..60 {
+            sim.step(DT).unwrap();
+            let torn: Vec<Split> = sim.tear(&[]).unwrap();
+            assert!(torn.len() <= tearing.max_per_step as usize);
+            splits.extend(torn);
+        }
+        (sim, splits)
+    };
+    let (sim, splits) = run(1.02 * peak);
+    assert!(splits.is_empty(), "tore under its threshold: {splits:?}");
+    assert_eq!(sim.tears(), 0);
+    let (sim, splits) = run(0.9 * peak);
+    assert!(!splits.is_empty(), "did not tear past its threshold");
+    assert_eq!(sim.tears(), splits.len() as u64);
+    // Pinned particles never split under strain.
+    assert!(splits.iter().all(|s| s.particle != 0 && s.particle != 15));
+    assert_pieces_separate(&sim);
+}
+
+#[test]
+fn a_bad_cut_is_an_error_and_changes_nothing() {
+    let mut sim = hanging(8, SolverSettings::default());
+    let before = sim.positions().to_vec();
+    for cut in [
+        Cut::Plane {
+            point: Vec3::NAN,
+            normal: Vec3::Y,
+        },
+        Cut::Plane {
+            point: Vec3::ZERO,
+            normal: Vec3::ZERO,
+        },
+        Cut::Ray {
+            origin: Vec3::ZERO,
+            direction: Vec3::Z,
+            radius: -1.0,
+        },
+        Cut::Segment {
+            start: Vec3::ONE,
+            end: Vec3::ONE,
+            radius: 0.1,
+        },
+    ] {
+        let e = sim.tear(&[cut]).unwrap_err();
+        assert!(matches!(e, ClothError::InvalidValue { .. }), "{cut:?}: {e}");
+    }
+    assert_eq!(sim.positions(), before);
+    // Off, and no cut: nothing to do.
+    assert!(sim.tear(&[]).unwrap().is_empty());
+    assert_eq!(sim.tears(), 0);
+}
+
+#[test]
+fn copies_keep_their_particles_targets_and_pins_stay_put() {
+    let mut sim = hanging(8, SolverSettings::default());
+    let targets: Vec<_> = (8..16)
+        .map(|p| crate::sim::Target {
+            particle: p,
+            weight: 1.0,
+            position: sim.positions()[p as usize],
+            normal: Vec3::Z,
+        })
+        .collect();
+    sim.set_targets(&targets).unwrap();
+    let point = sim.positions()[8];
+    let splits = sim
+        .tear(&[Cut::Plane {
+            point,
+            normal: Vec3::Y,
+        }])
+        .unwrap();
+    assert_eq!(splits.len(), 8);
+    assert_eq!(
+        sim.limit_counts().0,
+        16,
+        "each copy of a targeted particle has its target"
+    );
+    assert_eq!(sim.pinned().collect::<Vec<_>>(), [0, 7]);
+}
+
+#[test]
+fn a_torn_closed_cloth_loses_its_air() {
+    let model = ClothModel::icosphere(0.2, 2).unwrap();
+    let settings = SolverSettings {
+        pressure: Pressure::gas(4.0 / 3.0 * std::f32::consts::PI * 0.008, 2000.0),
+        ..SolverSettings::default()
+    };
+    let mut sim = ClothSim::new(model, settings, |p| p).unwrap();
+    sim.step(DT).unwrap();
+    assert!(sim.pressure().is_some());
+    sim.tear(&[Cut::Plane {
+        point: Vec3::ZERO,
+        normal: Vec3::Y,
+    }])
+    .unwrap();
+    assert_eq!(sim.model().pieces().0, 2);
+    assert!(sim.pressure().is_none());
+    // Its settings, pressure on, are still accepted.
+    sim.set_settings(settings).unwrap();
+    sim.step(DT).unwrap();
+}
