@@ -695,6 +695,10 @@ pub struct ClothState {
     pub(crate) target_pins: Vec<usize>,
     /// Set when stepping failed; the cloth is then stopped.
     pub(crate) failure: Option<ClothError>,
+    /// Cuts for the next step ([`ClothCut`](crate::ClothCut)s received).
+    pub(crate) cuts: Vec<crate::sim::Cut>,
+    /// The splits of the latest step, until the plugin follows them.
+    pub(crate) splits: Vec<crate::sim::Split>,
     /// Wall time of the cloth's latest fixed step.
     pub(crate) step_time: Duration,
     /// Whether the mesh must be written this frame.

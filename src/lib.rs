@@ -54,7 +54,7 @@ pub mod subdivision;
 
 pub use components::*;
 pub use error::ClothError;
-pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
+pub use plugin::{ClothCut, ClothPlugin, ClothStepBudget, ClothSystems, ClothTorn};
 
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
@@ -66,11 +66,11 @@ pub mod prelude {
         ClothTargets, PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
-    pub use crate::plugin::{ClothPlugin, ClothSystems};
+    pub use crate::plugin::{ClothCut, ClothPlugin, ClothSystems, ClothTorn};
     pub use crate::sim::{
         ClothModel, ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia,
-        Integrator, Pressure, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tethers,
-        WindZoneShape,
+        Integrator, Pressure, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tearing,
+        Tethers, WindZoneShape,
     };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
 }

@@ -115,6 +115,37 @@ impl Attachment {
             })
     }
 
+    /// Gives each copy a tear made (`(particle, copy)`, in order) its particle's weight, rest
+    /// shape, influences and target, after the weighted particles it has.
+    pub fn add_copies(&mut self, copies: impl IntoIterator<Item = (u32, u32)>) {
+        for (particle, copy) in copies {
+            let Some(k) = self.weighted.iter().position(|&(p, _)| p == particle) else {
+                continue;
+            };
+            self.weighted.push((copy, self.weighted[k].1));
+            self.rest.push(self.rest[k]);
+            self.targets.push(self.targets[k]);
+            if let Some((influences, _)) = &mut self.skin {
+                influences.push(influences[k]);
+            }
+        }
+    }
+
+    /// Keeps the weighted particles for which `keep(particle, weight)` holds, drops the others.
+    pub fn retain(&mut self, keep: impl Fn(u32, f32) -> bool) {
+        let kept: Vec<bool> = self.weighted.iter().map(|&(p, w)| keep(p, w)).collect();
+        let mut k = kept.iter();
+        self.weighted.retain(|_| *k.next().unwrap_or(&true));
+        for list in [&mut self.rest, &mut self.targets] {
+            let mut k = kept.iter();
+            list.retain(|_| *k.next().unwrap_or(&true));
+        }
+        if let Some((influences, _)) = &mut self.skin {
+            let mut k = kept.iter();
+            influences.retain(|_| *k.next().unwrap_or(&true));
+        }
+    }
+
     /// Computes every target: skinned, with each joint's global transform from `joint`
     /// (`None`, a missing joint, keeps the pose it last had, or the identity if it never had
     /// one), or otherwise the rest shape under

@@ -661,3 +661,5 @@ mod subdivided;
 use subdivided::vertex_count;
 #[path = "app/seams.rs"]
 mod seams;
+#[path = "app/tearing.rs"]
+mod tearing;

@@ -123,8 +123,9 @@ fn the_loader_reads_back_the_joints_and_weights_the_generator_wrote() {
     }
 }
 
-#[test]
-fn the_spawned_character_wears_its_cape_and_skirt_as_cloth() {
+/// The character scene spawned, its cape and skirt made cloths tied to their skin (targets of
+/// `max_distance_scale` 0.2 m), and its hips joint.
+fn character_in_cloth() -> (App, Vec<Entity>, Entity) {
     let (mut app, _handle) = app_with_asset();
     let scene = app
         .world()
@@ -165,15 +166,25 @@ fn the_spawned_character_wears_its_cape_and_skirt_as_cloth() {
             .map(|(e, _)| e)
             .expect("the hips joint")
     };
-    // Walk the hips forward at 1.5 m/s for two seconds.
+    (app, cloths, hips)
+}
+
+/// Walks the hips forward at 1.5 m/s for `steps` steps from where they are.
+fn walk(app: &mut App, hips: Entity, steps: u32) {
     let start = app.world().get::<Transform>(hips).unwrap().translation;
-    for step in 1..=120 {
+    for step in 1..=steps {
         app.world_mut()
             .get_mut::<Transform>(hips)
             .unwrap()
             .translation = start + Vec3::Z * (1.5 * step as f32 / 60.0);
         app.update();
     }
+}
+
+#[test]
+fn the_spawned_character_wears_its_cape_and_skirt_as_cloth() {
+    let (mut app, cloths, hips) = character_in_cloth();
+    walk(&mut app, hips, 120);
     for &cloth in &cloths {
         assert!(app.world().get::<ClothInvalid>(cloth).is_none());
         assert!(app.world().get::<SkinnedMesh>(cloth).is_none());
@@ -204,5 +215,67 @@ fn the_spawned_character_wears_its_cape_and_skirt_as_cloth() {
             "the cloth's mean is at z = {}",
             mean.z
         );
+    }
+}
+
+#[test]
+fn a_cape_cut_in_two_keeps_its_attached_half_on_the_walking_character() {
+    let (mut app, cloths, hips) = character_in_cloth();
+    run_steps(&mut app, 10);
+    // The cape is the flat one: 16 × 22 vertices.
+    let cape = *cloths
+        .iter()
+        .find(|&&e| app.world().get::<ClothState>(e).unwrap().positions().len() == 16 * 22)
+        .expect("the cape");
+    app.world_mut().write_message(ClothCut {
+        cloth: cape,
+        cut: bevy_cloth::sim::Cut::Plane {
+            point: Vec3::new(0.0, 1.2, 0.0),
+            normal: Vec3::Y,
+        },
+    });
+    run_steps(&mut app, 1);
+    let state = app.world().get::<ClothState>(cape).unwrap();
+    let (count, pieces) = state.sim().model().pieces();
+    assert_eq!(count, 2, "the cape is in two pieces");
+    let attached = pieces[state.targets().find(|t| t.weight == 0.0).unwrap().particle as usize];
+    let loose = 1 - attached;
+    assert!(
+        state
+            .targets()
+            .all(|t| pieces[t.particle as usize] == attached),
+        "the cut-off half has no targets left"
+    );
+    walk(&mut app, hips, 120);
+    assert!(app.world().get::<ClothInvalid>(cape).is_none());
+    let state = app.world().get::<ClothState>(cape).unwrap();
+    let x = state.positions();
+    for t in state.targets().filter(|t| t.weight == 0.0) {
+        assert!(
+            x[t.particle as usize].distance(t.position) < 1e-4,
+            "left its skin"
+        );
+    }
+    let mean = |piece: u32| {
+        let (sum, k) = x
+            .iter()
+            .zip(&pieces)
+            .filter(|(_, p)| **p == piece)
+            .fold((Vec3::ZERO, 0), |(s, k), (p, _)| (s + *p, k + 1));
+        sum / k as f32
+    };
+    // The attached half walked 3 m with the character; the cut half fell where it was cut.
+    assert!(
+        (mean(attached).z - 3.0).abs() < 0.4,
+        "attached half at {}",
+        mean(attached)
+    );
+    assert!(mean(loose).z.abs() < 0.5, "cut half at {}", mean(loose));
+    assert!(mean(loose).y < 0.0, "the cut half fell: {}", mean(loose));
+}
+
+fn run_steps(app: &mut App, steps: u32) {
+    for _ in 0..steps {
+        app.update();
     }
 }

@@ -352,6 +352,8 @@ fn build_state(
         attachment,
         target_pins: Vec::new(),
         failure: None,
+        cuts: Vec::new(),
+        splits: Vec::new(),
         step_time: Duration::ZERO,
         dirty: true,
         at_rest: false,
@@ -447,7 +449,7 @@ fn check_level(sub: &ClothSubdivision) -> Result<(), ClothError> {
 /// when given (a copy of the user's source mesh, keeping all its attributes; when the simulation
 /// `welded` its seams, each vertex drawn at its particle in `particle_map`). Fails, changing
 /// nothing, when the subdivision cannot be built; a render pass that then fails stops the cloth.
-fn rebuild_render(
+pub(super) fn rebuild_render(
     state: &mut ClothState,
     subdivision: Option<&ClothSubdivision>,
     (user_mesh, welded): (Option<Mesh>, bool),

@@ -27,12 +27,15 @@ mod mesh;
 mod pin_targets;
 mod poses;
 mod step;
+mod tears;
 
 use build::{adopt_skins, build_cloths};
 use edits::{apply_edits, restore_required};
 use inputs::{WindSnapshot, colliders_present, gather_wind, wind_present};
 use mesh::{SteppedInFixedUpdate, update_render_buffers, write_meshes};
 use pin_targets::resolve_pin_targets;
+pub use tears::{ClothCut, ClothTorn};
+use tears::{follow_tears, queue_cuts};
 
 // For the avian coupling, which orders its systems around these.
 pub(crate) use inputs::{ColliderSnapshot, gather_colliders};
@@ -42,11 +45,12 @@ pub(crate) use step::step_cloths;
 ///
 /// In the plugin's simulation schedule (default [`FixedUpdate`]), chained in this order:
 /// - [`Prepare`](Self::Prepare): apply edited configs and pin sets, resolve pin anchors (rest,
-///   world, or another entity's global transform) into targets for this step, and take the poses
-///   of the [`ClothCollider`]s.
+///   world, or another entity's global transform) into targets for this step, hand [`ClothCut`]s
+///   to their cloths, and take the poses of the [`ClothCollider`]s.
 /// - [`Step`](Self::Step): advance every cloth by the schedule's time step (substeps inside), in
 ///   parallel across cloths.
-/// - [`Subdivide`](Self::Subdivide): compute the render positions and normals of the new state.
+/// - [`Subdivide`](Self::Subdivide): follow the cloths that tore (new render meshes, pins and
+///   targets, [`ClothTorn`]), then compute the render positions and normals of the new state.
 ///
 /// In [`PostUpdate`], after transform propagation and before asset events (so that bounds and GPU
 /// buffers follow the same frame), chained:
@@ -167,6 +171,8 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothPushesBodies>()
             .register_type::<Wind>()
             .register_type::<WindZone>()
+            .add_message::<ClothCut>()
+            .add_message::<ClothTorn>()
             .init_resource::<WindSnapshot>()
             .insert_resource(SteppedInFixedUpdate(self.schedule == FixedUpdate.intern()))
             .insert_resource(ClothStepBudget {
@@ -199,13 +205,16 @@ impl Plugin for ClothPlugin {
                         restore_required,
                         apply_edits,
                         resolve_pin_targets,
+                        queue_cuts,
                         gather_colliders.run_if(colliders_present),
                         gather_wind.run_if(wind_present),
                     )
                         .chain()
                         .in_set(ClothSystems::Prepare),
                     step_cloths.in_set(ClothSystems::Step),
-                    update_render_buffers.in_set(ClothSystems::Subdivide),
+                    (follow_tears, update_render_buffers)
+                        .chain()
+                        .in_set(ClothSystems::Subdivide),
                 )
                     .run_if(any_with_component::<ClothState>),
             )

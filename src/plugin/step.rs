@@ -3,6 +3,7 @@
 //! each other one after the other.
 
 use bevy::ecs::prelude::*;
+use bevy::log::warn;
 use bevy::math::Vec3;
 use bevy::platform::time::Instant;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
@@ -111,13 +112,21 @@ pub(crate) fn step_cloths(
     }
 }
 
-/// One cloth's step; a failure stops it.
+/// One cloth's step, then its tears (its cuts, and with tearing on its overstretched springs); a
+/// failed step stops the cloth, a tear that cannot be made leaves it untorn.
 fn step_one(state: &mut ClothState, dt: f32, env: &Environment, spread: Option<&dyn Spread>) {
     let started = Instant::now();
     let stepped = match spread {
         Some(spread) => state.sim.step_in_parallel(dt, env, spread),
         None => state.sim.step_in(dt, env),
     };
+    if stepped.is_ok() && (state.sim.settings().tearing.enabled || !state.cuts.is_empty()) {
+        match state.sim.tear(&state.cuts) {
+            Ok(splits) => state.splits.extend(splits),
+            Err(e) => warn!("a cloth could not tear and runs on untorn: {e}"),
+        }
+        state.cuts.clear();
+    }
     state.step_time = started.elapsed();
     state.failure = stepped.err();
 }

@@ -129,6 +129,16 @@ impl Limits {
         }
     }
 
+    /// The particles with a target and the target's weight, in order.
+    pub fn targeted(&self) -> impl Iterator<Item = (u32, f32)> + '_ {
+        self.targets.iter().map(|t| (t.particle, t.weight))
+    }
+
+    /// Keeps the targets of the particles `keep` holds to, drops the others.
+    pub fn retain_targets(&mut self, keep: impl Fn(u32) -> bool) {
+        self.targets.retain(|t| keep(t.particle));
+    }
+
     /// Whether a target moves during the next step.
     pub fn moving(&self) -> bool {
         self.targets

@@ -210,18 +210,18 @@ impl<'a> Splitter<'a> {
         let origin = self.origin(p);
         let mut copies = Vec::with_capacity(parts - 1);
         // `faces` is in increasing order, so part 0 holds the lowest face and keeps `p`.
-        for k in 0..parts {
+        for (k, &part_area) in area.iter().enumerate() {
             let mine: Vec<u32> = (0..faces.len())
                 .filter(|&i| part[i] == k)
                 .map(|i| faces[i])
                 .collect();
             let particle = if k == 0 {
-                self.masses[p as usize] = share(area[k]);
+                self.masses[p as usize] = share(part_area);
                 p
             } else {
                 let copy = self.particle_count() as u32;
                 self.origin.push(origin);
-                self.masses.push(share(area[k]));
+                self.masses.push(share(part_area));
                 copies.push(copy);
                 let size = self.model.face_size;
                 for &f in &mine {

@@ -107,7 +107,8 @@ impl ClothSim {
     ///
     /// The cloth goes on from where it is with the torn topology: copies start where their
     /// particle is, moving as it moves, and keep its targets; pins hold the particles that keep
-    /// their indices (a copy of a pinned particle is free). Springs are rebuilt from the faces as
+    /// their indices (a copy of a pinned particle is free). A piece torn off every pin (and every
+    /// target of weight 0) while another piece keeps one loses its targets and falls free. Springs are rebuilt from the faces as
     /// [`ClothModel::from_mesh`] builds them (hand-made springs of a model are replaced), masses
     /// are shared by the faces' areas on each side (so the model holds per-particle masses from
     /// then on), and a torn closed cloth loses its air. Returns the splits (none: nothing
@@ -220,12 +221,38 @@ impl ClothSim {
         next.contacts
             .limits_mut()
             .inherit_targets(self.contacts.limits(), copies);
+        next.release_loose_pieces();
         next.frame = self.frame;
         next.steps = self.steps;
         next.contact_work = self.contact_work;
         next.apply_settings();
         *self = next;
         Ok(())
+    }
+
+    /// Drops the targets of the pieces torn off everything that holds the cloth: where some
+    /// piece has a pinned particle (or a target of weight 0), the pieces without one fall free.
+    fn release_loose_pieces(&mut self) {
+        let (count, pieces) = self.model.pieces();
+        if count < 2 {
+            return;
+        }
+        let mut held = vec![false; count];
+        let limits = self.contacts.limits_mut();
+        let weightless = limits.targeted().filter(|&(_, w)| w == 0.0).map(|(p, _)| p);
+        for p in self.pins.iter().map(|pin| pin.particle).chain(weightless) {
+            held[pieces[p as usize] as usize] = true;
+        }
+        if held.contains(&true) {
+            limits.retain_targets(|p| held[pieces[p as usize] as usize]);
+        }
+    }
+
+    /// The particles tied to targets ([`Self::set_targets`]), in the order they were given (a
+    /// tear gives copies their particle's targets, after them, and drops those of pieces torn
+    /// free).
+    pub fn targeted(&self) -> impl Iterator<Item = u32> + '_ {
+        self.contacts.limits().targeted().map(|(p, _)| p)
     }
 
     /// Particles split by tears since the cloth was built.
