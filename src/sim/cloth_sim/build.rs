@@ -70,6 +70,7 @@ impl ClothSim {
             settings,
             steps: 0,
             tears: 0,
+            tear_limits: Vec::new(),
             sleep: Sleep::default(),
             contact_work: None,
             step_start: Vec::with_capacity(n),
@@ -157,6 +158,7 @@ impl ClothSim {
             (&self.model.triangles, &self.model.rest_positions),
             &pinned,
         );
+        self.prepare_tearing();
         let mut scratch = vec![0.0; self.particles.positions.len()];
         self.spring_frequency =
             max_frequency_bound(self.spring_set(), &self.particles.inv_mass, &mut scratch);

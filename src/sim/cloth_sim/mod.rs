@@ -82,6 +82,9 @@ pub struct ClothSim {
     steps: u64,
     /// Particles split by tears since the cloth was built.
     tears: u64,
+    /// The springs that tear under strain, each with the square of the length it tears past
+    /// (empty while tearing is off).
+    tear_limits: Vec<(u32, u32, f32)>,
     sleep: Sleep,
     /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).
     contact_work: Option<f64>,

@@ -178,22 +178,34 @@ impl ClothSim {
 
     /// The springs of a kind that tears stretched past the limit, the most stretched first.
     fn torn_springs(&self) -> Vec<(u32, u32)> {
-        let tearing = self.settings.tearing;
-        let limit = (1.0 + tearing.max_stretch).powi(2);
-        let s = &self.model.springs;
         let x = &self.particles.positions;
-        let mut over: Vec<(f32, u32, u32)> =
-            s.a.iter()
-                .zip(&s.b)
-                .zip(s.rest.iter().zip(&s.kind))
-                .filter(|(_, (_, kind))| tearing.tears(**kind))
-                .filter_map(|((&a, &b), (&rest, _))| {
-                    let stretch = x[a as usize].distance_squared(x[b as usize]) / (rest * rest);
-                    (stretch > limit).then_some((stretch, a, b))
-                })
-                .collect();
+        let mut over: Vec<(f32, u32, u32)> = Vec::new();
+        for &(a, b, limit) in &self.tear_limits {
+            let length = x[a as usize].distance_squared(x[b as usize]);
+            if length > limit {
+                over.push((length / limit, a, b));
+            }
+        }
         over.sort_by(|p, q| q.0.total_cmp(&p.0).then((p.1, p.2).cmp(&(q.1, q.2))));
         over.into_iter().map(|(_, a, b)| (a, b)).collect()
+    }
+
+    /// The springs that tear with the settings' [`Tearing`](crate::sim::Tearing), each with the
+    /// square of the length it tears past (none while tearing is off).
+    pub(super) fn prepare_tearing(&mut self) {
+        let tearing = self.settings.tearing;
+        self.tear_limits.clear();
+        if !tearing.enabled {
+            return;
+        }
+        let stretch = (1.0 + tearing.max_stretch).powi(2);
+        let s = &self.model.springs;
+        let springs = s.a.iter().zip(&s.b).zip(&s.rest).zip(&s.kind);
+        self.tear_limits.extend(
+            springs
+                .filter(|(_, kind)| tearing.tears(**kind))
+                .map(|(((&a, &b), &rest), _)| (a, b, stretch * rest * rest)),
+        );
     }
 
     /// Replaces the cloth by `model`, its torn self with the `copies` made (each `(particle,
@@ -278,12 +290,13 @@ fn cut_through(splitter: &mut Splitter, model: &ClothModel, cut: &Cut, positions
                 let t = ((x - start).dot(along) / along.length_squared()).clamp(0.0, 1.0);
                 x.distance_squared(start + t * along) <= radius * radius
             };
-            // Across the cloth: the plane holds the segment and the cloth's mean normal near it.
+            // Across the cloth: the plane holds the segment and the mean normal of the triangles at the
+            // particles it cuts.
             let normal: Vec3 = model
                 .triangles
                 .chunks_exact(3)
                 .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
-                .filter(|[a, b, c]| near((*a + *b + *c) / 3.0))
+                .filter(|corners| corners.iter().any(|&x| near(x)))
                 .map(|[a, b, c]| (b - a).cross(c - a))
                 .sum();
             let across = along.cross(normal);

@@ -235,30 +235,38 @@ fn a_bad_cut_is_an_error_and_changes_nothing() {
 }
 
 #[test]
-fn copies_keep_their_particles_targets_and_pins_stay_put() {
-    let mut sim = hanging(8, SolverSettings::default());
-    let targets: Vec<_> = (8..16)
-        .map(|p| crate::sim::Target {
-            particle: p,
-            weight: 1.0,
-            position: sim.positions()[p as usize],
-            normal: Vec3::Z,
-        })
-        .collect();
-    sim.set_targets(&targets).unwrap();
-    let point = sim.positions()[8];
-    let splits = sim
-        .tear(&[Cut::Plane {
-            point,
-            normal: Vec3::Y,
-        }])
-        .unwrap();
-    assert_eq!(splits.len(), 8);
-    assert_eq!(
-        sim.limit_counts().0,
-        16,
-        "each copy of a targeted particle has its target"
-    );
+fn copies_keep_their_particles_targets_and_pieces_torn_free_lose_theirs() {
+    let targeted = |pinned: bool| {
+        let mut sim = hanging(8, SolverSettings::default());
+        if !pinned {
+            sim.set_pins([]).unwrap();
+        }
+        let targets: Vec<_> = (8..16)
+            .map(|p| crate::sim::Target {
+                particle: p,
+                weight: 1.0,
+                position: sim.positions()[p as usize],
+                normal: Vec3::Z,
+            })
+            .collect();
+        sim.set_targets(&targets).unwrap();
+        let point = sim.positions()[8];
+        let splits = sim.tear(&[Cut::Plane { point, normal: Vec3::Y }]).unwrap();
+        assert_eq!(splits.len(), 8);
+        sim
+    };
+    // Nothing holds the cloth: both pieces keep their targets, the copies their particles'.
+    let sim = targeted(false);
+    let mut particles: Vec<u32> = sim.targeted().collect();
+    particles.sort_unstable();
+    assert_eq!(particles, (8..16).chain(64..72).collect::<Vec<_>>());
+    // Pinned at its top corners: the lower piece is torn free and loses its targets; the pins
+    // stay where they were.
+    let sim = targeted(true);
+    let (_, pieces) = sim.model().pieces();
+    let held = pieces[0];
+    assert_eq!(sim.targeted().count(), 8);
+    assert!(sim.targeted().all(|p| pieces[p as usize] == held));
     assert_eq!(sim.pinned().collect::<Vec<_>>(), [0, 7]);
 }
 
