@@ -298,6 +298,7 @@ fn every_simulated_example_moves_its_cloth() {
         "avian_playground",
         "laundry",
         "inflatables",
+        "tearing",
     ] {
         let changed = changed_fraction(&load(&format!("{name}_start")), &load(name), SCENE);
         assert!(
@@ -371,6 +372,7 @@ fn every_example_matches_its_reference_picture() {
         "avian_playground",
         "laundry",
         "inflatables",
+        "tearing",
     ] {
         let now = block_means(&load(name));
         if update {

@@ -112,7 +112,11 @@ pub(super) fn follow_tears(
             };
             let plan = plan_pins(state, &running, transform)?;
             commit_pins(state, plan)?;
-            rebuild_render(state, subdivision, (None, false), &mut meshes)
+            // A torn mesh the subdivision cannot refine is drawn as it is.
+            rebuild_render(state, subdivision, (None, false), &mut meshes).or_else(|e| {
+                warn!("cloth {entity}: its torn mesh is drawn unsubdivided: {e}");
+                rebuild_render(state, None, (None, false), &mut meshes)
+            })
         })();
         match result {
             Ok(mesh) => {

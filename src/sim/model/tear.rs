@@ -160,8 +160,11 @@ impl<'a> Splitter<'a> {
     /// Splits particle `p` between the faces around it whose centre (with the model's particles
     /// at `positions`) is on the `side` and the others, when both are there: each side, and each
     /// part of a side not joined across an edge through `p`, gets its own particle. The part with
-    /// the lowest face keeps `p`; the others get copies, returned in order. Mass is shared by the
-    /// parts' areas.
+    /// the lowest face keeps `p`; the others get copies. Mass is shared by the parts' areas. The
+    /// particles at the far ends of the new edges are then split into their own fans where the
+    /// tear left them joined by a vertex alone (a tear reaching the cloth's edge, or another
+    /// tear), so every particle stays one fan of faces, as subdivision needs. Returns the copies
+    /// made, in order.
     pub fn split(&mut self, p: u32, positions: &[Vec3], side: impl Fn(Vec3) -> bool) -> Vec<u32> {
         let faces = self.faces_of(p).to_vec();
         let sides: Vec<bool> = faces
@@ -171,7 +174,23 @@ impl<'a> Splitter<'a> {
         if sides.iter().all(|&s| s) || !sides.iter().any(|&s| s) {
             return Vec::new();
         }
-        // Parts: faces on one side joined across an edge through `p`.
+        let ends: Vec<u32> = faces
+            .iter()
+            .flat_map(|&f| self.edge_neighbours(f, p))
+            .collect();
+        let mut copies = self.separate(p, &sides);
+        for q in ends {
+            let all = vec![true; self.faces_of(q).len()];
+            copies.extend(self.separate(q, &all));
+        }
+        copies
+    }
+
+    /// Gives each part of the faces around `p` (those on one of the `sides`, one per face, joined
+    /// across an edge through `p`) its own particle: the part with the lowest face keeps `p`, the
+    /// others get copies, returned in order, with `p`'s mass shared by their areas.
+    fn separate(&mut self, p: u32, sides: &[bool]) -> Vec<u32> {
+        let faces = self.faces_of(p).to_vec();
         let neighbours: Vec<[u32; 2]> = faces.iter().map(|&f| self.edge_neighbours(f, p)).collect();
         let mut part = vec![usize::MAX; faces.len()];
         let mut parts = 0;
@@ -192,6 +211,9 @@ impl<'a> Splitter<'a> {
                 }
             }
             parts += 1;
+        }
+        if parts < 2 {
+            return Vec::new();
         }
         let size = self.model.face_size as f32;
         let mut area = vec![0.0f32; parts];

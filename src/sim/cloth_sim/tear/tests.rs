@@ -5,6 +5,7 @@ use crate::error::ClothError;
 use crate::sim::{
     ClothModel, ClothSim, GridPlane, GridSpec, Integrator, Pressure, SolverSettings, Tearing,
 };
+use crate::subdivision::{BoundaryMode, Subdivider, VertexRule};
 
 const DT: f32 = 1.0 / 60.0;
 
@@ -17,9 +18,14 @@ fn hanging(n: u32, settings: SolverSettings) -> ClothSim {
     sim
 }
 
-/// Each face's corners all lie in one piece, and springs join only particles of one piece.
+/// Each face's corners all lie in one piece, springs join only particles of one piece, and every
+/// particle is one fan of faces (the torn mesh subdivides).
 fn assert_pieces_separate(sim: &ClothSim) -> (usize, Vec<u32>) {
     let model = sim.model();
+    let mesh = model.control_mesh().unwrap();
+    if let Err(e) = Subdivider::new(&mesh, 1, VertexRule::Original, BoundaryMode::EdgeAndCorner) {
+        panic!("the torn mesh does not subdivide: {e}");
+    }
     let (count, piece) = model.pieces();
     for face in model.faces.chunks_exact(model.face_size) {
         let p = piece[face[0] as usize];
@@ -251,7 +257,12 @@ fn copies_keep_their_particles_targets_and_pieces_torn_free_lose_theirs() {
             .collect();
         sim.set_targets(&targets).unwrap();
         let point = sim.positions()[8];
-        let splits = sim.tear(&[Cut::Plane { point, normal: Vec3::Y }]).unwrap();
+        let splits = sim
+            .tear(&[Cut::Plane {
+                point,
+                normal: Vec3::Y,
+            }])
+            .unwrap();
         assert_eq!(splits.len(), 8);
         sim
     };
@@ -290,4 +301,24 @@ fn a_torn_closed_cloth_loses_its_air() {
     // Its settings, pressure on, are still accepted.
     sim.set_settings(settings).unwrap();
     sim.step(DT).unwrap();
+}
+
+#[test]
+fn a_tear_that_reaches_the_edge_leaves_no_particle_joining_two_fans() {
+    // A 3×3 grid split at its centre, top to bottom: the new edges end at the middles of the top
+    // and bottom edges, which would join the two sides by a vertex alone.
+    let model = ClothModel::grid(&GridSpec::new(3, 3, 0.1)).unwrap();
+    let mut sim = ClothSim::new(model, SolverSettings::default(), |p| p).unwrap();
+    let centre = sim.positions()[4];
+    let splits = sim
+        .tear(&[Cut::Segment {
+            start: centre - 0.01 * Vec3::Z,
+            end: centre + 0.01 * Vec3::Z,
+            radius: 0.02,
+        }])
+        .unwrap();
+    let split: Vec<u32> = splits.iter().map(|s| s.particle).collect();
+    assert_eq!(split, [4, 1, 7], "{splits:?}");
+    let (count, _) = assert_pieces_separate(&sim);
+    assert_eq!(count, 2);
 }
