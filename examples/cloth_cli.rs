@@ -128,6 +128,10 @@ enum Command {
         /// particle count keeping a volume or holding a gas).
         #[arg(long)]
         air: bool,
+        /// Tear every case: tearing under strain at a drawn stretch (three cases in four) and
+        /// a cut at a drawn step (a plane, a blade or a ray's hole; three in four).
+        #[arg(long)]
+        tearing: bool,
         /// Run every case in tolerance mode at this tolerance (relative to the cloth's size, per
         /// second; the default cap of substeps).
         #[arg(long)]
@@ -394,6 +398,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             trace,
             self_collision,
             air,
+            tearing,
             tolerance,
             threads,
         } => {
@@ -415,7 +420,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 from..from + cases,
                 seed,
                 &chosen,
-                (self_collision, air, tolerance, trace),
+                stress::Variants {
+                    self_collision,
+                    air,
+                    tearing,
+                    tolerance,
+                    trace,
+                },
                 threads,
             ) {
                 return Err("stress cases failed (listed above)".into());

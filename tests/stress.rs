@@ -20,18 +20,19 @@ fn run(integrators: &[Integrator], cases: std::ops::Range<u64>) {
     run_with(integrators, cases, |case| case);
 }
 
-/// [`run`], each case changed by `change` first.
+/// [`run`], each case changed by `change` first; returns how many cases tore.
 fn run_with(
     integrators: &[Integrator],
     cases: std::ops::Range<u64>,
     change: impl Fn(StressCase) -> StressCase,
-) {
+) -> usize {
     let limits = limits();
     let mut failures = Vec::new();
-    let (mut stable, mut detected) = (0, 0);
+    let (mut stable, mut detected, mut torn) = (0, 0, 0);
     for index in cases {
         let case = change(draw_case(SEED, index, integrators, &limits));
         let result = run_case(&case, &limits);
+        torn += usize::from(result.splits > 0);
         match &result.outcome {
             StressOutcome::Stable => stable += 1,
             StressOutcome::DetectedUnstable(_) => detected += 1,
@@ -43,6 +44,7 @@ fn run_with(
         failures.len()
     );
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    torn
 }
 
 #[test]
@@ -67,6 +69,12 @@ fn every_integrator_survives_100_stress_cases_with_self_collision() {
 #[test]
 fn xpbd_survives_200_stress_cases_on_closed_cloths_with_air() {
     run_with(&[Xpbd], 4000..4200, StressCase::with_air);
+}
+
+#[test]
+fn every_integrator_survives_100_torn_stress_cases() {
+    let torn = run_with(&Integrator::ALL, 5000..5100, StressCase::with_tearing);
+    assert!(torn >= 30, "only {torn} of 100 cases tore");
 }
 
 #[test]

@@ -29,19 +29,37 @@ struct Tally {
     unstable_h_omega: f32,
 }
 
-/// Runs cases `cases` of suite `seed` over `integrators` (with `self_collision`, every case has
-/// it on; with `air`, every case is a closed cloth with air inside; with a `tolerance`, every case
-/// runs in tolerance mode) on `threads` threads (one with `trace`); returns whether all passed.
-/// The cases are independent, and the tables and failures come out in case order whatever the
-/// thread count.
-/// With `trace`, prints every step of every case.
+/// What every case of a run has on top of what it draws.
+pub struct Variants {
+    /// Self-collision on.
+    pub self_collision: bool,
+    /// A closed cloth with air inside.
+    pub air: bool,
+    /// Tearing under strain and a cut (`StressCase::with_tearing`).
+    pub tearing: bool,
+    /// Tolerance mode at this tolerance.
+    pub tolerance: Option<f32>,
+    /// Print every step of every case.
+    pub trace: bool,
+}
+
+/// Runs cases `cases` of suite `seed` over `integrators`, each case with the `variants`, on
+/// `threads` threads (one with `variants.trace`); returns whether all passed. The cases are
+/// independent, and the tables and failures come out in case order whatever the thread count.
 pub fn run(
     cases: std::ops::Range<u64>,
     seed: u64,
     integrators: &[Integrator],
-    (self_collision, air, tolerance, trace): (bool, bool, Option<f32>, bool),
+    variants: Variants,
     threads: usize,
 ) -> bool {
+    let Variants {
+        self_collision,
+        air,
+        tearing,
+        tolerance,
+        trace,
+    } = variants;
     let limits = StressLimits::default();
     let bar = ProgressBar::new(cases.end - cases.start);
     bar.set_style(
@@ -56,6 +74,9 @@ pub fn run(
         }
         if air {
             case = case.with_air();
+        }
+        if tearing {
+            case = case.with_tearing();
         }
         if let Some(tolerance) = tolerance {
             case = case.with_tolerance(tolerance);
@@ -96,7 +117,10 @@ pub fn run(
         .map(|i| (*i, Tally::default()))
         .collect();
     let mut failures: Vec<StressResult> = Vec::new();
+    let (mut torn, mut splits) = (0, 0);
     for (_, r) in results {
+        torn += u32::from(r.splits > 0);
+        splits += r.splits;
         let Some((_, t)) = tallies
             .iter_mut()
             .find(|(i, _)| *i == r.case.settings.integrator)
@@ -159,6 +183,9 @@ pub fn run(
                 "–".into()
             }
         );
+    }
+    if tearing {
+        println!("\n{torn} cases tore, {splits} particles split in all.");
     }
     for f in &failures {
         if let StressOutcome::Failure(why) = &f.outcome {

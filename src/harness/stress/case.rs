@@ -6,8 +6,8 @@ use glam::{Quat, Vec3};
 
 use crate::error::ClothError;
 use crate::sim::{
-    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Friction, GridSpec, Pose, Pressure,
-    SelfCollision, SolverSettings,
+    Accuracy, ClothModel, ClothSim, Collider, ColliderShape, Cut, Friction, GridSpec, Pose,
+    Pressure, SelfCollision, SolverSettings,
 };
 
 /// How big the cases may get.
@@ -97,6 +97,8 @@ pub struct StressCase {
     /// With air, the cloth is a closed one: an icosphere of about `side`² particles, `size`
     /// across, instead of the grid.
     pub air: Option<StressAir>,
+    /// A cut made after the step of this index ([`StressCase::with_tearing`]).
+    pub cut: Option<(u32, Cut)>,
 }
 
 /// The first `count` (at most 4) corners of a `side`×`side` grid, as pinned particles.

@@ -8,7 +8,9 @@ use glam::{Quat, Vec3};
 
 use super::case::{StressAir, StressCase, StressCollider, StressLimits, corner_pins};
 use crate::hash::{GOLDEN_GAMMA, mix64};
-use crate::sim::{ColliderShape, Integrator, SolverSettings, Stiffness, Tethers};
+use crate::sim::{
+    ColliderShape, Cut, Integrator, SolverSettings, Stiffness, TearSprings, Tearing, Tethers,
+};
 
 /// SplitMix64: a small, fast, well-mixed generator; enough for drawing cases reproducibly.
 #[derive(Debug, Clone)]
@@ -200,6 +202,7 @@ pub fn draw_case(
         wind,
         gusts,
         air: None,
+        cut: None,
     }
 }
 
@@ -239,6 +242,55 @@ impl StressCase {
                 c.start -= along * radius;
             }
         }
+        self
+    }
+}
+
+impl StressCase {
+    /// The same case torn (drawn from the case's seed and index): in three cases of four,
+    /// tearing under strain at a stretch of 0.5%–100% (at most 1–64 splits a step, of the
+    /// structural springs or of all), and in three of four a cut at a random step, through the
+    /// cloth's starting centre: a plane, a blade's segment across the whole cloth, or a ray's
+    /// hole of up to half the cloth's size. The drawn wind (half the cases, up to 50 m/s, gusty
+    /// in half of those) is the gale.
+    pub fn with_tearing(mut self) -> Self {
+        let mut rng = SplitMix64(self.seed ^ self.index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        rng.next();
+        if rng.chance(0.75) {
+            self.settings.tearing = Tearing {
+                enabled: true,
+                max_stretch: rng.log_range(0.005, 1.0),
+                max_per_step: rng.log_range(1.0, 64.99).floor() as u32,
+                springs: if rng.chance(0.5) {
+                    TearSprings::Structural
+                } else {
+                    TearSprings::All
+                },
+            };
+        }
+        // The cloth starts centred 1 m up (see `StressCase::build`).
+        let centre = Vec3::Y;
+        self.cut = rng.chance(0.75).then(|| {
+            let step = (rng.next() % self.steps.max(1) as u64) as u32;
+            let d = rng.direction();
+            let cut = match rng.next() % 3 {
+                0 => Cut::Plane {
+                    point: centre,
+                    normal: d,
+                },
+                1 => Cut::Segment {
+                    start: centre - d * self.size,
+                    end: centre + d * self.size,
+                    radius: rng.log_range(0.01, 0.5) * self.size,
+                },
+                _ => Cut::Ray {
+                    origin: centre - d * self.size,
+                    direction: d,
+                    radius: rng.log_range(0.01, 0.5) * self.size,
+                },
+            };
+            (step, cut)
+        });
         self
     }
 }

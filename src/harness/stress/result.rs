@@ -41,6 +41,8 @@ pub struct StressResult {
     pub steps_run: u32,
     /// [`state_hash`] of the cloth where the case ended (0 if it was never built or panicked).
     pub state_hash: u64,
+    /// Particles split by tears ([`StressCase::with_tearing`]).
+    pub splits: u64,
 }
 
 impl StressResult {
@@ -57,6 +59,7 @@ impl StressResult {
             max_energy_gain: 0.0,
             steps_run: 0,
             state_hash: 0,
+            splits: 0,
         }
     }
 }

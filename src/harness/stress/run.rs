@@ -62,6 +62,7 @@ fn run_unguarded(
     result.case = case.clone();
     run_steps(&mut sim, &case, &mut result, observe);
     result.state_hash = state_hash(&sim);
+    result.splits = sim.tears();
     result
 }
 
@@ -95,7 +96,7 @@ fn run_steps(
     });
     // The energy the cloth stores at the start may turn into motion: the springs are at rest,
     // but air kept at another volume or pressure than it has pushes the cloth there.
-    let (e0, stored) = {
+    let (e0, mut stored) = {
         let e = sim.energy();
         (e.kinetic + e.gravitational, e.elastic)
     };
@@ -157,7 +158,8 @@ fn run_steps(
             wind: wind.as_ref(),
             ..Environment::default()
         };
-        start_positions.copy_from_slice(sim.positions());
+        start_positions.clear();
+        start_positions.extend_from_slice(sim.positions());
         // The substeps this step takes: the count depends on the state (an overstretched cloth
         // takes more), and tolerance mode reports what it ran (a rejected step runs again).
         let planned = sim.substeps_for(case.dt);
@@ -267,6 +269,22 @@ fn run_steps(
                      (tolerance {tolerance:.1e} J)"
                 ));
                 return;
+            }
+        }
+        // Tears after the step's checks: splitting a particle keeps its momentum and weight,
+        // but a stretched spring along a new edge is one on each side, so a tear may add
+        // elastic energy, counted with what the cloth stored at the start.
+        if case.settings.tearing.enabled || case.cut.is_some() {
+            let cut = case.cut.filter(|(at, _)| *at == step).map(|(_, c)| c);
+            match sim.tear(cut.as_slice()) {
+                Ok(splits) if !splits.is_empty() => {
+                    stored += (sim.energy().elastic - e.elastic).max(0.0);
+                }
+                Ok(_) => {}
+                Err(e) => {
+                    result.outcome = fail(format!("tear: {e}"));
+                    return;
+                }
             }
         }
     }
