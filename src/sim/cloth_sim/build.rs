@@ -209,6 +209,9 @@ impl ClothSim {
             c.friction,
         )?;
         self.contacts.set_self_contacts(Some(contacts));
+        if self.tears > 0 {
+            self.part_the_sides();
+        }
         Ok(())
     }
 

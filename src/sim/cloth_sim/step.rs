@@ -195,6 +195,9 @@ impl ClothSim {
             pin.from = pin.to;
         }
         self.contacts.limits_mut().end_step();
+        if let Some(contacts) = self.contacts.self_contacts_mut() {
+            contacts.release_parted(&self.particles.positions);
+        }
         if let Some((from, to)) = &mut self.frame {
             *from = *to;
         }

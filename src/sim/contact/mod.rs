@@ -159,6 +159,11 @@ impl Contacts {
         self.self_contacts.as_ref()
     }
 
+    /// The self-contacts, to change.
+    pub fn self_contacts_mut(&mut self) -> Option<&mut SelfContacts> {
+        self.self_contacts.as_mut()
+    }
+
     /// Starts a step for the self-contacts, in which no particle is expected to move farther than
     /// `reach`, m (see [`SelfContacts::begin_step`]).
     pub fn begin_self_step(&mut self, reach: f32) {

@@ -237,9 +237,29 @@ impl ClothSim {
         next.frame = self.frame;
         next.steps = self.steps;
         next.contact_work = self.contact_work;
+        next.part_the_sides();
         next.apply_settings();
         *self = next;
         Ok(())
+    }
+
+    /// Marks the self-contacts' exempt pairs (within the thickness at rest) that no spring joins
+    /// as parting: the two sides of a tear lay together at rest, and collide once they have
+    /// parted.
+    pub(super) fn part_the_sides(&mut self) {
+        let s = &self.model.springs;
+        let mut linked: Vec<u64> =
+            s.a.iter()
+                .zip(&s.b)
+                .map(|(&a, &b)| u64::from(a.min(b)) << 32 | u64::from(a.max(b)))
+                .collect();
+        linked.sort_unstable();
+        if let Some(contacts) = self.contacts.self_contacts_mut() {
+            contacts.mark_parting(|p, q| {
+                let key = u64::from(p.min(q)) << 32 | u64::from(p.max(q));
+                p == q || linked.binary_search(&key).is_ok()
+            });
+        }
     }
 
     /// Drops the targets of the pieces torn off everything that holds the cloth: where some

@@ -322,3 +322,44 @@ fn a_tear_that_reaches_the_edge_leaves_no_particle_joining_two_fans() {
     let (count, _) = assert_pieces_separate(&sim);
     assert_eq!(count, 2);
 }
+
+#[test]
+fn the_sides_of_a_tear_collide_once_they_have_parted() {
+    // A 5 mm thick cloth cut in two: its sides lay together at rest, and stay exempt from each
+    // other while they touch; once the lower piece has fallen away they collide like any layers.
+    let settings = SolverSettings {
+        self_collision: crate::sim::SelfCollision {
+            enabled: true,
+            thickness: 0.005,
+            ..Default::default()
+        },
+        ..SolverSettings::default()
+    };
+    let mut sim = hanging(16, settings);
+    let exempt = |sim: &ClothSim| sim.contacts.self_contacts().unwrap().exempt_count();
+    assert_eq!(
+        exempt(&sim),
+        0,
+        "a flat grid 2 cm apart has no pairs within 5 mm at rest"
+    );
+    sim.step(DT).unwrap();
+    let point = sim.positions()[8 * 16];
+    sim.tear(&[Cut::Plane {
+        point,
+        normal: Vec3::Y,
+    }])
+    .unwrap();
+    let together = exempt(&sim);
+    assert!(
+        together > 0,
+        "the sides of the cut are exempt while together"
+    );
+    for _ in 0..10 {
+        sim.step(DT).unwrap();
+    }
+    assert_eq!(
+        exempt(&sim),
+        0,
+        "the sides parted: none exempt of {together}"
+    );
+}

@@ -65,7 +65,8 @@ use glam::{Vec3, Vec3A};
 use super::narrow::ContactState;
 use super::pairs::{
     DEFER_CLOSING, GapBands, GatheredParticles, LastResolution, LayerSpacing, SpatialHash,
-    edge_table, later_passes, map_four, max_or_infinite, pair_key, storage_order_changed,
+    closest_on_segments, edge_table, later_passes, map_four, max_or_infinite, pair_key,
+    point_triangle_distance, storage_order_changed,
 };
 use super::vectors::Vectors;
 use crate::error::ClothError;
@@ -110,6 +111,9 @@ pub(crate) struct SelfContacts {
     exempt_vt: Vec<u64>,
     /// Edge–edge pairs exempt, as `low << 32 | high` edge index, sorted.
     exempt_ee: Vec<u64>,
+    /// The exempt pairs across a tear, until they part (see [`Self::mark_parting`]), sorted.
+    parting_vt: Vec<u64>,
+    parting_ee: Vec<u64>,
     /// The triangles in patches, whose normal cones cull the search.
     patches: Patches,
     /// Patch of each edge (that of the triangle owning it).
@@ -307,6 +311,74 @@ impl SelfContacts {
         contacts.ee = Vec::new();
         contacts.gap = Vec::new();
         Ok(contacts)
+    }
+
+    /// Marks the exempt pairs whose elements are not `linked` (no particle of one linked to a
+    /// particle of the other) as parting: a torn cloth's sides lay together at rest and still
+    /// touch where it tore, so they stay exempt until they have parted by the thickness
+    /// ([`Self::release_parted`]), and collide like any other layers from then on.
+    pub fn mark_parting(&mut self, linked: impl Fn(u32, u32) -> bool) {
+        let (tris, edges) = (&self.tris, &self.edges);
+        self.parting_vt = self
+            .exempt_vt
+            .iter()
+            .copied()
+            .filter(|&key| {
+                let (p, t) = ((key >> 32) as u32, key as u32);
+                !tris[t as usize].iter().any(|&q| linked(p, q))
+            })
+            .collect();
+        self.parting_ee = self
+            .exempt_ee
+            .iter()
+            .copied()
+            .filter(|&key| {
+                let (e, f) = (edges[(key >> 32) as usize], edges[key as u32 as usize]);
+                !e.iter().any(|&p| f.iter().any(|&q| linked(p, q)))
+            })
+            .collect();
+    }
+
+    /// Ends the exemption of the parting pairs ([`Self::mark_parting`]) that are now farther
+    /// apart than the thickness, the particles at `x`.
+    pub fn release_parted(&mut self, x: &[Vec3]) {
+        if self.parting_vt.is_empty() && self.parting_ee.is_empty() {
+            return;
+        }
+        let thickness = self.thickness;
+        let (tris, edges) = (&self.tris, &self.edges);
+        let parted_vt: Vec<u64> = self
+            .parting_vt
+            .iter()
+            .copied()
+            .filter(|&key| {
+                let (p, t) = ((key >> 32) as usize, key as u32 as usize);
+                let [a, b, c] = tris[t].map(|i| x[i as usize]);
+                point_triangle_distance(x[p], a, b, c) > thickness
+            })
+            .collect();
+        let parted_ee: Vec<u64> = self
+            .parting_ee
+            .iter()
+            .copied()
+            .filter(|&key| {
+                let ([a, b], [c, d]) = (edges[(key >> 32) as usize], edges[key as u32 as usize]);
+                let [a, b, c, d] = [a, b, c, d].map(|i| x[i as usize]);
+                let (s, t) = closest_on_segments(a, b, c, d);
+                (a + s * (b - a)).distance(c + t * (d - c)) > thickness
+            })
+            .collect();
+        for (exempt, parting, parted) in [
+            (&mut self.exempt_vt, &mut self.parting_vt, parted_vt),
+            (&mut self.exempt_ee, &mut self.parting_ee, parted_ee),
+        ] {
+            if parted.is_empty() {
+                continue;
+            }
+            // Both lists are sorted, and so is `parted`, taken from `parting` in order.
+            exempt.retain(|k| parted.binary_search(k).is_err());
+            parting.retain(|k| parted.binary_search(k).is_err());
+        }
     }
 
     /// The thickness and friction these contacts were built with.
