@@ -143,9 +143,9 @@ fn setup(
     ));
 }
 
-/// The gale rises from 6 m/s to 41 m/s in 1.4 seconds.
+/// The gale rises from 6 m/s to 41 m/s in 1.75 seconds.
 fn rising_gale(time: Res<Time>, mut zones: Query<&mut WindZone>) {
-    let speed = 6.0 + 25.0 * time.elapsed_secs().min(1.4);
+    let speed = 6.0 + 20.0 * time.elapsed_secs().min(1.75);
     for mut zone in &mut zones {
         zone.velocity = Vec3::new(speed, 0.0, -speed / 6.0);
     }
