@@ -8,6 +8,7 @@ mod triangles;
 
 use glam::{Quat, Vec3, Vec3A};
 
+#[cfg(feature = "harness")]
 pub(crate) use particles::convex_minimum;
 use particles::{BATCH, collide_particles};
 #[cfg(test)]

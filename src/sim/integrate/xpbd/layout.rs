@@ -423,7 +423,7 @@ impl Projections {
             }
             // Dropping padding lays the slots out again: the cut keeps its place in its run.
             let offset = k - self.runs[run].start as usize;
-            if self.drop_padding(first, &shared) {
+            if self.drop_padding(first, &shared, marks) {
                 let r = self.runs[run];
                 return match offset {
                     0 => run,
@@ -455,8 +455,9 @@ impl Projections {
 
     /// Drops the padding slots of the runs from `first` on that touch a particle of `shared`, if
     /// they all end their runs (with every slot after them padding too); returns whether it did.
-    fn drop_padding(&mut self, first: usize, shared: &[u32]) -> bool {
-        let shared: std::collections::HashSet<u32> = shared.iter().copied().collect();
+    fn drop_padding(&mut self, first: usize, shared: &[u32], marks: &mut Marks) -> bool {
+        let stamp = marks.mark(shared.iter().copied());
+        let shared = |p: u32| marks.of[p as usize] == stamp;
         let mut runs = Vec::with_capacity(self.runs.len() - first);
         for r in &self.runs[first..] {
             let slots = r.start as usize..(r.start + r.len) as usize;
@@ -466,7 +467,7 @@ impl Projections {
                 .map_or(0, |k| k + 1);
             let mut len = slots.end;
             for k in slots.clone() {
-                let touches = shared.contains(&self.a[k]) || shared.contains(&self.b[k]);
+                let touches = shared(self.a[k]) || shared(self.b[k]);
                 if self.spring[k].is_none() && touches {
                     if k < real_end {
                         return false;
