@@ -54,7 +54,9 @@ pub mod subdivision;
 
 pub use components::*;
 pub use error::ClothError;
-pub use plugin::{ClothCut, ClothPlugin, ClothStepBudget, ClothSystems, ClothTorn};
+pub use plugin::{
+    ClothCut, ClothPlugin, ClothStepBudget, ClothSystems, ClothTearWeights, ClothTorn,
+};
 
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
@@ -66,7 +68,7 @@ pub mod prelude {
         ClothTargets, PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
-    pub use crate::plugin::{ClothCut, ClothPlugin, ClothSystems, ClothTorn};
+    pub use crate::plugin::{ClothCut, ClothPlugin, ClothSystems, ClothTearWeights, ClothTorn};
     pub use crate::sim::{
         ClothModel, ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia,
         Integrator, Pressure, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tearing,

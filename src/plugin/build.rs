@@ -16,6 +16,7 @@ use bevy::transform::components::GlobalTransform;
 use super::edits::{commit_pins, plan_pins, report_edit, run_settings};
 use super::mesh::refresh_render;
 use super::poses::{invertible, pose_of};
+use super::tears::ClothTearWeights;
 use crate::components::{
     Cloth, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPins, ClothSkin,
     ClothSource, ClothState, ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL,
@@ -53,6 +54,7 @@ type BuildQuery<'a> = (
         Option<Ref<'a, ClothTargets>>,
         Option<Ref<'a, ClothSkin>>,
         Option<&'a ClothFrame>,
+        Option<Ref<'a, ClothTearWeights>>,
     ),
     Option<&'a mut ClothState>,
     (
@@ -84,9 +86,10 @@ pub(super) fn build_cloths(
     mut meshes: ResMut<Assets<Mesh>>,
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
     bindposes: Res<Assets<SkinnedMeshInverseBindposes>>,
-    (mut removed_subdivisions, mut removed_targets): (
+    (mut removed_subdivisions, mut removed_targets, mut removed_weights): (
         RemovedComponents<ClothSubdivision>,
         RemovedComponents<ClothTargets>,
+        RemovedComponents<ClothTearWeights>,
     ),
     mut cloths: Query<BuildQuery>,
     globals: Query<&'static GlobalTransform>,
@@ -105,13 +108,14 @@ pub(super) fn build_cloths(
     let removed: HashSet<Entity> = removed_subdivisions
         .read()
         .chain(removed_targets.read())
+        .chain(removed_weights.read())
         .collect();
     for (
         entity,
         (cloth, config, pins),
         transform,
         subdivision,
-        (targets, skin, frame),
+        (targets, skin, frame, tear_weights),
         mut state,
         (invalid, rejected, awaiting),
     ) in &mut cloths
@@ -124,7 +128,12 @@ pub(super) fn build_cloths(
         // Targets added, edited or removed, or a skin: the cloth is rebuilt.
         let targets_changed = targets.as_ref().is_some_and(|t| t.is_changed())
             || skin.as_ref().is_some_and(|s| s.is_changed())
-            || targets.is_none() && state.as_ref().is_some_and(|s| s.attachment.is_some());
+            || targets.is_none() && state.as_ref().is_some_and(|s| s.attachment.is_some())
+            || tear_weights.as_ref().is_some_and(|w| w.is_changed())
+            || tear_weights.is_none()
+                && state
+                    .as_ref()
+                    .is_some_and(|s| s.sim.tear_weights().is_some());
         let source_changed = cloth.is_changed()
             || matches!(&cloth.source, ClothSource::Mesh(h) if modified.contains(&h.id()));
         let edited = source_changed
@@ -164,6 +173,7 @@ pub(super) fn build_cloths(
                 (&cloth, &config, &pins),
                 subdivision,
                 (targets.as_deref(), skin.as_deref(), frame),
+                tear_weights.as_deref(),
                 transform,
                 state.as_deref(),
                 &mut inputs,
@@ -221,6 +231,7 @@ fn build_state(
         Option<&ClothSkin>,
         Option<&ClothFrame>,
     ),
+    tear_weights: Option<&ClothTearWeights>,
     transform: &GlobalTransform,
     previous: Option<&ClothState>,
     inputs: &mut BuildInputs,
@@ -318,6 +329,37 @@ fn build_state(
             Some(attachment)
         }
     };
+    let tear_values = match tear_weights {
+        None => None,
+        Some(_) if refined.is_some() => {
+            return Err(ClothError::InvalidValue {
+                field: "ClothTearWeights",
+                expected: "a cloth simulated at its own resolution (subdivide its render mesh instead)",
+                value: f64::from(refined.map_or(0, |s| s.level)),
+            });
+        }
+        Some(w) => {
+            let values = authored_weights(&w.weights, source_mesh, "tear weights")?;
+            // Per source vertex; a vertex welded into a particle gives it the weakest of theirs.
+            Some(match &particle_map {
+                None => values,
+                Some(map) if values.len() != map.len() => {
+                    return Err(ClothError::InvalidValue {
+                        field: "tear weights",
+                        expected: "one per vertex of the source mesh",
+                        value: values.len() as f64,
+                    });
+                }
+                Some(map) => {
+                    let mut per = vec![f32::INFINITY; model.particle_count()];
+                    for (&v, &p) in values.iter().zip(map) {
+                        per[p as usize] = per[p as usize].min(v);
+                    }
+                    per
+                }
+            })
+        }
+    };
     let meshes = &mut *inputs.meshes;
     let mut sim = ClothSim::new(model, run_settings(config, mass_scale), |p| {
         transform.transform_point(p)
@@ -333,6 +375,9 @@ fn build_state(
     }
     if let Some(a) = &attachment {
         sim.set_targets(&a.limited().collect::<Vec<_>>())?;
+    }
+    if let Some(values) = tear_values {
+        sim.set_tear_weights(Some(values))?;
     }
     let mut state = ClothState {
         sim,
@@ -392,17 +437,7 @@ fn build_attachment(
             what: format!("{what} needs a cloth made from a mesh asset"),
         })
     };
-    let weights = match &targets.weights {
-        TargetWeights::Values(w) => w.clone(),
-        TargetWeights::Color(channel) => weights_from_mesh(
-            from_mesh("weights from vertex colours")?,
-            None,
-            *channel as usize,
-        )?,
-        TargetWeights::Attribute(name) => {
-            weights_from_mesh(from_mesh("weights from a vertex attribute")?, Some(name), 0)?
-        }
-    };
+    let weights = authored_weights(&targets.weights, source, "targets")?;
     if weights.len() != n {
         return Err(ClothError::InvalidTargets {
             what: format!("{} weights for a cloth of {n} particles", weights.len()),
@@ -432,6 +467,31 @@ fn build_attachment(
         }
     };
     Attachment::new(&weights, (&model.rest_positions, &normals), skin)
+}
+
+/// The values of authored `weights` (for `what`), read from the cloth's `source` mesh when they
+/// name one of its channels.
+fn authored_weights(
+    weights: &TargetWeights,
+    source: Option<&Mesh>,
+    what: &str,
+) -> Result<Vec<f32>, ClothError> {
+    let from_mesh = |how: &str| {
+        source.ok_or_else(|| ClothError::InvalidTargets {
+            what: format!("{what}: {how} needs a cloth made from a mesh asset"),
+        })
+    };
+    Ok(match weights {
+        TargetWeights::Values(w) => w.clone(),
+        TargetWeights::Color(channel) => weights_from_mesh(
+            from_mesh("weights from vertex colours")?,
+            None,
+            *channel as usize,
+        )?,
+        TargetWeights::Attribute(name) => {
+            weights_from_mesh(from_mesh("weights from a vertex attribute")?, Some(name), 0)?
+        }
+    })
 }
 
 /// Checks a subdivision level against [`MAX_CLOTH_SUBDIVISION_LEVEL`].

@@ -34,7 +34,7 @@ use edits::{apply_edits, restore_required};
 use inputs::{WindSnapshot, colliders_present, gather_wind, wind_present};
 use mesh::{SteppedInFixedUpdate, update_render_buffers, write_meshes};
 use pin_targets::resolve_pin_targets;
-pub use tears::{ClothCut, ClothTorn};
+pub use tears::{ClothCut, ClothTearWeights, ClothTorn};
 use tears::{follow_tears, queue_cuts};
 
 // For the avian coupling, which orders its systems around these.
@@ -168,6 +168,7 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothPins>()
             .register_type::<ClothSubdivision>()
             .register_type::<ClothCollider>()
+            .register_type::<ClothTearWeights>()
             .register_type::<ClothPushesBodies>()
             .register_type::<Wind>()
             .register_type::<WindZone>()

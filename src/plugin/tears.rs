@@ -7,11 +7,12 @@ use bevy::asset::Assets;
 use bevy::ecs::prelude::*;
 use bevy::log::warn;
 use bevy::mesh::{Mesh, Mesh3d};
+use bevy::reflect::Reflect;
 use bevy::transform::components::GlobalTransform;
 
 use super::build::rebuild_render;
 use super::edits::{commit_pins, plan_pins};
-use crate::components::{ClothInvalid, ClothPins, ClothState, ClothSubdivision};
+use crate::components::{ClothInvalid, ClothPins, ClothState, ClothSubdivision, TargetWeights};
 use crate::sim::{Cut, Split};
 
 /// Cuts a cloth at its next step ([`Cut`]: a plane, a blade's segment, a ray's hole). Written by
@@ -52,6 +53,21 @@ pub struct ClothTorn {
     pub cloth: Entity,
     /// The splits, in the order they happened.
     pub splits: Vec<Split>,
+}
+
+/// How strong a cloth is, particle by particle, for tearing under strain
+/// ([`SolverSettings::tearing`](crate::sim::SolverSettings::tearing)): each particle's weight
+/// scales `max_stretch` for the springs at it (a spring takes the smaller of its ends' weights), so
+/// 0 paints a line that tears at any stretch and 2 a hem that takes twice the stretch
+/// ([`ClothSim::set_tear_weights`](crate::sim::ClothSim::set_tear_weights)). The weights come as
+/// [`ClothTargets`](crate::ClothTargets)' do: values, or a vertex colour channel or attribute of
+/// the source mesh. Adding, editing or removing it rebuilds the cloth; a cloth refined for its
+/// simulation ([`SubdivisionTarget::Simulation`](crate::SubdivisionTarget)) takes none.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+pub struct ClothTearWeights {
+    /// The weights, one per particle (per vertex of the source mesh), non-negative.
+    pub weights: TargetWeights,
 }
 
 /// Hands each valid [`ClothCut`] to its cloth for the next step.

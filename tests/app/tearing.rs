@@ -175,3 +175,34 @@ fn a_cloth_cut_below_its_targets_keeps_its_top_half_on_them() {
         assert!(x[t.particle as usize].distance(t.position) < 1e-4);
     }
 }
+
+#[test]
+fn tear_weights_hold_an_overloaded_cloth_together_and_a_bad_list_is_refused() {
+    let mut app = app_logging_tears();
+    let n = 12u32;
+    let mut config = ClothConfig::default();
+    config.solver.particle_mass = 0.2;
+    config.solver.tearing = Tearing {
+        enabled: true,
+        max_stretch: 0.05,
+        ..Tearing::default()
+    };
+    let cloth = |weights: Vec<f32>| {
+        (
+            Cloth::grid(GridSpec::new(n, n, 0.05).with_plane(GridPlane::Vertical)),
+            ClothPins::new([0, n - 1]),
+            config.clone(),
+            ClothTearWeights {
+                weights: TargetWeights::Values(weights),
+            },
+            Transform::from_xyz(0.0, 2.0, 0.0),
+        )
+    };
+    // The overloaded cloth that tears at weight 1 (see above) holds at weight 100.
+    let e = spawn_valid(&mut app, cloth(vec![100.0; (n * n) as usize]));
+    run(&mut app, 60);
+    assert!(app.world().resource::<TornLog>().0.is_empty());
+    assert_eq!(state(&app, e).sim().tears(), 0);
+    let bad = spawn(&mut app, cloth(vec![1.0; 5]));
+    assert!(app.world().get::<ClothInvalid>(bad).is_some());
+}

@@ -71,6 +71,7 @@ impl ClothSim {
             steps: 0,
             tears: 0,
             tear_limits: Vec::new(),
+            tear_weights: None,
             sleep: Sleep::default(),
             contact_work: None,
             step_start: Vec::with_capacity(n),

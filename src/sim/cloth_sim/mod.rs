@@ -85,6 +85,9 @@ pub struct ClothSim {
     /// The springs that tear under strain, each with the square of the length it tears past
     /// (empty while tearing is off).
     tear_limits: Vec<(u32, u32, f32)>,
+    /// Per particle, the factor of the stretch at which its springs tear (see
+    /// [`Self::set_tear_weights`]); `None`: 1.
+    tear_weights: Option<Vec<f32>>,
     sleep: Sleep,
     /// Energy the contact responses added, J, when tracked (see [`Self::track_contact_work`]).
     contact_work: Option<f64>,

@@ -198,14 +198,47 @@ impl ClothSim {
         if !tearing.enabled {
             return;
         }
-        let stretch = (1.0 + tearing.max_stretch).powi(2);
+        let weights = self.tear_weights.as_deref();
+        let weight = |p: u32| weights.map_or(1.0, |w| w[p as usize]);
         let s = &self.model.springs;
         let springs = s.a.iter().zip(&s.b).zip(&s.rest).zip(&s.kind);
-        self.tear_limits.extend(
-            springs
-                .filter(|(_, kind)| tearing.tears(**kind))
-                .map(|(((&a, &b), &rest), _)| (a, b, stretch * rest * rest)),
-        );
+        self.tear_limits
+            .extend(springs.filter(|(_, kind)| tearing.tears(**kind)).map(
+                |(((&a, &b), &rest), _)| {
+                    let stretch = tearing.max_stretch * weight(a).min(weight(b));
+                    (a, b, ((1.0 + stretch) * rest).powi(2))
+                },
+            ));
+    }
+
+    /// Scales [`Tearing::max_stretch`](crate::sim::Tearing) particle by particle, a weight per
+    /// particle (`None`: 1 everywhere): a spring tears past `1 + max_stretch · w` times its rest
+    /// length, `w` the smaller of its ends' weights. A weight of 0 tears at any stretch (a
+    /// perforated line), 2 takes twice the stretch, a very large one never tears. Copies a tear
+    /// makes take their particle's weight. A weight that is negative or not finite, or a list of
+    /// another length than the particles, is an error and changes nothing.
+    pub fn set_tear_weights(&mut self, weights: Option<Vec<f32>>) -> Result<(), ClothError> {
+        if let Some(w) = &weights {
+            let n = self.particles.positions.len();
+            if w.len() != n {
+                return Err(ClothError::InvalidValue {
+                    field: "tear weights",
+                    expected: "one per particle",
+                    value: w.len() as f64,
+                });
+            }
+            for &x in w {
+                crate::error::non_negative("tear weight", x)?;
+            }
+        }
+        self.tear_weights = weights;
+        self.prepare_tearing();
+        Ok(())
+    }
+
+    /// The tear weights ([`Self::set_tear_weights`]), if set.
+    pub fn tear_weights(&self) -> Option<&[f32]> {
+        self.tear_weights.as_deref()
     }
 
     /// Replaces the cloth by `model`, its torn self with the `copies` made (each `(particle,
@@ -230,6 +263,10 @@ impl ClothSim {
         next.settings.pressure = self.settings.pressure;
         next.tears = self.tears + copies.len() as u64;
         next.pins = std::mem::take(&mut self.pins);
+        next.tear_weights = self.tear_weights.take().map(|w| {
+            let copied = copies.iter().map(|&(p, _)| w[p as usize]);
+            w.iter().copied().chain(copied).collect()
+        });
         next.contacts
             .limits_mut()
             .inherit_targets(self.contacts.limits(), copies);

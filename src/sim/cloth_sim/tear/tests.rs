@@ -363,3 +363,54 @@ fn the_sides_of_a_tear_collide_once_they_have_parted() {
         "the sides parted: none exempt of {together}"
     );
 }
+
+#[test]
+fn tear_weights_scale_the_threshold_particle_by_particle() {
+    let settings = SolverSettings {
+        integrator: Integrator::Xpbd,
+        particle_mass: 0.05,
+        ..SolverSettings::default()
+    };
+    let peak = peak_stretch(settings);
+    let tearing = Tearing {
+        enabled: true,
+        max_stretch: 0.9 * peak,
+        ..Tearing::default()
+    };
+    // Past the limit everywhere, but weights that lift it over the peak, except (in the second
+    // run) along the column i = 1, a weak seam beside a pin.
+    let run = |weak: f32| {
+        let mut sim = hanging(
+            16,
+            SolverSettings {
+                tearing,
+                ..settings
+            },
+        );
+        let weights = (0..256)
+            .map(|p| if p % 16 == 1 { weak } else { 1.3 })
+            .collect();
+        sim.set_tear_weights(Some(weights)).unwrap();
+        let mut splits = Vec::new();
+        for _ in 0..60 {
+            sim.step(DT).unwrap();
+            splits.extend(sim.tear(&[]).unwrap());
+        }
+        splits
+    };
+    assert!(
+        run(1.3).is_empty(),
+        "tore with every weight lifting the limit"
+    );
+    let splits = run(0.3);
+    assert!(!splits.is_empty(), "the weak seam did not tear");
+    for s in &splits {
+        let column = s.particle % 16;
+        assert!(column <= 2, "tore at column {column}, off the seam");
+    }
+    // Bad weights change nothing.
+    let mut sim = hanging(16, settings);
+    assert!(sim.set_tear_weights(Some(vec![1.0; 3])).is_err());
+    assert!(sim.set_tear_weights(Some(vec![-1.0; 256])).is_err());
+    assert!(sim.tear_weights().is_none());
+}
