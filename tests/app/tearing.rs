@@ -191,7 +191,7 @@ fn tear_weights_hold_an_overloaded_cloth_together_and_a_bad_list_is_refused() {
         (
             Cloth::grid(GridSpec::new(n, n, 0.05).with_plane(GridPlane::Vertical)),
             ClothPins::new([0, n - 1]),
-            config.clone(),
+            config,
             ClothTearWeights {
                 weights: TargetWeights::Values(weights),
             },
