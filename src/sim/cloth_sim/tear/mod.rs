@@ -179,6 +179,17 @@ impl ClothSim {
     /// The springs of a kind that tears stretched past the limit, the most stretched first.
     fn torn_springs(&self) -> Vec<(u32, u32)> {
         let x = &self.particles.positions;
+        let stretched = |&(a, b, limit): &(u32, u32, f32)| {
+            x[a as usize].distance_squared(x[b as usize]) > limit
+        };
+        // Nearly every step nothing tears: a pass with no branch to take first.
+        if !self
+            .tear_limits
+            .iter()
+            .fold(false, |any, s| any | stretched(s))
+        {
+            return Vec::new();
+        }
         let mut over: Vec<(f32, u32, u32)> = Vec::new();
         for &(a, b, limit) in &self.tear_limits {
             let length = x[a as usize].distance_squared(x[b as usize]);
@@ -209,6 +220,8 @@ impl ClothSim {
                     (a, b, ((1.0 + stretch) * rest).powi(2))
                 },
             ));
+        // In particle order the check walks the positions once, rather than once per colour.
+        self.tear_limits.sort_unstable_by_key(|&(a, b, _)| (a, b));
     }
 
     /// Scales [`Tearing::max_stretch`](crate::sim::Tearing) particle by particle, a weight per
