@@ -334,7 +334,8 @@ fn build_state(
         Some(_) if refined.is_some() => {
             return Err(ClothError::InvalidValue {
                 field: "ClothTearWeights",
-                expected: "a cloth simulated at its own resolution (subdivide its render mesh instead)",
+                expected: "a cloth simulated at its own resolution \
+                           (subdivide its render mesh instead)",
                 value: f64::from(refined.map_or(0, |s| s.level)),
             });
         }

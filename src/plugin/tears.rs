@@ -89,8 +89,8 @@ pub(super) fn queue_cuts(
 
 /// After a step that tore cloths: their copies of targeted particles join the targets and the
 /// pieces torn free leave them, as in the solver; pins are set again (weight-0 targets pin the
-/// copies too); the render side is rebuilt for the new
-/// particles and faces, and a [`ClothTorn`] is written.
+/// copies too); the render side is rebuilt for the new particles and faces, and a [`ClothTorn`]
+/// is written.
 #[allow(clippy::type_complexity)]
 pub(super) fn follow_tears(
     mut commands: Commands,

@@ -106,13 +106,14 @@ impl ClothSim {
     /// the spring and grows from its tip.
     ///
     /// The cloth goes on from where it is with the torn topology: copies start where their
-    /// particle is, moving as it moves, and keep its targets; pins hold the particles that keep
-    /// their indices (a copy of a pinned particle is free). A piece torn off every pin (and every
-    /// target of weight 0) while another piece keeps one loses its targets and falls free. Springs are rebuilt from the faces as
-    /// [`ClothModel::from_mesh`] builds them (hand-made springs of a model are replaced), masses
-    /// are shared by the faces' areas on each side (so the model holds per-particle masses from
-    /// then on), and a torn closed cloth loses its air. Returns the splits (none: nothing
-    /// changed). A bad cut is an error and changes nothing.
+    /// particle is, moving as it moves, and keep its targets and tear weight; pins hold the
+    /// particles that keep their indices (a copy of a pinned particle is free). A piece torn off
+    /// every pin (and every target of weight 0) while another piece keeps one loses its targets
+    /// and falls free. Springs are rebuilt from the faces as [`ClothModel::from_mesh`] builds
+    /// them (hand-made springs of a model are replaced), masses are shared by the faces' areas on
+    /// each side (so the model holds per-particle masses from then on), and a torn closed cloth
+    /// loses its air. Returns the splits (none: nothing changed). A bad cut is an error and
+    /// changes nothing.
     pub fn tear(&mut self, cuts: &[Cut]) -> Result<Vec<Split>, ClothError> {
         for cut in cuts {
             cut.validate()?;
@@ -256,7 +257,8 @@ impl ClothSim {
 
     /// Replaces the cloth by `model`, its torn self with the `copies` made (each `(particle,
     /// copy)`), going on from where it is: the copies where their particles are, the pins, the
-    /// targets (the copies' their particles'), the frame and the step count as they were.
+    /// targets and tear weights (a copy takes its particle's), the frame and the step count as
+    /// they were.
     fn continue_torn(
         &mut self,
         model: ClothModel,
@@ -360,8 +362,8 @@ fn cut_through(splitter: &mut Splitter, model: &ClothModel, cut: &Cut, positions
                 let t = ((x - start).dot(along) / along.length_squared()).clamp(0.0, 1.0);
                 x.distance_squared(start + t * along) <= radius * radius
             };
-            // Across the cloth: the plane holds the segment and the mean normal of the triangles at the
-            // particles it cuts.
+            // Across the cloth: the plane holds the segment and the mean normal of the
+            // triangles at the particles it cuts.
             let normal: Vec3 = model
                 .triangles
                 .chunks_exact(3)
