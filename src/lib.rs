@@ -30,8 +30,8 @@
 //! docs call it "the source paper".
 //!
 //! Layers: [`sim`] is the engine-free solver (plain data, every
-//! formula); [`components`] and [`plugin`] are the thin ECS layer; [`render`](crate::ClothState)
-//! writes meshes. Feature `render` brings Bevy's renderer for the windowed examples, `egui` the
+//! formula); [`components`], [`plugin`] and the tearing types ([`ClothCut`], [`ClothTorn`],
+//! [`ClothTearWeights`]) are the thin ECS layer; [`render`](crate::ClothState) writes meshes. Feature `render` brings Bevy's renderer for the windowed examples, `egui` the
 //! inspector panel, `harness` the test and benchmark harness (`harness`), `avian` the coupling
 //! with an avian3d physics world (`avian`).
 
@@ -51,12 +51,12 @@ pub mod scene;
 pub mod sim;
 mod skin;
 pub mod subdivision;
+mod tearing;
 
 pub use components::*;
 pub use error::ClothError;
-pub use plugin::{
-    ClothCut, ClothPlugin, ClothStepBudget, ClothSystems, ClothTearWeights, ClothTorn,
-};
+pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
+pub use tearing::{ClothCut, ClothTearWeights, ClothTorn};
 
 /// Everything a game usually needs: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
@@ -68,13 +68,14 @@ pub mod prelude {
         ClothTargets, PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
-    pub use crate::plugin::{ClothCut, ClothPlugin, ClothSystems, ClothTearWeights, ClothTorn};
+    pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{
         ClothModel, ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia,
         Integrator, Pressure, SelfCollision, SolverSettings, Stiffness, TargetLimits, Tearing,
         Tethers, WindZoneShape,
     };
     pub use crate::subdivision::{BoundaryMode, VertexRule};
+    pub use crate::tearing::{ClothCut, ClothTearWeights, ClothTorn};
 }
 
 /// The README's code blocks, compiled as doctests so the quick-start snippet stays true.

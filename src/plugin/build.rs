@@ -16,7 +16,6 @@ use bevy::transform::components::GlobalTransform;
 use super::edits::{commit_pins, plan_pins, report_edit, run_settings};
 use super::mesh::refresh_render;
 use super::poses::{invertible, pose_of};
-use super::tears::ClothTearWeights;
 use crate::components::{
     Cloth, ClothConfig, ClothEditRejected, ClothFrame, ClothInvalid, ClothPins, ClothSkin,
     ClothSource, ClothState, ClothSubdivision, ClothTargets, MAX_CLOTH_SUBDIVISION_LEVEL,
@@ -27,6 +26,7 @@ use crate::render;
 use crate::sim::{ClothModel, ClothSim, GridNormals, compute_normals};
 use crate::skin::{Attachment, influences_from_mesh, weights_from_mesh};
 use crate::subdivision::Subdivider;
+use crate::tearing::ClothTearWeights;
 
 /// A cloth spawned on a skinned mesh keeps the skin for its targets ([`ClothSkin`]); the
 /// renderer must not skin the simulated mesh again.

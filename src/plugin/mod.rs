@@ -19,6 +19,7 @@ use crate::components::{
     Wind, WindZone,
 };
 use crate::error::ClothError;
+use crate::tearing::{ClothCut, ClothTearWeights, ClothTorn};
 
 mod build;
 mod edits;
@@ -34,7 +35,6 @@ use edits::{apply_edits, restore_required};
 use inputs::{WindSnapshot, colliders_present, gather_wind, wind_present};
 use mesh::{SteppedInFixedUpdate, update_render_buffers, write_meshes};
 use pin_targets::resolve_pin_targets;
-pub use tears::{ClothCut, ClothTearWeights, ClothTorn};
 use tears::{follow_tears, queue_cuts};
 
 // For the avian coupling, which orders its systems around these.
