@@ -459,3 +459,26 @@ fn cloths_out_of_each_others_reach_never_search() {
         assert_eq!(sim(&app, e).cloth_contact_searches(), 0);
     }
 }
+
+#[test]
+fn a_cloth_cut_in_two_on_its_way_down_piles_without_crossing() {
+    // The tilted drop, cut in two across its middle five steps before it lands: the two halves
+    // land and fold onto each other, their torn edges taking part in self-collision like any.
+    let cut_drop = |on: bool| {
+        let (mut app, cloth) = upright_drop(32, 0.03, 0.005, on);
+        for _ in 0..5 {
+            app.update();
+        }
+        let x = sim(&app, cloth).positions();
+        let (centre, side) = (x[16 * 32 + 16], x[16 * 32 + 31]);
+        let cut = bevy_cloth::sim::Cut::Plane {
+            point: centre,
+            normal: side - centre,
+        };
+        app.world_mut().write_message(ClothCut { cloth, cut });
+        app.update();
+        assert_eq!(sim(&app, cloth).model().pieces().0, 2);
+        (app, cloth)
+    };
+    let _ = crosses_only_without(cut_drop, 300);
+}

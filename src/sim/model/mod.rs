@@ -28,7 +28,7 @@ pub(crate) use normals::two_rows;
 pub use springs::{MAX_SPRINGS_PER_PARTICLE, SpringKind, Springs};
 use springs::{check_spring_counts, face_springs, face_triangles};
 pub use subdivided::SubdividedModel;
-pub(crate) use tear::Splitter;
+pub(crate) use tear::{Splitter, pull_apart};
 
 /// A triangle whose doubled area is at most this fraction of the square of its longest edge (its
 /// height is at most a millionth of that edge) counts as having zero area: [`ClothModel::from_mesh`]

@@ -262,15 +262,17 @@ impl<'a> Splitter<'a> {
 
     /// The torn model: the split faces with the springs [`ClothModel::from_mesh`] builds on them
     /// (none across a tear; each side keeps its edge), the model's triangles re-attached to the
-    /// copies their faces took, copies at their origin's rest position and texture coordinate,
-    /// and the shared masses.
-    pub fn finish(self) -> Result<ClothModel, ClothError> {
+    /// copies their faces took, copies at their origin's rest position and texture coordinate
+    /// (with `gap` above 0, the rest positions of the particles `apart` pulled apart by it, see
+    /// [`pull_apart`]), and the shared masses.
+    pub fn finish(self, (apart, gap): (&[u32], f32)) -> Result<ClothModel, ClothError> {
         let model = self.model;
         let size = model.face_size;
         let origins = (0..model.particle_count() as u32).chain(self.origin.iter().copied());
-        let (rest_positions, uvs): (Vec<Vec3>, Vec<Vec2>) = origins
+        let (mut rest_positions, uvs): (Vec<Vec3>, Vec<Vec2>) = origins
             .map(|o| (model.rest_positions[o as usize], model.uvs[o as usize]))
             .unzip();
+        pull_apart(&self.faces, size, &mut rest_positions, apart, gap);
         let pairs = face_springs(&self.faces, size)?;
         check_spring_counts(rest_positions.len(), pairs.iter().map(|&(a, b, _)| (a, b)))?;
         let springs = Springs::build(&rest_positions, &pairs);
@@ -304,6 +306,40 @@ impl<'a> Splitter<'a> {
             grid: None,
             particle_masses: Some(self.masses),
         })
+    }
+}
+
+/// Moves each of the `split` particles (at `positions`, on `faces` of `size` corners) by `gap`
+/// (at most a quarter of the way) toward the middle of its own faces: the two sides of a tear,
+/// which were one, then lie `2 gap` apart across it.
+pub(crate) fn pull_apart(
+    faces: &[u32],
+    size: usize,
+    positions: &mut [Vec3],
+    split: &[u32],
+    gap: f32,
+) {
+    if gap <= 0.0 || split.is_empty() {
+        return;
+    }
+    let mut split = split.to_vec();
+    split.sort_unstable();
+    split.dedup();
+    let mut sum = vec![(Vec3::ZERO, 0u32); split.len()];
+    for face in faces.chunks_exact(size) {
+        let centre = face.iter().map(|&c| positions[c as usize]).sum::<Vec3>() / size as f32;
+        for &c in face {
+            if let Ok(k) = split.binary_search(&c) {
+                sum[k].0 += centre;
+                sum[k].1 += 1;
+            }
+        }
+    }
+    for (&p, &(total, count)) in split.iter().zip(&sum) {
+        if count > 0 {
+            let to = total / count as f32 - positions[p as usize];
+            positions[p as usize] += to * (gap / to.length().max(4.0 * gap));
+        }
     }
 }
 

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ClothSim;
 use crate::error::{ClothError, finite_vec3, positive};
-use crate::sim::model::{ClothModel, Splitter};
+use crate::sim::model::{ClothModel, Splitter, pull_apart};
 use crate::sim::settings::Pressure;
 
 /// A cut through a cloth, in world space ([`ClothSim::tear`]). Cuts follow the cloth's edges: a
@@ -172,8 +172,18 @@ impl ClothSim {
                 position: positions[particle as usize],
             })
             .collect();
-        let model = splitter.finish()?;
-        self.continue_torn(model, &copies)?;
+        // A self-colliding cloth's sides are pulled apart by the thickness, so that they are
+        // layers on either side of a gap rather than one.
+        let c = self.settings.self_collision;
+        let gap = if c.enabled { 0.6 * c.thickness } else { 0.0 };
+        // Pinned particles stay where their pins hold them.
+        let apart: Vec<u32> = copies
+            .iter()
+            .flat_map(|&(p, c)| [p, c])
+            .filter(|&p| self.pins.iter().all(|pin| pin.particle != p))
+            .collect();
+        let model = splitter.finish((&apart, gap))?;
+        self.continue_torn(model, &copies, (&apart, gap))?;
         Ok(splits)
     }
 
@@ -263,6 +273,7 @@ impl ClothSim {
         &mut self,
         model: ClothModel,
         copies: &[(u32, u32)],
+        (apart, gap): (&[u32], f32),
     ) -> Result<(), ClothError> {
         let mut settings = self.settings;
         // An open cloth holds no air; the setting stays, as it is for any cloth torn open.
@@ -275,6 +286,8 @@ impl ClothSim {
             *x = self.particles.positions[o as usize];
             *v = self.particles.velocities[o as usize];
         }
+        let (faces, size) = (&next.model.faces, next.model.face_size);
+        pull_apart(faces, size, &mut next.particles.positions, apart, gap);
         next.settings.pressure = self.settings.pressure;
         next.tears = self.tears + copies.len() as u64;
         next.pins = std::mem::take(&mut self.pins);
