@@ -79,10 +79,9 @@ fn a_cut_message_tears_the_subdivided_cloth_in_two_and_a_torn_message_follows() 
     );
 }
 
-#[test]
-fn an_overloaded_cloth_tears_under_strain_and_a_bad_cut_is_dropped() {
-    let mut app = app_logging_tears();
-    let n = 12u32;
+/// Heavy particles (0.2 kg) on springs that tear past 5% stretch: a 12×12 cloth hanging from two
+/// corners tears within a second.
+fn overloaded() -> ClothConfig {
     let mut config = ClothConfig::default();
     config.solver.particle_mass = 0.2;
     config.solver.tearing = Tearing {
@@ -90,6 +89,14 @@ fn an_overloaded_cloth_tears_under_strain_and_a_bad_cut_is_dropped() {
         max_stretch: 0.05,
         ..Tearing::default()
     };
+    config
+}
+
+#[test]
+fn an_overloaded_cloth_tears_under_strain_and_a_bad_cut_is_dropped() {
+    let mut app = app_logging_tears();
+    let n = 12u32;
+    let config = overloaded();
     let e = spawn_valid(
         &mut app,
         (
@@ -180,13 +187,7 @@ fn a_cloth_cut_below_its_targets_keeps_its_top_half_on_them() {
 fn tear_weights_hold_an_overloaded_cloth_together_and_a_bad_list_is_refused() {
     let mut app = app_logging_tears();
     let n = 12u32;
-    let mut config = ClothConfig::default();
-    config.solver.particle_mass = 0.2;
-    config.solver.tearing = Tearing {
-        enabled: true,
-        max_stretch: 0.05,
-        ..Tearing::default()
-    };
+    let config = overloaded();
     let cloth = |weights: Vec<f32>| {
         (
             Cloth::grid(GridSpec::new(n, n, 0.05).with_plane(GridPlane::Vertical)),
