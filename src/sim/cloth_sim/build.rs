@@ -159,6 +159,11 @@ impl ClothSim {
             (&self.model.triangles, &self.model.rest_positions),
             &pinned,
         );
+        // A torn cloth's paths along itself are longer than they were, and may lead to another
+        // pin: its tethers start no shorter than where the particles are.
+        if self.tears > 0 {
+            limits.fit_tethers(&self.particles.positions);
+        }
         self.prepare_tearing();
         let mut scratch = vec![0.0; self.particles.positions.len()];
         self.spring_frequency =

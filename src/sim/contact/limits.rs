@@ -162,6 +162,17 @@ impl Limits {
         }
     }
 
+    /// Lengthens each tether that its particle, at `x`, is farther from its anchor than: a tear
+    /// lengthens paths along the cloth and may tie a particle to another pin, which must not pull
+    /// it in all at once.
+    pub fn fit_tethers(&mut self, x: &[Vec3]) {
+        for t in &mut self.tethers {
+            t.length = t
+                .length
+                .max(x[t.particle as usize].distance(x[t.anchor as usize]));
+        }
+    }
+
     /// Ties every particle that a path along the `triangles`' edges joins to a pinned particle
     /// (`pinned[i]`) to the nearest such one, at `1 + slack` times their distance along the
     /// edges at rest (`rest`); or drops every tether when `tethers` is off or nothing is pinned.
