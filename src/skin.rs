@@ -134,15 +134,11 @@ impl Attachment {
     /// Keeps the weighted particles for which `keep(particle, weight)` holds, drops the others.
     pub fn retain(&mut self, keep: impl Fn(u32, f32) -> bool) {
         let kept: Vec<bool> = self.weighted.iter().map(|&(p, w)| keep(p, w)).collect();
-        let mut k = kept.iter();
-        self.weighted.retain(|_| *k.next().unwrap_or(&true));
-        for list in [&mut self.rest, &mut self.targets] {
-            let mut k = kept.iter();
-            list.retain(|_| *k.next().unwrap_or(&true));
-        }
+        retain_by(&mut self.weighted, &kept);
+        retain_by(&mut self.rest, &kept);
+        retain_by(&mut self.targets, &kept);
         if let Some((influences, _)) = &mut self.skin {
-            let mut k = kept.iter();
-            influences.retain(|_| *k.next().unwrap_or(&true));
+            retain_by(influences, &kept);
         }
     }
 
@@ -172,6 +168,15 @@ impl Attachment {
             *t = skin_point(&self.joint_matrices, inf, *p, *n);
         }
     }
+}
+
+/// Keeps the entries of `list` whose `kept` (one per entry) is true.
+fn retain_by<T>(list: &mut Vec<T>, kept: &[bool]) {
+    let mut k = 0;
+    list.retain(|_| {
+        k += 1;
+        kept[k - 1]
+    });
 }
 
 /// The linear-blend skinned position and unit normal of a vertex at `p` with normal `n`:

@@ -19,6 +19,17 @@ fn app_logging_tears() -> App {
     app
 }
 
+/// Cuts cloth `e` along the level plane through its particle `particle`, and takes a step.
+fn cut_level_through(app: &mut App, e: Entity, particle: usize) {
+    let point = state(app, e).positions()[particle];
+    let cut = Cut::Plane {
+        point,
+        normal: Vec3::Y,
+    };
+    app.world_mut().write_message(ClothCut { cloth: e, cut });
+    run(app, 1);
+}
+
 /// The lowest height of the particles of `piece`.
 fn lowest(app: &App, e: Entity, pieces: &[u32], piece: u32) -> f32 {
     state(app, e)
@@ -46,15 +57,7 @@ fn a_cut_message_tears_the_subdivided_cloth_in_two_and_a_torn_message_follows() 
     );
     run(&mut app, 20);
     let before = vertex_count(&app, e);
-    let point = state(&app, e).positions()[(8 * n + 4) as usize];
-    app.world_mut().write_message(ClothCut {
-        cloth: e,
-        cut: Cut::Plane {
-            point,
-            normal: Vec3::Y,
-        },
-    });
-    run(&mut app, 1);
+    cut_level_through(&mut app, e, (8 * n + 4) as usize);
     let log = &app.world().resource::<TornLog>().0;
     assert_eq!(log.len(), 1, "one torn message");
     assert_eq!(log[0].cloth, e);
@@ -141,15 +144,7 @@ fn a_cloth_cut_below_its_targets_keeps_its_top_half_on_them() {
         ),
     );
     run(&mut app, 10);
-    let point = state(&app, e).positions()[(6 * n + 3) as usize];
-    app.world_mut().write_message(ClothCut {
-        cloth: e,
-        cut: Cut::Plane {
-            point,
-            normal: Vec3::Y,
-        },
-    });
-    run(&mut app, 1);
+    cut_level_through(&mut app, e, (6 * n + 3) as usize);
     let (count, pieces) = sim(&app, e).model().pieces();
     assert_eq!(count, 2);
     // The entity walks 1 m on; the top half goes along on its targets, the bottom falls.

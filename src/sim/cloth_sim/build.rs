@@ -23,6 +23,18 @@ impl ClothSim {
         settings: SolverSettings,
         to_world: impl Fn(Vec3) -> Vec3,
     ) -> Result<Self, ClothError> {
+        let mut sim = Self::assemble(model, settings, to_world)?;
+        sim.apply_settings();
+        Ok(sim)
+    }
+
+    /// [`Self::new`] but for what its settings derive ([`Self::apply_settings`]): for a caller
+    /// that sets pins and targets first and then applies the settings once.
+    pub(super) fn assemble(
+        model: ClothModel,
+        settings: SolverSettings,
+        to_world: impl Fn(Vec3) -> Vec3,
+    ) -> Result<Self, ClothError> {
         settings.validate()?;
         // The steppers' vector kernels and threads rely on a consistent model (indices in range,
         // a proper colouring, a truthful grid): checked here, where every model enters.
@@ -81,7 +93,6 @@ impl ClothSim {
         };
         sim.check_air(settings)?;
         sim.prepare_self_contacts(settings.self_collision)?;
-        sim.apply_settings();
         Ok(sim)
     }
 

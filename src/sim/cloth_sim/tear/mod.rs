@@ -278,7 +278,7 @@ impl ClothSim {
         let mut settings = self.settings;
         // An open cloth holds no air; the setting stays, as it is for any cloth torn open.
         settings.pressure = Pressure::Off;
-        let mut next = ClothSim::new(model, settings, |p| p)?;
+        let mut next = ClothSim::assemble(model, settings, |p| p)?;
         let n = self.particles.positions.len();
         let origins = (0..n as u32).chain(copies.iter().map(|&(p, _)| p));
         let p = &mut next.particles;
