@@ -392,3 +392,6 @@ mod inertia;
 
 #[path = "character/skinned.rs"]
 mod skinned;
+
+#[path = "character/crowd.rs"]
+mod crowd;

@@ -5,7 +5,7 @@
 //! bit-for-bit regression checks ([`stress::state_hash`], [`scene_state_hash`]).
 //! None of it is needed to simulate cloth in a game.
 
-pub mod character;
+pub use crate::scene::character;
 pub mod fuzz;
 pub mod reference;
 pub mod scenes;

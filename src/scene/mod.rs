@@ -1,6 +1,6 @@
-//! Scene files: a RON description of a cloth, the copies of it to lay out, and its surroundings
-//! (colliders, wind), used by `cloth_cli`, the tests and the presets in `assets/scenes/`. Parsing
-//! and validation, and spawning into a world.
+//! Scene files: a RON description of a cloth, the copies of it to lay out, its surroundings
+//! (colliders, wind) and further cloths beside it, used by `cloth_cli`, the tests and the presets
+//! in `assets/scenes/`. Parsing and validation, and spawning into a world.
 //!
 //! ```ron
 //! (
@@ -28,7 +28,25 @@
 //!     colliders: [(shape: Plane(normal: (0.0, 1.0, 0.0)), shared: true)],
 //! )
 //! ```
+//!
+//! A crowd: a hundred characters in capes walking circles, each a third of a second ahead of the
+//! one before, and beside them a flag in the wind:
+//!
+//! ```ron
+//! (
+//!     cloth: Cape(nx: 20, ny: 25),
+//!     walk: (speed: 1.0, radius: 2.0, sway: 0.3),
+//!     copies: (count: 100, spacing: 6.0, phase: 0.33),
+//!     also: [(
+//!         cloth: Grid((nx: 32, ny: 24, spacing: 0.05, plane: Vertical)),
+//!         translation: (-6.0, 3.0, 0.0),
+//!         pins: [0, 31],
+//!     )],
+//!     wind: Some((velocity: (4.0, 0.0, 1.0), gusts: Some((seed: 7)))),
+//! )
+//! ```
 
+pub mod character;
 mod colliders;
 mod wind;
 
@@ -40,11 +58,12 @@ use bevy::math::Vec3;
 use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
 
+pub use character::{SceneWalk, Walker};
 pub use colliders::{ConstantVelocity, SceneCollider, SceneShape};
 pub use wind::{DEFAULT_SCENE_WIND_ZONE_FALLOFF, SceneWind, SceneWindZone, SceneWindZoneShape};
 
 use crate::components::{Cloth, ClothConfig, ClothPins, ClothTargets, TargetWeights};
-use crate::error::{ClothError, positive};
+use crate::error::{ClothError, finite, positive};
 use crate::plugin::ClothSystems;
 use crate::sim::{ClothModel, GridSpec, SolverSettings};
 use colliders::{finite_placement, move_at_constant_velocity, placement};
@@ -78,6 +97,15 @@ pub enum SceneCloth {
         /// Side of its quads, about, m.
         spacing: f32,
     },
+    /// A character's cape ([`character::Cape`]) of `nx` × `ny` particles (at least 2 each),
+    /// skinned to a two-joint torso that walks as the scene's [`walk`](ClothScene::walk) says; its
+    /// collar is pinned to the skin and the rest held near it ([`SolverSettings::targets`]).
+    Cape {
+        /// Particles across.
+        nx: u32,
+        /// Particles down.
+        ny: u32,
+    },
 }
 
 impl SceneCloth {
@@ -97,6 +125,17 @@ impl SceneCloth {
                 ClothModel::icosphere_particle_count(subdivisions)
             }
             SceneCloth::Cuboid { .. } => Ok(self.model()?.particle_count()),
+            &SceneCloth::Cape { nx, ny } => {
+                let count = nx as u64 * ny as u64;
+                if nx < 2 || ny < 2 || count > crate::sim::MAX_PARTICLES as u64 {
+                    return Err(ClothError::InvalidValue {
+                        field: "cape nx × ny",
+                        expected: "at least 2 each and at most MAX_PARTICLES in all",
+                        value: count as f64,
+                    });
+                }
+                Ok(count as usize)
+            }
         }
     }
 
@@ -109,14 +148,25 @@ impl SceneCloth {
                 subdivisions,
             } => ClothModel::icosphere(radius, subdivisions),
             SceneCloth::Cuboid { size, spacing } => ClothModel::cuboid(size, spacing),
+            SceneCloth::Cape { nx, ny } => {
+                self.particle_count()?;
+                let cape = character::Cape::new(nx as usize, ny as usize);
+                let indices: Vec<u32> = cape
+                    .mesh
+                    .indices()
+                    .map_or_else(Vec::new, |i| i.iter().map(|i| i as u32).collect());
+                ClothModel::from_mesh(&cape.rest, None, &indices, 3)
+            }
         }
     }
 
-    /// The cloth component: a grid, or the model (built here) of a closed shape.
-    pub fn component(&self) -> Result<Cloth, ClothError> {
+    /// The cloth component: a grid, or the model (built here) of a closed shape; `None` for a
+    /// cape, whose cloth is its mesh asset (spawned by [`ClothScene::spawn_copies`]).
+    pub fn component(&self) -> Result<Option<Cloth>, ClothError> {
         Ok(match self {
-            SceneCloth::Grid(spec) => Cloth::grid(*spec),
-            _ => Cloth::from_model(self.model()?),
+            SceneCloth::Grid(spec) => Some(Cloth::grid(*spec)),
+            SceneCloth::Cape { .. } => None,
+            _ => Some(Cloth::from_model(self.model()?)),
         })
     }
 }
@@ -134,8 +184,9 @@ pub const DEFAULT_COPY_SPACING: f32 = 100.0;
 
 /// Copies of a scene's cloth laid out on a square grid in the XZ plane: copy `k` sits in column
 /// `k % columns` (along +X) and row `k / columns` (along +Z), `spacing` apart, the first where the
-/// scene puts it. Each copy brings its own colliders (but those marked
-/// [`shared`](SceneCollider::shared)) and wind zones; the global wind is one.
+/// scene puts it, its character's walk `k × phase` seconds ahead of the first's. Each copy brings
+/// its own colliders (but those marked [`shared`](SceneCollider::shared)) and wind zones; the
+/// global wind is one.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneCopies {
@@ -148,6 +199,10 @@ pub struct SceneCopies {
     /// Distance between neighbouring copies, m; default [`DEFAULT_COPY_SPACING`].
     #[serde(default = "default_copy_spacing")]
     pub spacing: f32,
+    /// Seconds each copy's walk ([`ClothScene::walk`]) runs ahead of the copy before it; 0 by
+    /// default (all in step).
+    #[serde(default)]
+    pub phase: f32,
 }
 
 impl Default for SceneCopies {
@@ -156,6 +211,7 @@ impl Default for SceneCopies {
             count: 1,
             columns: None,
             spacing: DEFAULT_COPY_SPACING,
+            phase: 0.0,
         }
     }
 }
@@ -177,7 +233,8 @@ impl SceneCopies {
                 value: 0.0,
             });
         }
-        positive("copies.spacing", self.spacing)
+        positive("copies.spacing", self.spacing)?;
+        finite("copies.phase", self.phase)
     }
 
     /// The offset of copy `k` from the first, m.
@@ -190,8 +247,8 @@ impl SceneCopies {
     }
 }
 
-/// What scenes need beyond [`crate::ClothPlugin`]: moving [`ConstantVelocity`] entities in
-/// `FixedUpdate` after [`ClothSystems::Step`].
+/// What scenes need beyond [`crate::ClothPlugin`], in `FixedUpdate`: moving [`ConstantVelocity`]
+/// entities after [`ClothSystems::Step`], and posing [`Walker`]s before the cloths step.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct ScenePlugin;
 
@@ -199,7 +256,10 @@ impl Plugin for ScenePlugin {
     fn build(&self, app: &mut App) {
         app.add_systems(
             FixedUpdate,
-            move_at_constant_velocity.after(ClothSystems::Step),
+            (
+                move_at_constant_velocity.after(ClothSystems::Step),
+                character::walk_characters.before(ClothSystems::Prepare),
+            ),
         );
     }
 }
@@ -208,8 +268,8 @@ fn default_dt() -> f32 {
     1.0 / 60.0
 }
 
-/// A simulated cloth with its settings and environment, and how many copies of it to lay out, as
-/// stored in a `.ron` file.
+/// A simulated cloth with its settings and environment, how many copies of it to lay out, and
+/// further cloths beside it, as stored in a `.ron` file.
 ///
 /// Every field but `cloth` has a default; unknown fields are an error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -244,9 +304,17 @@ pub struct ClothScene {
     /// Wind and wind zones; none by default (no aerodynamic forces at all).
     #[serde(default)]
     pub wind: Option<SceneWind>,
+    /// How a [`SceneCloth::Cape`]'s character moves; standing still by default.
+    #[serde(default)]
+    pub walk: SceneWalk,
     /// Copies of the cloth, with its colliders and wind zones, side by side; one by default.
     #[serde(default)]
     pub copies: SceneCopies,
+    /// Further cloths, each a scene of its own (with its colliders and copies) but for the time
+    /// step and the wind, which are this scene's: each one's `dt` must equal this one's and its
+    /// `wind` and `also` must be left out. None by default.
+    #[serde(default)]
+    pub also: Vec<ClothScene>,
 }
 
 impl ClothScene {
@@ -280,14 +348,72 @@ impl ClothScene {
     /// field and value; an error in a collider is a [`ClothError::InScene`] saying which one
     /// (`colliders[2]`).
     pub fn validate(&self) -> Result<(), ClothError> {
+        self.validate_one()?;
+        let mut all = self.particles_of_copies()?;
+        for (i, other) in self.also.iter().enumerate() {
+            let location = || format!("also[{i}]");
+            let nested = |what: &'static str, value: f64| ClothError::InScene {
+                location: location(),
+                error: Box::new(ClothError::InvalidValue {
+                    field: what,
+                    expected: "left out: the enclosing scene's applies",
+                    value,
+                }),
+            };
+            if other.dt != self.dt {
+                return Err(nested("dt", other.dt as f64));
+            }
+            if other.wind.is_some() {
+                return Err(nested("wind", 1.0));
+            }
+            if !other.also.is_empty() {
+                return Err(nested("also", other.also.len() as f64));
+            }
+            other
+                .validate_one()
+                .and_then(|()| other.particles_of_copies())
+                .map(|count| all = all.saturating_add(count))
+                .map_err(|e| ClothError::InScene {
+                    location: location(),
+                    error: Box::new(e),
+                })?;
+        }
+        crate::error::at_most("particles of all cloths", all, MAX_SCENE_PARTICLES, || {
+            "MAX_SCENE_PARTICLES".to_string()
+        })
+    }
+
+    /// The particles of the scene's own copies.
+    fn particles_of_copies(&self) -> Result<usize, ClothError> {
+        let all = self
+            .cloth
+            .particle_count()?
+            .saturating_mul(self.copies.count as usize);
+        crate::error::at_most("particles of all copies", all, MAX_SCENE_PARTICLES, || {
+            "MAX_SCENE_PARTICLES".to_string()
+        })?;
+        Ok(all)
+    }
+
+    /// [`validate`](Self::validate) but for the further cloths.
+    fn validate_one(&self) -> Result<(), ClothError> {
         crate::plugin::validate_fixed_step(self.dt)?;
         self.solver.validate()?;
         let count = self.cloth.particle_count()?;
         self.copies.validate()?;
-        let all = count.saturating_mul(self.copies.count as usize);
-        crate::error::at_most("particles of all copies", all, MAX_SCENE_PARTICLES, || {
-            "MAX_SCENE_PARTICLES".to_string()
-        })?;
+        self.walk.validate()?;
+        let is_cape = matches!(self.cloth, SceneCloth::Cape { .. });
+        if !is_cape && self.walk != SceneWalk::default() {
+            return Err(ClothError::Scene(
+                "walk moves a character: it needs a Cape cloth".to_string(),
+            ));
+        }
+        if is_cape && self.target_weights.is_some() {
+            return Err(ClothError::Scene(
+                "a Cape takes its target weights from its mesh: leave target_weights out"
+                    .to_string(),
+            ));
+        }
         crate::error::at_most("pins", self.pins.len(), count, || {
             format!("one per particle of the cloth, which has {count}")
         })?;
@@ -339,18 +465,36 @@ impl ClothScene {
     }
 
     /// [`spawn`](Self::spawn), returning every copy's cloth entity in the order of
-    /// [`SceneCopies`] (never empty). The copies share one model.
+    /// [`SceneCopies`] (never empty), then those of the further cloths ([`also`](Self::also)), in
+    /// order. The copies of a cloth share one model.
     pub fn spawn_copies(&self, world: &mut World) -> Result<Vec<Entity>, ClothError> {
         self.copies.validate()?;
         if let Some(wind) = &self.wind {
             wind.validate()?;
             world.insert_resource(wind.resource());
         }
+        let mut cloths = self.spawn_own(world)?;
+        for other in &self.also {
+            cloths.extend(other.spawn_own(world)?);
+        }
+        Ok(cloths)
+    }
+
+    /// Spawns this scene's own copies with their colliders and wind zones.
+    fn spawn_own(&self, world: &mut World) -> Result<Vec<Entity>, ClothError> {
         for c in self.colliders.iter().filter(|c| c.shared) {
             world.spawn(c.bundle()?);
         }
-        let (cloth, config, pins) = self.components()?;
+        let (config, pins) = self.settings();
+        let cloth = self.cloth.component()?;
         let targets = self.targets();
+        let cape = match self.cloth {
+            SceneCloth::Cape { nx, ny } => Some(character::cape_assets(
+                world,
+                &character::Cape::new(nx as usize, ny as usize),
+            )),
+            _ => None,
+        };
         let mut cloths = Vec::with_capacity(self.copies.count as usize);
         for k in 0..self.copies.count {
             let offset = self.copies.offset(k);
@@ -364,11 +508,19 @@ impl ClothScene {
             }
             let mut transform = self.transform();
             transform.translation += offset;
-            let mut entity = world.spawn((cloth.clone(), config, pins.clone(), transform));
+            let placed = (config, pins.clone(), transform);
+            let entity = match (&cloth, &cape) {
+                (Some(cloth), _) => world.spawn((cloth.clone(), placed)).id(),
+                (None, Some(cape)) => {
+                    let phase = self.copies.phase * k as f32;
+                    character::spawn_character(world, cape, placed, self.walk, phase)
+                }
+                (None, None) => unreachable!("only a cape has no cloth component"),
+            };
             if let Some(targets) = &targets {
-                entity.insert(targets.clone());
+                world.entity_mut(entity).insert(targets.clone());
             }
-            cloths.push(entity.id());
+            cloths.push(entity);
         }
         Ok(cloths)
     }
@@ -387,20 +539,23 @@ impl ClothScene {
 
     /// The components of the scene's (first) cloth entity (but its [`targets`](Self::targets),
     /// which [`spawn`](Self::spawn) adds). Display interpolation is off, so the mesh shows exactly
-    /// the simulated state.
+    /// the simulated state. A [`SceneCloth::Cape`] has none: it is spawned with its torso by
+    /// [`spawn`](Self::spawn).
     pub fn bundle(&self) -> Result<impl Bundle, ClothError> {
-        let (cloth, config, pins) = self.components()?;
+        let cloth = self.cloth.component()?.ok_or_else(|| {
+            ClothError::Scene("a Cape is spawned with its torso: use ClothScene::spawn".to_string())
+        })?;
+        let (config, pins) = self.settings();
         Ok((cloth, config, pins, self.transform()))
     }
 
-    fn components(&self) -> Result<(Cloth, ClothConfig, ClothPins), ClothError> {
+    fn settings(&self) -> (ClothConfig, ClothPins) {
         let config = ClothConfig {
             solver: self.solver,
             interpolate: false,
             ..Default::default()
         };
-        let pins = ClothPins::new(self.pins.iter().copied());
-        Ok((self.cloth.component()?, config, pins))
+        (config, ClothPins::new(self.pins.iter().copied()))
     }
 }
 

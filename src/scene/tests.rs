@@ -187,6 +187,7 @@ fn copies_lay_out_on_a_square_grid() {
         count: 7,
         columns: None,
         spacing: 2.0,
+        phase: 0.0,
     };
     // ⌈√7⌉ = 3 columns along +X, rows along +Z.
     assert_eq!(copies.offset(0), Vec3::ZERO);
@@ -262,4 +263,107 @@ fn copies_bring_their_own_colliders_and_zones_but_share_the_shared_ones() {
         other => panic!("{other:?}"),
     };
     assert!(std::sync::Arc::ptr_eq(&model(cloths[0]), &model(cloths[2])));
+}
+
+#[test]
+fn the_crowd_scene_holds_capes_and_flags() {
+    let s = ClothScene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/scenes/crowd.ron"
+    ))
+    .unwrap();
+    assert_eq!(s.cloth, SceneCloth::Cape { nx: 20, ny: 25 });
+    assert_eq!(s.cloth.particle_count().unwrap(), 500);
+    assert_eq!(s.cloth.model().unwrap().particle_count(), 500);
+    assert_eq!(s.also.len(), 1);
+    assert!(s.walk.speed > 0.0);
+    assert!(s.copies.phase > 0.0);
+}
+
+#[test]
+fn further_cloths_and_walks_are_checked() {
+    let grid = "Grid((nx: 4, ny: 3, spacing: 0.1))";
+    for (text, wanted) in [
+        (
+            format!("(cloth: {grid}, walk: (speed: 1.0, radius: 1.0))"),
+            "Cape",
+        ),
+        (
+            "(cloth: Cape(nx: 4, ny: 4), walk: (speed: 1.0))".to_string(),
+            "walk.radius",
+        ),
+        (
+            "(cloth: Cape(nx: 4, ny: 4), walk: (speed: -1.0, radius: 1.0))".to_string(),
+            "walk.speed",
+        ),
+        ("(cloth: Cape(nx: 1, ny: 4))".to_string(), "cape nx × ny"),
+        (
+            "(cloth: Cape(nx: 2, ny: 2), target_weights: Some([0.0, 0.0, 1.0, 1.0]))".to_string(),
+            "target weights from its mesh",
+        ),
+        (
+            format!("(cloth: {grid}, copies: (phase: inf))"),
+            "copies.phase",
+        ),
+        (
+            format!("(cloth: {grid}, also: [(cloth: {grid}, dt: 0.01)])"),
+            "also[0]: dt",
+        ),
+        (
+            format!("(cloth: {grid}, also: [(cloth: {grid}), (cloth: {grid}, wind: Some(()))])"),
+            "also[1]: wind",
+        ),
+        (
+            format!("(cloth: {grid}, also: [(cloth: {grid}, also: [(cloth: {grid})])])"),
+            "also[0]: also",
+        ),
+        (
+            format!("(cloth: {grid}, also: [(cloth: {grid}, pins: [12])])"),
+            "also[0]",
+        ),
+        // 8 copies of a 512 × 2048 grid, then 8 more beside them: too many particles in all.
+        (
+            format!(
+                "(cloth: Grid((nx: 512, ny: 2048, spacing: 0.01)), copies: (count: 8),
+                  also: [(cloth: Grid((nx: 512, ny: 2048, spacing: 0.01)), copies: (count: 9))])"
+            ),
+            "particles of all cloths",
+        ),
+    ] {
+        let e = ClothScene::from_ron(&text).unwrap_err();
+        assert!(e.to_string().contains(wanted), "{text}: {e}");
+    }
+}
+
+#[test]
+fn walks_start_at_the_placement_and_follow_their_circle() {
+    let walk = SceneWalk {
+        speed: 1.0,
+        radius: 2.0,
+        sway: 0.5,
+        sway_rate: 0.25,
+    };
+    let (root, spine) = walk.pose(0.0);
+    assert_eq!(root.translation, Vec3::ZERO);
+    assert_eq!(spine.translation, character::SPINE);
+    // A quarter of the circle (π m at 1 m/s): 2 m across and 2 m ahead, facing +X.
+    let (root, spine) = walk.pose(std::f32::consts::PI);
+    assert!(
+        (root.translation - Vec3::new(2.0, 0.0, 2.0)).length() < 1e-5,
+        "{root:?}"
+    );
+    assert!((root.rotation * Vec3::Z - Vec3::X).length() < 1e-5);
+    // The spine at the top of its sway after a quarter period (1 s).
+    let (_, spine_1) = walk.pose(1.0);
+    assert!((spine_1.rotation.to_axis_angle().1 - 0.5).abs() < 1e-5);
+    assert!(spine.rotation.is_finite());
+    // Standing still: no motion at all.
+    let (root, spine) = SceneWalk::default().pose(7.0);
+    assert_eq!(
+        (root, spine),
+        (
+            Transform::IDENTITY,
+            Transform::from_translation(character::SPINE)
+        )
+    );
 }
