@@ -100,6 +100,10 @@ enum Command {
         /// (`harness::use_single_threaded_frame`).
         #[arg(long)]
         single_threaded: bool,
+        /// Leave the scene's levels of detail, viewer and budget out: every cloth at full
+        /// quality.
+        #[arg(long)]
+        full_quality: bool,
     },
     /// The stress suite: seeded random cloths at the limits of every setting, checked every step
     /// (no NaN, no panic, bounded energy, nothing inside a collider, pins exact). Prints a table
@@ -378,6 +382,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             copies,
             threads,
             single_threaded,
+            full_quality,
         } => {
             if let Some(threads) = threads {
                 // Before the App exists, so that its TaskPoolPlugin finds this pool.
@@ -387,7 +392,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .build()
                 });
             }
-            let line = bench::bench_scene(&scene, frames, copies, single_threaded)?;
+            let line = bench::bench_scene(
+                &scene,
+                frames,
+                bench::Variant {
+                    copies,
+                    single_threaded,
+                    full_quality,
+                },
+            )?;
             println!("{line}");
         }
         Command::Stress {

@@ -706,6 +706,8 @@ pub struct ClothState {
     /// The cloth is asleep and both render states already hold its resting pose: nothing to
     /// refresh, interpolate or write until it wakes.
     pub(crate) at_rest: bool,
+    /// Its level of detail ([`ClothLod`](crate::ClothLod)).
+    pub(crate) lod: crate::lod::LodState,
 }
 
 /// Particle `index` of a cloth's unrefined model mapped through `map` (none: identity over

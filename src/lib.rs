@@ -45,6 +45,7 @@ mod hash;
 #[cfg(feature = "egui")]
 pub mod inspector;
 mod limits;
+mod lod;
 pub mod plugin;
 mod render;
 pub mod scene;
@@ -55,6 +56,9 @@ mod tearing;
 
 pub use components::*;
 pub use error::ClothError;
+pub use lod::{
+    ClothBudget, ClothLod, ClothLodLevel, ClothViewer, CulledReturn, LodLevel, LodMetric,
+};
 pub use plugin::{ClothPlugin, ClothStepBudget, ClothSystems};
 pub use tearing::{ClothCut, ClothTearWeights, ClothTorn};
 
@@ -68,6 +72,9 @@ pub mod prelude {
         ClothTargets, PinAnchor, SubdivisionTarget, TargetWeights, Wind, WindZone,
     };
     pub use crate::error::ClothError;
+    pub use crate::lod::{
+        ClothBudget, ClothLod, ClothLodLevel, ClothViewer, CulledReturn, LodLevel, LodMetric,
+    };
     pub use crate::plugin::{ClothPlugin, ClothSystems};
     pub use crate::sim::{
         ClothModel, ColliderShape, DiscSpec, Friction, GridPlane, GridSpec, Gusts, Inertia,

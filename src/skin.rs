@@ -102,6 +102,20 @@ impl Attachment {
         self.all().filter(|t| t.weight > 0.0)
     }
 
+    /// Whether the targets are skinned (rather than the rest shape under the cloth's transform).
+    pub fn is_skinned(&self) -> bool {
+        self.skin.is_some()
+    }
+
+    /// The map from rest to world space of entry `k` as of the last [`Self::update`]: its
+    /// blended skin matrices (the identity without a skin, where the transform maps it).
+    pub fn carrier(&self, k: usize) -> Affine3A {
+        match &self.skin {
+            Some((influences, _)) => blend(&self.joint_matrices, &influences[k]),
+            None => Affine3A::IDENTITY,
+        }
+    }
+
     /// Every weighted particle with its target.
     pub fn all(&self) -> impl Iterator<Item = Target> + '_ {
         self.weighted
@@ -183,6 +197,13 @@ fn retain_by<T>(list: &mut Vec<T>, kept: &[bool]) {
 /// `Σ w · M_j · p`, the normal by the blended matrices' linear parts (their inverse transpose,
 /// for non-uniform scale).
 fn skin_point(matrices: &[Affine3A], influences: &Influences, p: Vec3, n: Vec3) -> (Vec3, Vec3) {
+    let blend = blend(matrices, influences);
+    let normal = blend.matrix3.inverse().transpose().mul_vec3(n);
+    (blend.transform_point3(p), normal.normalize_or_zero())
+}
+
+/// `Σ w · M_j` over a vertex's influences.
+fn blend(matrices: &[Affine3A], influences: &Influences) -> Affine3A {
     let mut blend = Affine3A::ZERO;
     for &(j, w) in influences {
         if w > 0.0 {
@@ -191,8 +212,7 @@ fn skin_point(matrices: &[Affine3A], influences: &Influences, p: Vec3, n: Vec3) 
             blend.translation += m.translation * w;
         }
     }
-    let normal = blend.matrix3.inverse().transpose().mul_vec3(n);
-    (blend.transform_point3(p), normal.normalize_or_zero())
+    blend
 }
 
 /// A [`ClothError`] about a cloth's targets.

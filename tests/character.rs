@@ -395,3 +395,6 @@ mod skinned;
 
 #[path = "character/crowd.rs"]
 mod crowd;
+
+#[path = "character/lod.rs"]
+mod lod;

@@ -12,19 +12,29 @@ use bevy_cloth::sim::{ClothSim, SpringKind};
 
 /// A headless app with one copy of the scene built and at rest.
 pub fn load(path: &Path) -> Result<(App, Entity, ClothScene), ClothError> {
-    let (app, entities, scene) = load_copies(path, Some(1))?;
+    let (app, entities, scene) = load_copies(path, Some(1), false)?;
     Ok((app, entities[0], scene))
 }
 
 /// A headless app with the scene's cloths built and at rest: its own copies, or `copies` of
-/// them on its layout when given (none for 0: the App alone).
+/// them on its layout when given (none for 0: the App alone); with `full_quality`, without the
+/// scene's levels of detail, viewer and budget.
 fn load_copies(
     path: &Path,
     copies: Option<u32>,
+    full_quality: bool,
 ) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
     let mut scene = ClothScene::load(path)?;
     if let Some(count) = copies {
         scene.copies.count = count;
+    }
+    if full_quality {
+        scene.viewer = None;
+        scene.budget_ms = None;
+        scene.lod = None;
+        for s in &mut scene.also {
+            s.lod = None;
+        }
     }
     let mut app = try_headless_app(scene.dt)?;
     let entities = if scene.copies.count == 0 {
@@ -54,6 +64,8 @@ struct Frames {
     solver_ms: Vec<f64>,
     /// Cloth-frames skipped asleep.
     slept: u32,
+    /// Cloth-frames at each level of detail, finest first.
+    levels: [u32; 4],
 }
 
 /// [`run`] for several cloths, also summing the cloths' steps within each frame and counting the
@@ -63,6 +75,7 @@ fn run_frames(app: &mut App, entities: &[Entity], frames: u32) -> Result<Frames,
         frame_ms: Vec::with_capacity(frames as usize),
         solver_ms: Vec::with_capacity(frames as usize),
         slept: 0,
+        levels: [0; 4],
     };
     for _ in 0..frames {
         let t = Instant::now();
@@ -75,6 +88,11 @@ fn run_frames(app: &mut App, entities: &[Entity], frames: u32) -> Result<Frames,
             }
             let state = app.world().get::<ClothState>(*e);
             out.slept += state.is_some_and(|s| s.sim().slept_last_step()) as u32;
+            let level = app
+                .world()
+                .get::<ClothLodLevel>(*e)
+                .map_or(LodLevel::Full, |l| l.level);
+            out.levels[level as usize] += 1;
             solver += state.map_or(0.0, |s| s.last_step_time().as_secs_f64() * 1e3);
         }
         out.solver_ms.push(solver);
@@ -107,16 +125,31 @@ fn median_strain(sim: &ClothSim, kinds: &[SpringKind]) -> f64 {
     strain[strain.len() / 2]
 }
 
-/// Times `frames` frames of the scene (its copies, or `copies` of them on its layout) (after 10 warm-up frames) on Bevy's
-/// multi-threaded executor, or its single-threaded one with static-scene transform tracking off
-/// (`harness::use_single_threaded_frame`), and returns the JSON line `bench` prints.
+/// How `bench` runs a scene.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Variant {
+    /// Copies of the scene's cloth on its layout; its own when `None`.
+    pub copies: Option<u32>,
+    /// Bevy's single-threaded executor with static-scene transform tracking off
+    /// (`harness::use_single_threaded_frame`), rather than its multi-threaded one.
+    pub single_threaded: bool,
+    /// Without the scene's levels of detail, viewer and budget.
+    pub full_quality: bool,
+}
+
+/// Times `frames` frames of the scene as `variant` says (after 10 warm-up frames) and returns
+/// the JSON line `bench` prints.
 pub fn bench_scene(
     scene: &Path,
     frames: u32,
-    copies: Option<u32>,
-    single_threaded: bool,
+    variant: Variant,
 ) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
-    let (mut app, entities, parsed) = load_copies(scene, copies)?;
+    let Variant {
+        copies,
+        single_threaded,
+        full_quality,
+    } = variant;
+    let (mut app, entities, parsed) = load_copies(scene, copies, full_quality)?;
     if single_threaded {
         bevy_cloth::harness::use_single_threaded_frame(&mut app);
     }
@@ -125,6 +158,7 @@ pub fn bench_scene(
         frame_ms: mut times,
         mut solver_ms,
         slept,
+        levels,
     } = run_frames(&mut app, &entities, frames)?;
     let executor = if single_threaded { "single" } else { "multi" };
     if entities.is_empty() {
@@ -175,5 +209,8 @@ pub fn bench_scene(
     // All springs pooled, as the bevy_silk harness pools all of its sticks.
     line["median_spring_strain"] = median_strain(sim, &SpringKind::ALL).into();
     line["cloth_frames_asleep"] = slept.into();
+    line["cloth_frames_by_level"] = serde_json::json!({
+        "full": levels[0], "reduced": levels[1], "frozen": levels[2], "culled": levels[3],
+    });
     Ok(line)
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use bevy_cloth::scene::ClothScene;
 
-use super::bench::bench_scene;
+use super::bench::{Variant, bench_scene};
 use super::machine;
 
 /// The scene the others are compared with in the table's last column.
@@ -89,7 +89,12 @@ pub fn run(
         for row in &mut rows {
             let (frames, copies) = (row.frames, row.copies);
             let mut time = |single_threaded: bool| -> Result<Timing, Box<dyn std::error::Error>> {
-                let line = bench_scene(&row.path, frames, copies, single_threaded)?;
+                let variant = Variant {
+                    copies,
+                    single_threaded,
+                    full_quality: false,
+                };
+                let line = bench_scene(&row.path, frames, variant)?;
                 let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);
                 let count = |key: &str| line[key].as_u64().unwrap_or(0);
                 row.facts.get_or_insert_with(|| SceneFacts {

@@ -403,6 +403,7 @@ fn build_state(
         step_time: Duration::ZERO,
         dirty: true,
         at_rest: false,
+        lod: Default::default(),
     };
     let plan = plan_pins(&state, pins, transform)?;
     commit_pins(&mut state, plan)?;

@@ -27,6 +27,9 @@ pub(super) fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<C
             return;
         }
         let s = &mut *state;
+        if s.lod.level == crate::LodLevel::Culled {
+            return;
+        }
         // A sleeping cloth did not move: one refresh makes both render states its resting pose,
         // after which there is nothing to compute until it wakes.
         if s.sim.slept_last_step() {
@@ -117,7 +120,10 @@ pub(super) fn write_meshes(
         1.0
     };
     for (config, transform, mut state) in &mut cloths {
-        let interpolating = config.interpolate && fraction < 1.0 && !state.at_rest;
+        let interpolating = config.interpolate
+            && fraction < 1.0
+            && !state.at_rest
+            && state.lod.level != crate::LodLevel::Culled;
         if !(state.dirty || interpolating || transform.is_changed()) {
             continue;
         }

@@ -24,6 +24,7 @@ use crate::tearing::{ClothCut, ClothTearWeights, ClothTorn};
 mod build;
 mod edits;
 mod inputs;
+mod lod;
 mod mesh;
 mod pin_targets;
 mod poses;
@@ -33,6 +34,7 @@ mod tears;
 use build::{adopt_skins, build_cloths};
 use edits::{apply_edits, restore_required};
 use inputs::{WindSnapshot, colliders_present, gather_wind, wind_present};
+use lod::{choose_levels, restore_full_quality};
 use mesh::{SteppedInFixedUpdate, update_render_buffers, write_meshes};
 use pin_targets::resolve_pin_targets;
 use tears::{follow_tears, queue_cuts};
@@ -170,6 +172,10 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothCollider>()
             .register_type::<ClothTearWeights>()
             .register_type::<ClothPushesBodies>()
+            .register_type::<crate::ClothLod>()
+            .register_type::<crate::ClothLodLevel>()
+            .register_type::<crate::ClothViewer>()
+            .register_type::<crate::ClothBudget>()
             .register_type::<Wind>()
             .register_type::<WindZone>()
             .add_message::<ClothCut>()
@@ -205,6 +211,8 @@ impl Plugin for ClothPlugin {
                     (
                         restore_required,
                         apply_edits,
+                        restore_full_quality,
+                        choose_levels.run_if(any_with_component::<crate::ClothLod>),
                         resolve_pin_targets,
                         queue_cuts,
                         gather_colliders.run_if(colliders_present),

@@ -2,15 +2,18 @@
 //! skinned target and reference frame should be at the end of the step, handed to the solver.
 
 use bevy::ecs::prelude::*;
+use bevy::time::Time;
 use bevy::transform::components::GlobalTransform;
 use bevy::transform::helper::TransformHelper;
 
 use super::poses::{current_global, pose_of};
 use crate::components::{ClothFrame, ClothInvalid, ClothSkin, ClothState, mapped_particle};
 
-/// Where each pin, target and reference frame should be at the end of this step.
+/// Where each pin, target and reference frame should be at the end of this step; a frozen cloth
+/// is carried there ([`LodLevel::Frozen`](crate::LodLevel::Frozen)), a culled one left alone.
 #[allow(clippy::type_complexity)]
 pub(super) fn resolve_pin_targets(
+    time: Res<Time>,
     mut cloths: Query<
         (
             Entity,
@@ -25,6 +28,10 @@ pub(super) fn resolve_pin_targets(
     anchors: Query<&GlobalTransform>,
 ) {
     for (entity, transform, skin, frame, mut state) in &mut cloths {
+        super::lod::capture_pose(&mut state, &transform.affine());
+        if state.lod.level == crate::LodLevel::Culled {
+            continue;
+        }
         // The cloth's pose now (moved earlier in this step, or since the last propagation).
         let transform = &helper
             .compute_global_transform(entity)
@@ -68,6 +75,9 @@ pub(super) fn resolve_pin_targets(
         let frame = frame.map_or(Some(*transform), |f| current_global(f.0, &helper, &anchors));
         if let Some(frame) = frame {
             state.sim.move_frame(pose_of(&frame));
+        }
+        if state.lod.level == crate::LodLevel::Frozen {
+            super::lod::follow_carriers(state, &transform.affine(), time.delta_secs());
         }
     }
 }

@@ -10,7 +10,10 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::Time;
 
 use super::inputs::{ColliderSnapshot, WindSnapshot};
+use std::time::Duration;
+
 use crate::components::{ClothConfig, ClothInvalid, ClothPushesBodies, ClothState};
+use crate::lod::LodLevel;
 use crate::sim::{Environment, OtherCloth, Spread};
 
 /// A Bevy task pool lends one of its threads to a step: `helper` runs as a task on the pool, `main`
@@ -115,6 +118,15 @@ pub(crate) fn step_cloths(
 /// One cloth's step, then its tears (its cuts, and with tearing on its overstretched springs); a
 /// failed step stops the cloth, a tear that cannot be made leaves it untorn.
 fn step_one(state: &mut ClothState, dt: f32, env: &Environment, spread: Option<&dyn Spread>) {
+    // A frozen cloth's step was its carrying; a culled one takes none.
+    match state.lod.level {
+        LodLevel::Frozen => return,
+        LodLevel::Culled => {
+            state.step_time = Duration::ZERO;
+            return;
+        }
+        LodLevel::Full | LodLevel::Reduced => {}
+    }
     let started = Instant::now();
     let stepped = match spread {
         Some(spread) => state.sim.step_in_parallel(dt, env, spread),
@@ -129,6 +141,10 @@ fn step_one(state: &mut ClothState, dt: f32, env: &Environment, spread: Option<&
     }
     state.step_time = started.elapsed();
     state.failure = stepped.err();
+    let level = state.lod.level;
+    let ms = state.step_time.as_secs_f32() * 1e3;
+    state.lod.measured(level, state.sim.detail(), ms);
+    state.lod.bound = None;
 }
 
 /// The cloths that meet another cloth this step ([`ClothConfig::cloth_layers`]), in the order of

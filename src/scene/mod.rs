@@ -48,6 +48,7 @@
 
 pub mod character;
 mod colliders;
+mod viewer;
 mod wind;
 
 use std::path::Path;
@@ -60,10 +61,12 @@ use serde::{Deserialize, Serialize};
 
 pub use character::{SceneWalk, Walker};
 pub use colliders::{ConstantVelocity, SceneCollider, SceneShape};
+pub use viewer::{Flight, SceneViewer};
 pub use wind::{DEFAULT_SCENE_WIND_ZONE_FALLOFF, SceneWind, SceneWindZone, SceneWindZoneShape};
 
 use crate::components::{Cloth, ClothConfig, ClothPins, ClothTargets, TargetWeights};
 use crate::error::{ClothError, finite, positive};
+use crate::lod::{ClothBudget, ClothLod};
 use crate::plugin::ClothSystems;
 use crate::sim::{ClothModel, GridSpec, SolverSettings};
 use colliders::{finite_placement, move_at_constant_velocity, placement};
@@ -248,7 +251,8 @@ impl SceneCopies {
 }
 
 /// What scenes need beyond [`crate::ClothPlugin`], in `FixedUpdate`: moving [`ConstantVelocity`]
-/// entities after [`ClothSystems::Step`], and posing [`Walker`]s before the cloths step.
+/// entities after [`ClothSystems::Step`], and posing [`Walker`]s and flying [`Flight`] viewers
+/// before the cloths step.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct ScenePlugin;
 
@@ -259,6 +263,7 @@ impl Plugin for ScenePlugin {
             (
                 move_at_constant_velocity.after(ClothSystems::Step),
                 character::walk_characters.before(ClothSystems::Prepare),
+                viewer::fly_viewers.before(ClothSystems::Prepare),
             ),
         );
     }
@@ -310,9 +315,18 @@ pub struct ClothScene {
     /// Copies of the cloth, with its colliders and wind zones, side by side; one by default.
     #[serde(default)]
     pub copies: SceneCopies,
-    /// Further cloths, each a scene of its own (with its colliders and copies) but for the time
-    /// step and the wind, which are this scene's: each one's `dt` must equal this one's and its
-    /// `wind` and `also` must be left out. None by default.
+    /// Level of detail for each of the copies ([`ClothLod`]); none by default (full quality).
+    #[serde(default)]
+    pub lod: Option<ClothLod>,
+    /// The viewer the levels of detail are chosen for; none by default.
+    #[serde(default)]
+    pub viewer: Option<SceneViewer>,
+    /// A budget for all cloths' steps, ms a frame ([`ClothBudget`]); none by default.
+    #[serde(default)]
+    pub budget_ms: Option<f32>,
+    /// Further cloths, each a scene of its own (with its colliders, copies and level of detail)
+    /// but for the time step, the wind, the viewer and the budget, which are this scene's: each
+    /// one's `dt` must equal this one's and the others must be left out. None by default.
     #[serde(default)]
     pub also: Vec<ClothScene>,
 }
@@ -365,6 +379,12 @@ impl ClothScene {
             }
             if other.wind.is_some() {
                 return Err(nested("wind", 1.0));
+            }
+            if other.viewer.is_some() {
+                return Err(nested("viewer", 1.0));
+            }
+            if let Some(ms) = other.budget_ms {
+                return Err(nested("budget_ms", ms as f64));
             }
             if !other.also.is_empty() {
                 return Err(nested("also", other.also.len() as f64));
@@ -447,6 +467,15 @@ impl ClothScene {
         if let Some(wind) = &self.wind {
             wind.validate()?;
         }
+        if let Some(lod) = &self.lod {
+            lod.validate()?;
+        }
+        if let Some(viewer) = &self.viewer {
+            viewer.validate()?;
+        }
+        if let Some(ms) = self.budget_ms {
+            positive("budget_ms", ms)?;
+        }
         Ok(())
     }
 
@@ -472,6 +501,12 @@ impl ClothScene {
         if let Some(wind) = &self.wind {
             wind.validate()?;
             world.insert_resource(wind.resource());
+        }
+        if let Some(viewer) = &self.viewer {
+            world.spawn(viewer.bundle());
+        }
+        if let Some(ms) = self.budget_ms {
+            world.insert_resource(ClothBudget { ms });
         }
         let mut cloths = self.spawn_own(world)?;
         for other in &self.also {
@@ -519,6 +554,9 @@ impl ClothScene {
             };
             if let Some(targets) = &targets {
                 world.entity_mut(entity).insert(targets.clone());
+            }
+            if let Some(lod) = self.lod {
+                world.entity_mut(entity).insert(lod);
             }
             cloths.push(entity);
         }

@@ -169,12 +169,18 @@ impl Snapshot {
 }
 
 impl Adaptive {
+    /// Multiplies the tolerance by `factor`.
+    pub fn scale_tolerance(&mut self, factor: f32) {
+        self.tolerance *= factor;
+    }
+
     /// Tolerance mode for `sim` (whose settings have a tolerance), with a fresh copy of it.
     pub fn new(sim: &ClothSim) -> Option<Self> {
         let accuracy = sim.settings.accuracy;
         let tolerance = accuracy.tolerance?;
         let mut shadow = Box::new(sim.clone());
         shadow.adaptive = None;
+        shadow.detail = 1.0;
         shadow.settings.accuracy.tolerance = None;
         shadow.settings.sleep_speed = 0.0;
         shadow.contact_work = None;
@@ -187,7 +193,7 @@ impl Adaptive {
         let tolerance = match accuracy.unit {
             ErrorUnit::Relative => tolerance * size.max(f32::MIN_POSITIVE),
             ErrorUnit::Metres => tolerance,
-        };
+        } / sim.detail;
         let cap = accuracy.max_substeps;
         let substeps = sim.settings.substeps.clamp(2, cap);
         Some(Self {

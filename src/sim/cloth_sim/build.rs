@@ -90,6 +90,7 @@ impl ClothSim {
             runaway: Runaway::default(),
             frame: None,
             adaptive: None,
+            detail: 1.0,
         };
         sim.check_air(settings)?;
         sim.prepare_self_contacts(settings.self_collision)?;

@@ -101,6 +101,8 @@ pub struct ClothSim {
     /// Tolerance mode's copy and controller ([`SolverSettings::accuracy`]); `None` with fixed
     /// substeps.
     adaptive: Option<Box<adaptive::Adaptive>>,
+    /// The fraction of its configured substeps a step takes (see [`Self::set_detail`]).
+    detail: f32,
 }
 
 /// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),

@@ -2,6 +2,7 @@
 //! substeps (the explicit integrators' stability bound, or tolerance mode's count).
 
 use super::{AccuracyReport, ClothSim};
+use crate::error::ClothError;
 #[cfg(doc)]
 use crate::sim::settings::SolverSettings;
 use crate::sim::settings::{
@@ -9,6 +10,31 @@ use crate::sim::settings::{
 };
 
 impl ClothSim {
+    /// Sets the level of detail of the cloth's steps: `detail` (in `(0, 1]`; 1, the default, is
+    /// full quality) times its configured [`substeps`](SolverSettings::substeps), rounded up (the
+    /// explicit integrators' stability bound still applies), or in tolerance mode its tolerance
+    /// divided by `detail`. A value outside `(0, 1]` is [`ClothError::InvalidValue`] and changes
+    /// nothing.
+    pub fn set_detail(&mut self, detail: f32) -> Result<(), ClothError> {
+        if !(detail > 0.0 && detail <= 1.0) {
+            return Err(ClothError::InvalidValue {
+                field: "detail",
+                expected: "in (0, 1]",
+                value: detail as f64,
+            });
+        }
+        if let Some(a) = &mut self.adaptive {
+            a.scale_tolerance(self.detail / detail);
+        }
+        self.detail = detail;
+        Ok(())
+    }
+
+    /// The level of detail of the cloth's steps ([`Self::set_detail`]).
+    pub fn detail(&self) -> f32 {
+        self.detail
+    }
+
     /// An upper bound on the highest angular frequency of the cloth's springs about rest, in rad/s
     /// (Gershgorin's bound from each free particle's springs and mass; pins count as infinite mass).
     /// Explicit integrators need a substep `h < 2/ω_max`. The air inside a closed cloth adds its
@@ -43,6 +69,11 @@ impl ClothSim {
     /// [`MAX_SUBSTEPS`].
     pub(super) fn substep_plan(&self, dt: f32) -> (u32, u32) {
         let n = self.settings.substeps;
+        let n = if self.detail < 1.0 {
+            ((n as f32 * self.detail).ceil() as u32).max(1)
+        } else {
+            n
+        };
         let s = &self.settings;
         // Implicit Euler takes the air of a closed cloth explicitly, so its bound applies.
         let omega = match s.integrator {

@@ -62,6 +62,43 @@ impl ClothSim {
         Ok(())
     }
 
+    /// Moves every particle to `positions` with `velocities` (one each per particle, finite),
+    /// as a teleport: nothing in between is collided with, and the cloth wakes. Pins, targets and
+    /// the reference frame start the next step where they were last moved to (a pinned particle
+    /// goes to its pin within it). A wrong length or a value that is not finite is an error and
+    /// changes nothing.
+    pub fn place(&mut self, positions: &[Vec3], velocities: &[Vec3]) -> Result<(), ClothError> {
+        let n = self.particles.positions.len();
+        for (field, list) in [("positions", positions), ("velocities", velocities)] {
+            if list.len() != n {
+                return Err(ClothError::InvalidValue {
+                    field,
+                    expected: "one per particle",
+                    value: list.len() as f64,
+                });
+            }
+            if let Some(v) = list.iter().find(|v| !v.is_finite()) {
+                return Err(ClothError::InvalidValue {
+                    field,
+                    expected: "finite",
+                    value: v.max_element().max(-v.min_element()) as f64,
+                });
+            }
+        }
+        self.particles.positions.copy_from_slice(positions);
+        self.particles.velocities.copy_from_slice(velocities);
+        self.runaway = Default::default();
+        for pin in &mut self.pins {
+            pin.from = pin.to;
+        }
+        self.contacts.limits_mut().end_step();
+        if let Some((from, to)) = &mut self.frame {
+            *from = *to;
+        }
+        self.wake();
+        Ok(())
+    }
+
     /// Current settings.
     pub fn settings(&self) -> &SolverSettings {
         &self.settings

@@ -302,6 +302,7 @@ impl ClothSim {
         next.frame = self.frame;
         next.steps = self.steps;
         next.contact_work = self.contact_work;
+        next.detail = self.detail;
         next.part_the_sides();
         next.apply_settings();
         *self = next;
