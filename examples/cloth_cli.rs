@@ -84,9 +84,12 @@ enum Command {
     Bench {
         /// Scene file (RON).
         scene: PathBuf,
-        /// Number of timed frames (after 10 warm-up frames).
+        /// Number of timed frames.
         #[arg(long, default_value_t = 300)]
         frames: u32,
+        /// Frames run before the timed ones.
+        #[arg(long, default_value_t = 10)]
+        warm_up: u32,
         /// Copies of the scene's cloth on its layout (they step in parallel across threads);
         /// default the scene's own `copies`. 0 times the App with no cloth: Bevy's schedules
         /// alone.
@@ -104,6 +107,12 @@ enum Command {
         /// quality.
         #[arg(long)]
         full_quality: bool,
+        /// Leave the scene's further cloths (`also`) out: its own copies only.
+        #[arg(long)]
+        first_only: bool,
+        /// A budget for the cloths' steps, ms a frame (`ClothBudget`), in place of the scene's.
+        #[arg(long)]
+        budget_ms: Option<f32>,
     },
     /// The stress suite: seeded random cloths at the limits of every setting, checked every step
     /// (no NaN, no panic, bounded energy, nothing inside a collider, pins exact). Prints a table
@@ -383,6 +392,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             threads,
             single_threaded,
             full_quality,
+            first_only,
+            budget_ms,
+            warm_up,
         } => {
             if let Some(threads) = threads {
                 // Before the App exists, so that its TaskPoolPlugin finds this pool.
@@ -399,6 +411,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     copies,
                     single_threaded,
                     full_quality,
+                    first_only,
+                    budget_ms,
+                    warm_up,
                 },
             )?;
             println!("{line}");

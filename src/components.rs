@@ -708,6 +708,8 @@ pub struct ClothState {
     pub(crate) at_rest: bool,
     /// Its level of detail ([`ClothLod`](crate::ClothLod)).
     pub(crate) lod: crate::lod::LodState,
+    /// The transform the mesh was last written under.
+    pub(crate) written_with: Option<bevy::math::Affine3A>,
 }
 
 /// Particle `index` of a cloth's unrefined model mapped through `map` (none: identity over

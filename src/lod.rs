@@ -120,12 +120,15 @@ pub struct ClothLod {
     pub cull_unseen: bool,
     /// Where a culled cloth is when it comes back.
     pub on_return: CulledReturn,
+    /// Frames over which a cloth that was frozen blends from its carried pose into its
+    /// simulation when it steps again (0: at once).
+    pub blend_frames: u32,
 }
 
 impl Default for ClothLod {
     /// By distance: full quality within 15 m, [`Reduced`](LodLevel::Reduced) (half the
     /// substeps) to 40 m, [`Frozen`](LodLevel::Frozen) to 80 m, culled beyond and when unseen;
-    /// 10% hysteresis.
+    /// 10% hysteresis; a thawing cloth blends into its simulation over 10 frames.
     fn default() -> Self {
         Self {
             metric: LodMetric::Distance,
@@ -136,6 +139,7 @@ impl Default for ClothLod {
             reduced_detail: 0.5,
             cull_unseen: true,
             on_return: CulledReturn::Reset,
+            blend_frames: 10,
         }
     }
 }
@@ -299,6 +303,42 @@ pub(crate) struct LodState {
     /// Scratch for a frozen step: the carried positions and their velocities.
     pub scratch: Vec<Vec3>,
     pub velocities: Vec<Vec3>,
+    /// A cloth that thawed, drawn from its carried pose into its simulation.
+    pub blend: Option<Blend>,
+}
+
+/// The blend of a thawing cloth's carried pose into its simulation ([`ClothLod::blend_frames`]).
+#[derive(Debug, Clone)]
+pub(crate) struct Blend {
+    /// The pose it froze in.
+    pub carried: Carried,
+    /// Frames of the blend, and those drawn.
+    pub frames: u32,
+    pub drawn: u32,
+    /// Where the carried pose is this step.
+    pub target: Vec<Vec3>,
+    /// What is drawn this step: the blend of the target and the particles.
+    pub positions: Vec<Vec3>,
+}
+
+impl Blend {
+    /// Blends `particles` with the carried pose for the next frame drawn into `positions`;
+    /// `false` once the blend is over (the particles are drawn as they are).
+    pub fn next(&mut self, particles: &[Vec3]) -> bool {
+        if self.drawn >= self.frames || self.target.len() != particles.len() {
+            return false;
+        }
+        self.drawn += 1;
+        let s = self.drawn as f32 / self.frames as f32;
+        self.positions.clear();
+        self.positions.extend(
+            self.target
+                .iter()
+                .zip(particles)
+                .map(|(c, p)| c.lerp(*p, s)),
+        );
+        true
+    }
 }
 
 impl LodState {

@@ -24,6 +24,8 @@ pub(crate) struct Attachment {
     skin: Option<(Vec<Influences>, Vec<Affine3A>)>,
     /// The joints' skinning matrices of the last update (a missing joint keeps its last one).
     joint_matrices: Vec<Affine3A>,
+    /// The transform of the last update, for targets that are not skinned.
+    transform: Option<Affine3A>,
     /// Each particle's target (position, unit normal) after [`Self::update`].
     pub targets: Vec<(Vec3, Vec3)>,
 }
@@ -93,6 +95,7 @@ impl Attachment {
             rest,
             skin,
             joint_matrices,
+            transform: None,
         })
     }
 
@@ -132,6 +135,8 @@ impl Attachment {
     /// Gives each copy a tear made (`(particle, copy)`, in order) its particle's weight, rest
     /// shape, influences and target, after the weighted particles it has.
     pub fn add_copies(&mut self, copies: impl IntoIterator<Item = (u32, u32)>) {
+        // The next update computes every target.
+        self.transform = None;
         for (particle, copy) in copies {
             let Some(k) = self.weighted.iter().position(|&(p, _)| p == particle) else {
                 continue;
@@ -147,6 +152,7 @@ impl Attachment {
 
     /// Keeps the weighted particles for which `keep(particle, weight)` holds, drops the others.
     pub fn retain(&mut self, keep: impl Fn(u32, f32) -> bool) {
+        self.transform = None;
         let kept: Vec<bool> = self.weighted.iter().map(|&(p, w)| keep(p, w)).collect();
         retain_by(&mut self.weighted, &kept);
         retain_by(&mut self.rest, &kept);
@@ -158,10 +164,18 @@ impl Attachment {
 
     /// Computes every target: skinned, with each joint's global transform from `joint`
     /// (`None`, a missing joint, keeps the pose it last had, or the identity if it never had
-    /// one), or otherwise the rest shape under
-    /// `transform`.
-    pub fn update(&mut self, transform: &Affine3A, joint: impl Fn(usize) -> Option<Affine3A>) {
+    /// one), or otherwise the rest shape under `transform`. Returns whether they moved: with
+    /// the joints (or the transform) where they were, nothing is computed.
+    pub fn update(
+        &mut self,
+        transform: &Affine3A,
+        joint: impl Fn(usize) -> Option<Affine3A>,
+    ) -> bool {
         let Some((influences, bind)) = &self.skin else {
+            if self.transform == Some(*transform) {
+                return false;
+            }
+            self.transform = Some(*transform);
             let normal_matrix = transform.matrix3.inverse().transpose();
             for (t, (p, n)) in self.targets.iter_mut().zip(&self.rest) {
                 *t = (
@@ -169,18 +183,25 @@ impl Attachment {
                     normal_matrix.mul_vec3(*n).normalize_or_zero(),
                 );
             }
-            return;
+            return true;
         };
         // A joint that is missing (its entity despawned) keeps its last matrix, so the targets
         // it moves stay where they were.
+        let mut moved = self.transform.is_none();
+        self.transform = Some(*transform);
         for (j, (m, b)) in self.joint_matrices.iter_mut().zip(bind).enumerate() {
             if let Some(pose) = joint(j) {
-                *m = pose * *b;
+                let next = pose * *b;
+                moved |= next != *m;
+                *m = next;
             }
         }
-        for ((t, (p, n)), inf) in self.targets.iter_mut().zip(&self.rest).zip(influences) {
-            *t = skin_point(&self.joint_matrices, inf, *p, *n);
+        if moved {
+            for ((t, (p, n)), inf) in self.targets.iter_mut().zip(&self.rest).zip(influences) {
+                *t = skin_point(&self.joint_matrices, inf, *p, *n);
+            }
         }
+        moved
     }
 }
 

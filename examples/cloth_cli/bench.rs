@@ -12,23 +12,31 @@ use bevy_cloth::sim::{ClothSim, SpringKind};
 
 /// A headless app with one copy of the scene built and at rest.
 pub fn load(path: &Path) -> Result<(App, Entity, ClothScene), ClothError> {
-    let (app, entities, scene) = load_copies(path, Some(1), false)?;
+    let one = Variant {
+        copies: Some(1),
+        ..Variant::default()
+    };
+    let (app, entities, scene) = load_copies(path, one)?;
     Ok((app, entities[0], scene))
 }
 
-/// A headless app with the scene's cloths built and at rest: its own copies, or `copies` of
-/// them on its layout when given (none for 0: the App alone); with `full_quality`, without the
-/// scene's levels of detail, viewer and budget.
+/// A headless app with the scene's cloths built and at rest, as `variant` has them (0 copies:
+/// the App alone).
 fn load_copies(
     path: &Path,
-    copies: Option<u32>,
-    full_quality: bool,
+    variant: Variant,
 ) -> Result<(App, Vec<Entity>, ClothScene), ClothError> {
     let mut scene = ClothScene::load(path)?;
-    if let Some(count) = copies {
+    if let Some(count) = variant.copies {
         scene.copies.count = count;
     }
-    if full_quality {
+    if variant.first_only {
+        scene.also.clear();
+    }
+    if variant.budget_ms.is_some() {
+        scene.budget_ms = variant.budget_ms;
+    }
+    if variant.full_quality {
         scene.viewer = None;
         scene.budget_ms = None;
         scene.lod = None;
@@ -135,25 +143,27 @@ pub struct Variant {
     pub single_threaded: bool,
     /// Without the scene's levels of detail, viewer and budget.
     pub full_quality: bool,
+    /// Without the scene's further cloths.
+    pub first_only: bool,
+    /// A budget in place of the scene's, ms a frame.
+    pub budget_ms: Option<f32>,
+    /// Frames run before the timed ones.
+    pub warm_up: u32,
 }
 
-/// Times `frames` frames of the scene as `variant` says (after 10 warm-up frames) and returns
+/// Times `frames` frames of the scene as `variant` says (after its warm-up frames) and returns
 /// the JSON line `bench` prints.
 pub fn bench_scene(
     scene: &Path,
     frames: u32,
     variant: Variant,
 ) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
-    let Variant {
-        copies,
-        single_threaded,
-        full_quality,
-    } = variant;
-    let (mut app, entities, parsed) = load_copies(scene, copies, full_quality)?;
+    let single_threaded = variant.single_threaded;
+    let (mut app, entities, parsed) = load_copies(scene, variant)?;
     if single_threaded {
         bevy_cloth::harness::use_single_threaded_frame(&mut app);
     }
-    run_frames(&mut app, &entities, 10)?;
+    run_frames(&mut app, &entities, variant.warm_up)?;
     let Frames {
         frame_ms: mut times,
         mut solver_ms,
@@ -185,7 +195,11 @@ pub fn bench_scene(
     line["frames"] = frames.into();
     line["copies"] = entities.len().into();
     line["per_cloth_median_ms"] = (median_s * 1e3 / entities.len() as f64).into();
-    line["cloth_steps_median_ms"] = stats(&mut solver_ms)["median_ms"].clone();
+    let mean = solver_ms.iter().sum::<f64>() / solver_ms.len().max(1) as f64;
+    let mut steps = stats(&mut solver_ms);
+    line["cloth_steps_median_ms"] = steps["median_ms"].clone();
+    steps["mean_ms"] = mean.into();
+    line["cloth_steps"] = steps;
     line["outside_cloth_steps_median_ms"] = stats(&mut outside)["median_ms"].clone();
     line["threads"] = bevy::tasks::ComputeTaskPool::get().thread_num().into();
     line["executor"] = executor.into();

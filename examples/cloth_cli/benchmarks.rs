@@ -92,7 +92,8 @@ pub fn run(
                 let variant = Variant {
                     copies,
                     single_threaded,
-                    full_quality: false,
+                    warm_up: 10,
+                    ..Variant::default()
                 };
                 let line = bench_scene(&row.path, frames, variant)?;
                 let number = |key: &str| line[key].as_f64().unwrap_or(f64::NAN);

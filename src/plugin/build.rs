@@ -404,6 +404,7 @@ fn build_state(
         dirty: true,
         at_rest: false,
         lod: Default::default(),
+        written_with: None,
     };
     let plan = plan_pins(&state, pins, transform)?;
     commit_pins(&mut state, plan)?;

@@ -9,7 +9,8 @@ use bevy::transform::components::GlobalTransform;
 
 use crate::components::{ClothInvalid, ClothState};
 use crate::lod::{
-    Carried, ClothBudget, ClothLod, ClothLodLevel, ClothViewer, CulledReturn, LodLevel, LodMetric,
+    Blend, Carried, ClothBudget, ClothLod, ClothLodLevel, ClothViewer, CulledReturn, LodLevel,
+    LodMetric,
 };
 
 /// One cloth as the budget sees it.
@@ -169,7 +170,16 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
     // particles were stepped to.
     state.lod.capture = from.steps() && freezes;
     if to.steps() {
-        state.lod.carried = None;
+        let carried = state.lod.carried.take();
+        if from == LodLevel::Frozen && lod.blend_frames > 0 {
+            state.lod.blend = carried.map(|carried| Blend {
+                carried,
+                frames: lod.blend_frames,
+                drawn: 0,
+                target: Vec::new(),
+                positions: Vec::new(),
+            });
+        }
         let detail = if to == LodLevel::Reduced {
             lod.reduced_detail
         } else {
@@ -179,6 +189,9 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
             // Validated with the level of detail.
             let _ = state.sim.set_detail(detail);
         }
+    }
+    if !to.steps() {
+        state.lod.blend = None;
     }
     state.lod.level = to;
 }
@@ -215,6 +228,17 @@ pub(super) fn capture_pose(state: &mut ClothState, transform: &Affine3A) {
         Carried::capture(positions, s.attachment.as_ref(), transform)
     };
     state.lod.carried = Some(carried);
+}
+
+/// Moves a thawing cloth's carried pose to where its carriers are this step.
+pub(super) fn carry_blend(state: &mut ClothState, transform: &Affine3A) {
+    let s = &mut *state;
+    if let Some(blend) = &mut s.lod.blend {
+        blend.target.resize(blend.carried.len(), Vec3::ZERO);
+        blend
+            .carried
+            .carry(s.attachment.as_ref(), transform, &mut blend.target);
+    }
 }
 
 /// Puts a frozen cloth where its carriers take the pose it froze in (its targets updated for

@@ -42,6 +42,11 @@ pub(super) fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<C
         }
         std::mem::swap(&mut s.render_prev, &mut s.render_curr);
         std::mem::swap(&mut s.normals_prev, &mut s.normals_curr);
+        if let Some(blend) = &mut s.lod.blend
+            && !blend.next(s.sim.positions())
+        {
+            s.lod.blend = None;
+        }
         s.failure = refresh_render(s).err();
         s.dirty = true;
     });
@@ -51,7 +56,11 @@ pub(super) fn update_render_buffers(mut cloths: Query<&mut ClothState, Without<C
 /// vertex its particle's, where the simulation welded the mesh's seams), or evaluated through the
 /// subdivision stencils.
 pub(super) fn refresh_render(s: &mut ClothState) -> Result<(), ClothError> {
-    let positions = s.sim.positions();
+    // A thawing cloth is drawn blended with its carried pose.
+    let positions = match &s.lod.blend {
+        Some(blend) => &blend.positions[..],
+        None => s.sim.positions(),
+    };
     match (&mut s.subdivision, &mut s.seam_normals) {
         (None, Some(normals)) => {
             // The weld maps every vertex of the mesh to one of the welded model's particles
@@ -112,7 +121,7 @@ pub(super) fn write_meshes(
     fixed: Res<SteppedInFixedUpdate>,
     time: Res<Time<Fixed>>,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut cloths: Query<(&ClothConfig, Ref<GlobalTransform>, &mut ClothState), Without<ClothInvalid>>,
+    mut cloths: Query<(&ClothConfig, &GlobalTransform, &mut ClothState), Without<ClothInvalid>>,
 ) {
     let fraction = if fixed.0 {
         time.overstep_fraction()
@@ -124,7 +133,10 @@ pub(super) fn write_meshes(
             && fraction < 1.0
             && !state.at_rest
             && state.lod.level != crate::LodLevel::Culled;
-        if !(state.dirty || interpolating || transform.is_changed()) {
+        // Compared by value: a transform written again unchanged (as propagation does without
+        // static-scene tracking) leaves the mesh as it is.
+        let moved = state.written_with != Some(transform.affine());
+        if !(state.dirty || interpolating || moved) {
             continue;
         }
         // A transform scaled to zero (or not finite) has no local space to write into: the mesh
@@ -149,5 +161,6 @@ pub(super) fn write_meshes(
             s.failure = Some(e);
         }
         s.dirty = false;
+        s.written_with = Some(transform.affine());
     }
 }

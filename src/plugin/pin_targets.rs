@@ -54,22 +54,25 @@ pub(super) fn resolve_pin_targets(
         }
         if let Some(attachment) = &mut state.attachment {
             let joints = skin.map_or(&[][..], |s| &s.joints[..]);
-            attachment.update(&transform.affine(), |j| {
+            let moved = attachment.update(&transform.affine(), |j| {
                 let entity = *joints.get(j)?;
                 current_global(entity, &helper, &anchors).map(|g| g.affine())
             });
-            let user = state.pins.len();
-            for (target, &k) in state
-                .pin_targets
-                .iter_mut()
-                .skip(user)
-                .zip(&state.target_pins)
-            {
-                *target = attachment.targets[k].0;
+            // Asleep on targets that stand still: the pins and targets it has are these.
+            if moved || !state.sim.is_sleeping() {
+                let user = state.pins.len();
+                for (target, &k) in state
+                    .pin_targets
+                    .iter_mut()
+                    .skip(user)
+                    .zip(&state.target_pins)
+                {
+                    *target = attachment.targets[k].0;
+                }
+                state
+                    .sim
+                    .move_targets(attachment.limited().map(|t| (t.position, t.normal)));
             }
-            state
-                .sim
-                .move_targets(attachment.limited().map(|t| (t.position, t.normal)));
         }
         state.sim.move_pins(state.pin_targets.iter().copied());
         let frame = frame.map_or(Some(*transform), |f| current_global(f.0, &helper, &anchors));
@@ -79,5 +82,6 @@ pub(super) fn resolve_pin_targets(
         if state.lod.level == crate::LodLevel::Frozen {
             super::lod::follow_carriers(state, &transform.affine(), time.delta_secs());
         }
+        super::lod::carry_blend(state, &transform.affine());
     }
 }

@@ -71,6 +71,18 @@ impl ClothSim {
         plan: Option<(Integrator, u32)>,
         watch: bool,
     ) -> Result<(), ClothError> {
+        // Asleep with nothing around that could wake it: skipped before any other work.
+        if self.sleep.asleep
+            && self.sleep.colliders == 0
+            && env.colliders.is_empty()
+            && env.cloths.is_empty()
+            && env.wind.is_none()
+            && !self.driven()
+        {
+            self.steps += 1;
+            self.sleep.skipped = true;
+            return Ok(());
+        }
         let (substeps, wanted) = match plan {
             Some((method, substeps)) => {
                 self.active = method;

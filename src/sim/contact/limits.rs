@@ -64,6 +64,9 @@ struct Tether {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Limits {
     targets: Vec<Moving>,
+    /// Whether a target may have moved since the last [`Self::end_step`] (when not, none moves
+    /// during the next step, and [`Self::moving`] need not look).
+    touched: bool,
     tethers: Vec<Tether>,
     settings: TargetLimits,
 }
@@ -86,6 +89,7 @@ impl Limits {
 
     /// Replaces the targets; each starts the next step where it is given (no motion).
     pub fn set_targets(&mut self, targets: impl IntoIterator<Item = Target>) {
+        self.touched = true;
         self.targets.clear();
         self.targets.extend(targets.into_iter().map(|t| Moving {
             particle: t.particle,
@@ -100,6 +104,7 @@ impl Limits {
     /// Moves the targets, in the order [`Self::set_targets`] took them, to `(position, normal)`
     /// at the end of the next step. Non-finite values are ignored.
     pub fn move_targets(&mut self, moves: impl IntoIterator<Item = (Vec3, Vec3)>) {
+        self.touched = true;
         for (t, (position, normal)) in self.targets.iter_mut().zip(moves) {
             if position.is_finite() {
                 t.to = position;
@@ -112,12 +117,14 @@ impl Limits {
 
     /// Takes `other`'s targets and their motion (same settings and tethers assumed).
     pub fn sync_targets(&mut self, other: &Limits) {
+        self.touched = true;
         self.targets.clone_from(&other.targets);
     }
 
     /// Takes `other`'s targets and gives each copy a tear made (`(particle, copy)`, in order) the
     /// targets of its particle, after them.
     pub fn inherit_targets(&mut self, other: &Limits, copies: &[(u32, u32)]) {
+        self.touched = true;
         self.targets.clone_from(&other.targets);
         for &(particle, copy) in copies {
             for t in other.targets.iter().filter(|t| t.particle == particle) {
@@ -136,14 +143,17 @@ impl Limits {
 
     /// Keeps the targets of the particles `keep` holds to, drops the others.
     pub fn retain_targets(&mut self, keep: impl Fn(u32) -> bool) {
+        self.touched = true;
         self.targets.retain(|t| keep(t.particle));
     }
 
     /// Whether a target moves during the next step.
     pub fn moving(&self) -> bool {
-        self.targets
-            .iter()
-            .any(|t| t.from != t.to || t.normal_from != t.normal_to)
+        self.touched
+            && self
+                .targets
+                .iter()
+                .any(|t| t.from != t.to || t.normal_from != t.normal_to)
     }
 
     /// The farthest any target moves during the next step, m.
@@ -156,6 +166,7 @@ impl Limits {
 
     /// Ends a step: the targets' end becomes the next step's start.
     pub fn end_step(&mut self) {
+        self.touched = false;
         for t in &mut self.targets {
             t.from = t.to;
             t.normal_from = t.normal_to;
