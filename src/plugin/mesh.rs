@@ -141,7 +141,7 @@ pub(super) fn write_meshes(
         }
         // A transform scaled to zero (or not finite) has no local space to write into: the mesh
         // keeps its last shape until the transform is usable again.
-        if !invertible(&transform) {
+        if !invertible(transform) {
             continue;
         }
         let Some(mut mesh) = meshes.get_mut(&state.mesh) else {
