@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 out=target/screenshots
 mkdir -p "$out"
-examples=(hanging_cloth subdivision_compare drape flag tablecloth character avian_playground laundry inflatables tearing)
+examples=(hanging_cloth subdivision_compare drape flag tablecloth character avian_playground laundry inflatables tearing crowd)
 cargo build --features examples $(printf -- '--example %s ' "${examples[@]}")
 icd=$(ls /usr/share/vulkan/icd.d/lvp_icd.*.json | head -n 1)
 for name in "${examples[@]}"; do

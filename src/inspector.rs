@@ -1,6 +1,8 @@
 //! [`ClothInspectorPlugin`] (feature `egui`): an egui window that edits every cloth's
 //! [`ClothConfig`] and [`ClothSubdivision`] at runtime, releases pins, tunes the [`Wind`], and shows
-//! frames per second, the time the fixed step spends in the solver, and particle counts.
+//! frames per second, the time the fixed step spends in the solver, particle counts, and how many
+//! cloths run at each level of detail ([`ClothLodLevel`](crate::ClothLodLevel)) and what their
+//! steps cost.
 //!
 //! Components are written only when a value really changes, so an open panel does not make the
 //! plugin re-apply settings every frame.
@@ -92,6 +94,7 @@ fn inspector_window(
     timing: Res<StepTiming>,
     wind: Option<ResMut<Wind>>,
     mut cloths: Query<InspectedCloth>,
+    levels: Query<(&crate::ClothLodLevel, &ClothState)>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     egui::Window::new("Cloth inspector")
@@ -109,6 +112,11 @@ fn inspector_window(
             ui.label(format!("{fps:.1} fps"));
             ui.label(format!("fixed step (solver): {:.2} ms", timing.average_ms));
             ui.label(format!("particles: {particles}"));
+            if !levels.is_empty() {
+                ui.label(levels_line(&levels));
+            }
+            // Many cloths: their sections start closed.
+            let open = cloths.iter().len() <= 8;
             if let Some(mut wind) = wind {
                 ui.separator();
                 let mut w = *wind;
@@ -124,7 +132,7 @@ fn inspector_window(
                 let title = name.map_or_else(|| format!("cloth {entity}"), |n| n.to_string());
                 egui::CollapsingHeader::new(title)
                     .id_salt(entity)
-                    .default_open(true)
+                    .default_open(open)
                     .show(ui, |ui| {
                         if let Some(ClothInvalid(e)) = invalid {
                             ui.colored_label(egui::Color32::RED, e.to_string());
@@ -207,6 +215,21 @@ fn air_line(sim: &crate::sim::ClothSim) -> Option<String> {
         line += &format!(", pressure {p:+.0} Pa above outside");
     }
     Some(line)
+}
+
+/// How many cloths run at each level of detail, and their steps' time together.
+fn levels_line(levels: &Query<(&crate::ClothLodLevel, &ClothState)>) -> String {
+    let mut count = [0usize; 4];
+    let mut ms = [0.0f32; 4];
+    for (level, state) in levels {
+        count[level.level as usize] += 1;
+        ms[level.level as usize] += state.last_step_time().as_secs_f32() * 1e3;
+    }
+    let names = ["full", "reduced", "frozen", "culled"];
+    let parts: Vec<String> = (0..4)
+        .map(|k| format!("{} {} ({:.2} ms)", names[k], count[k], ms[k]))
+        .collect();
+    format!("levels of detail: {}", parts.join(", "))
 }
 
 /// What tolerance mode chose and how its estimate compares with the tolerance.

@@ -299,6 +299,7 @@ fn every_simulated_example_moves_its_cloth() {
         "laundry",
         "inflatables",
         "tearing",
+        "crowd",
     ] {
         let changed = changed_fraction(&load(&format!("{name}_start")), &load(name), SCENE);
         assert!(
@@ -373,6 +374,7 @@ fn every_example_matches_its_reference_picture() {
         "laundry",
         "inflatables",
         "tearing",
+        "crowd",
     ] {
         let now = block_means(&load(name));
         if update {

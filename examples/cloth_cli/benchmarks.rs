@@ -125,7 +125,8 @@ pub fn run(
             row.rounds.push([single, multi]);
         }
     }
-    let report = render(&rows, frames, runs.max(1), &commit);
+    let mut report = render(&rows, frames, runs.max(1), &commit);
+    report.push_str(&crowds(&scenes.join("crowd"))?);
     std::fs::write(output, report)?;
     eprintln!("wrote {}", output.display());
     Ok(())
@@ -313,4 +314,94 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
          | bevy_silk 0.10 on the same cloth | `compare/bevy_silk/run.sh 5 600` | printed |"
     );
     out
+}
+
+/// Frames each crowd row is timed for, and run before (the resting crowd falls asleep in them).
+const CROWD_FRAMES: u32 = 180;
+const CROWD_WARM_UP: u32 = 150;
+
+/// The crowd table: each scene in `folder` once on each executor, the first (`crowd.ron`) also
+/// at full quality; empty without the folder.
+fn crowds(folder: &Path) -> Result<String, Box<dyn std::error::Error>> {
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return Ok(String::new());
+    };
+    let mut paths: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    paths.sort();
+    let mut out = String::new();
+    let w = &mut out;
+    let _ = writeln!(
+        w,
+        "\n## Crowds\n\n\
+         Each scene file in `assets/scenes/crowd/` (many cloths, with levels of detail), once on \
+         each executor: a row is what\n`cargo run --release --example cloth_cli -- bench \
+         assets/scenes/crowd/SCENE --frames {CROWD_FRAMES} --warm-up {CROWD_WARM_UP} \
+         [--single-threaded] [--full-quality]`\nmeasures: the whole frame, the cloths' steps \
+         summed (CPU time across threads) and the cloth-frames at each level of detail \
+         (full / reduced / frozen / culled), medians of {CROWD_FRAMES} frames. The \
+         single-threaded executor runs on one thread, the multi-threaded one on all of them \
+         (the cloths step in parallel).\n"
+    );
+    let _ = writeln!(
+        w,
+        "| scene | cloths | single-threaded frame (ms) | its cloths' steps (ms) | \
+         multi-threaded frame (ms) | single / multi | levels (full / reduced / frozen / culled) \
+         | cloth-frames asleep |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|---|---:|");
+    let mut described = Vec::new();
+    for (k, path) in paths.iter().enumerate() {
+        for full_quality in [false, true] {
+            if full_quality && k > 0 {
+                continue;
+            }
+            let run = |single_threaded: bool| {
+                let variant = Variant {
+                    single_threaded,
+                    full_quality,
+                    warm_up: CROWD_WARM_UP,
+                    ..Variant::default()
+                };
+                let line = bench_scene(path, CROWD_FRAMES, variant);
+                eprintln!(
+                    "crowd {}{}: {}",
+                    file_name(path),
+                    if full_quality { ", full quality" } else { "" },
+                    line.as_ref()
+                        .map_or(f64::NAN, |l| l["median_ms"].as_f64().unwrap_or(f64::NAN))
+                );
+                line
+            };
+            let (single, multi) = (run(true)?, run(false)?);
+            let number = |l: &serde_json::Value, key: &str| l[key].as_f64().unwrap_or(f64::NAN);
+            let levels = &single["cloth_frames_by_level"];
+            let level = |name: &str| levels[name].as_u64().unwrap_or(0);
+            let _ = writeln!(
+                w,
+                "| `{}`{} | {} | **{:.3}** | {:.3} | **{:.3}** | {:.2} | {} / {} / {} / {} | {} |",
+                file_name(path),
+                if full_quality {
+                    " `--full-quality`"
+                } else {
+                    ""
+                },
+                single["copies"],
+                number(&single, "median_ms"),
+                number(&single, "cloth_steps_median_ms"),
+                number(&multi, "median_ms"),
+                number(&single, "median_ms") / number(&multi, "median_ms"),
+                level("full"),
+                level("reduced"),
+                level("frozen"),
+                level("culled"),
+                single["cloth_frames_asleep"],
+            );
+        }
+        described.push(format!("- `{}`: {}", file_name(path), description(path)));
+    }
+    let _ = writeln!(w, "\n{}", described.join("\n"));
+    Ok(out)
 }

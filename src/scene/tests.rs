@@ -269,7 +269,7 @@ fn copies_bring_their_own_colliders_and_zones_but_share_the_shared_ones() {
 fn the_crowd_scene_holds_capes_and_flags() {
     let s = ClothScene::load(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/assets/scenes/crowd.ron"
+        "/assets/scenes/crowd/crowd.ron"
     ))
     .unwrap();
     assert_eq!(s.cloth, SceneCloth::Cape { nx: 20, ny: 25 });
