@@ -53,6 +53,13 @@ fn spawn_crowd(world: &mut World) {
     ));
 }
 
+/// The cloths' fabric, the characters' body and the bodies' and poles' material.
+type Looks = (
+    Handle<StandardMaterial>,
+    Handle<Mesh>,
+    Handle<StandardMaterial>,
+);
+
 /// Gives each new cloth its fabric, each character a body and each flag a pole; the camera its
 /// viewer.
 #[allow(clippy::too_many_arguments)]
@@ -64,13 +71,7 @@ fn dress(
     cloths: Query<(Entity, &Cloth, &GlobalTransform), Added<Cloth>>,
     walkers: Query<Entity, Added<Walker>>,
     cameras: Query<Entity, (With<Camera3d>, Without<ClothViewer>)>,
-    mut looks: Local<
-        Option<(
-            Handle<StandardMaterial>,
-            Handle<Mesh>,
-            Handle<StandardMaterial>,
-        )>,
-    >,
+    mut looks: Local<Option<Looks>>,
 ) {
     for camera in &cameras {
         commands.entity(camera).insert(ClothViewer::perspective(

@@ -20,25 +20,23 @@ pub(super) struct Candidate {
     priority: f32,
 }
 
+/// The cloths with levels of detail, as [`choose_levels`] reads them.
+type Levelled<'a> = (
+    Entity,
+    &'a ClothLod,
+    &'a mut ClothLodLevel,
+    &'a mut ClothState,
+);
+
 /// Chooses each cloth's level and applies the changes.
-#[allow(clippy::type_complexity)]
 pub(super) fn choose_levels(
     budget: Option<Res<ClothBudget>>,
     viewers: Query<(&ClothViewer, &GlobalTransform)>,
-    mut cloths: Query<
-        (
-            Entity,
-            &ClothLod,
-            &mut ClothLodLevel,
-            &GlobalTransform,
-            &mut ClothState,
-        ),
-        Without<ClothInvalid>,
-    >,
+    mut cloths: Query<Levelled, Without<ClothInvalid>>,
     mut order: Local<Vec<Candidate>>,
 ) {
     order.clear();
-    for (entity, lod, mut level, _, mut state) in &mut cloths {
+    for (entity, lod, mut level, mut state) in &mut cloths {
         if lod.validate().is_err() {
             // An invalid setting leaves the cloth at full quality.
             *level = ClothLodLevel::default();
@@ -67,7 +65,7 @@ pub(super) fn choose_levels(
         order.sort_by(|a, b| a.priority.total_cmp(&b.priority));
         share_out(budget.ms, &order, &mut cloths);
     }
-    for (_, lod, mut level, _, mut state) in &mut cloths {
+    for (_, lod, mut level, mut state) in &mut cloths {
         if lod.validate().is_ok() {
             apply(lod, &mut level, &mut state);
         }
@@ -113,30 +111,16 @@ fn measure(
 /// Lowers levels to fit `ms`: in `order` (finest first), each cloth takes the finest level its
 /// own choice allows whose cost fits what is left once every cloth after it has its floor
 /// (frozen, or culled where it chose that).
-#[allow(clippy::type_complexity)]
-fn share_out(
-    ms: f32,
-    order: &[Candidate],
-    cloths: &mut Query<
-        (
-            Entity,
-            &ClothLod,
-            &mut ClothLodLevel,
-            &GlobalTransform,
-            &mut ClothState,
-        ),
-        Without<ClothInvalid>,
-    >,
-) {
+fn share_out(ms: f32, order: &[Candidate], cloths: &mut Query<Levelled, Without<ClothInvalid>>) {
     let floor = |level: LodLevel| level.max(LodLevel::Frozen);
     let mut left = ms;
     for c in order {
-        if let Ok((_, lod, level, _, state)) = cloths.get(c.entity) {
+        if let Ok((_, lod, level, state)) = cloths.get(c.entity) {
             left -= state.lod.cost(floor(level.wanted), lod.reduced_detail);
         }
     }
     for c in order {
-        let Ok((_, lod, mut level, _, state)) = cloths.get_mut(c.entity) else {
+        let Ok((_, lod, mut level, state)) = cloths.get_mut(c.entity) else {
             continue;
         };
         let lowest = floor(level.wanted);

@@ -62,7 +62,11 @@ fn the_ten_nearest_cloths_are_bit_identical_to_a_crowd_without_levels() {
     let mut nearest: Vec<usize> = (0..ca.len()).collect();
     nearest.sort_by(|&a, &b| measure(a).total_cmp(&measure(b)));
     for &k in &nearest[..10] {
-        assert!(full_throughout[k], "cape {k}, {} m off, was not at full quality", measure(k));
+        assert!(
+            full_throughout[k],
+            "cape {k}, {} m off, was not at full quality",
+            measure(k)
+        );
         let (pa, pb) = (
             common::state(&apps[0], ca[k]).positions(),
             common::state(&apps[1], cb[k]).positions(),
