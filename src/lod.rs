@@ -230,8 +230,8 @@ pub struct ClothLodLevel {
     pub level: LodLevel,
     /// The level [`ClothLod`] chose before [`ClothBudget`] lowered it.
     pub wanted: LodLevel,
-    /// The measure the level was chosen by (distance, m, or screen size); infinite for distance
-    /// (0 for size) with no viewer.
+    /// The measure the level was chosen by (distance, m, or screen size); with no viewer, 0 m
+    /// (an infinite size): full quality.
     pub measure: f32,
     /// Whether a viewer saw the cloth.
     pub seen: bool,

@@ -40,6 +40,7 @@ pub(super) fn choose_levels(
         if lod.validate().is_err() {
             // An invalid setting leaves the cloth at full quality.
             *level = ClothLodLevel::default();
+            full_quality(&mut state);
             continue;
         }
         let state = &mut *state;
@@ -173,11 +174,18 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
             // Validated with the level of detail.
             let _ = state.sim.set_detail(detail);
         }
-    }
-    if !to.steps() {
+    } else {
         state.lod.blend = None;
     }
     state.lod.level = to;
+}
+
+/// Back to full quality, without a level of detail.
+fn full_quality(state: &mut ClothState) {
+    if state.lod.level != LodLevel::Full || state.sim.detail() != 1.0 {
+        state.lod = Default::default();
+        let _ = state.sim.set_detail(1.0);
+    }
 }
 
 /// A cloth whose [`ClothLod`] was removed runs at full quality again.
@@ -187,8 +195,7 @@ pub(super) fn restore_full_quality(
 ) {
     for entity in removed.read() {
         if let Ok(mut state) = cloths.get_mut(entity) {
-            state.lod = Default::default();
-            let _ = state.sim.set_detail(1.0);
+            full_quality(&mut state);
         }
     }
 }
@@ -200,16 +207,11 @@ pub(super) fn capture_pose(state: &mut ClothState, transform: &Affine3A) {
     if !std::mem::take(&mut state.lod.capture) {
         return;
     }
-    let s = &*state;
-    let positions = if s.sim.steps() == 0 {
-        &s.sim.model().rest_positions
+    let (sim, attachment) = (&state.sim, state.attachment.as_ref());
+    let carried = if sim.steps() == 0 {
+        Carried::at_rest(&sim.model().rest_positions, attachment)
     } else {
-        s.sim.positions()
-    };
-    let carried = if s.sim.steps() == 0 {
-        Carried::at_rest(positions, s.attachment.as_ref())
-    } else {
-        Carried::capture(positions, s.attachment.as_ref(), transform)
+        Carried::capture(sim.positions(), attachment, transform)
     };
     state.lod.carried = Some(carried);
 }

@@ -2,6 +2,8 @@
 //! by one step on the compute task pool, in parallel across cloths, then the cloths that meet
 //! each other one after the other.
 
+use std::time::Duration;
+
 use bevy::ecs::prelude::*;
 use bevy::log::warn;
 use bevy::math::Vec3;
@@ -10,8 +12,6 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::Time;
 
 use super::inputs::{ColliderSnapshot, WindSnapshot};
-use std::time::Duration;
-
 use crate::components::{ClothConfig, ClothInvalid, ClothPushesBodies, ClothState};
 use crate::lod::LodLevel;
 use crate::sim::{Environment, OtherCloth, Spread};

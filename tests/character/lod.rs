@@ -285,3 +285,36 @@ fn a_budget_lowers_levels_no_further_than_frozen() {
         assert_eq!(levels(&app, &cloths)[5], LodLevel::Culled);
     }
 }
+
+#[test]
+fn an_invalid_or_removed_level_of_detail_leaves_full_quality() {
+    // A viewer 20 m off: the cape freezes.
+    let scene = crowd(
+        1,
+        "Some((from: (0.0, 1.5, -20.0), look_at: Some((0.0, 1.0, 0.0))))",
+        "(speed: 1.2, radius: 2.0)",
+    );
+    let mut app = common::app();
+    let cape = scene.spawn_copies(app.world_mut()).unwrap()[0];
+    common::run(&mut app, 3);
+    assert_eq!(levels(&app, &[cape]), [LodLevel::Frozen]);
+    let steps = common::state(&app, cape).steps();
+    let lod = *app.world().get::<ClothLod>(cape).unwrap();
+    // An invalid setting: full quality, stepping again.
+    app.world_mut().entity_mut(cape).insert(ClothLod {
+        hysteresis: 2.0,
+        ..lod
+    });
+    common::run(&mut app, 2);
+    assert_eq!(levels(&app, &[cape]), [LodLevel::Full]);
+    assert_eq!(common::state(&app, cape).steps(), steps + 2);
+    // Valid again: frozen; removed: full quality.
+    app.world_mut().entity_mut(cape).insert(lod);
+    common::run(&mut app, 2);
+    assert_eq!(levels(&app, &[cape]), [LodLevel::Frozen]);
+    let steps = common::state(&app, cape).steps();
+    app.world_mut().entity_mut(cape).remove::<ClothLod>();
+    common::run(&mut app, 2);
+    assert_eq!(common::state(&app, cape).steps(), steps + 2);
+    assert_eq!(common::sim(&app, cape).detail(), 1.0);
+}
