@@ -64,7 +64,7 @@ pub(super) fn choose_levels(
     }
     if let Some(budget) = budget {
         order.sort_by(|a, b| a.priority.total_cmp(&b.priority));
-        share_out(budget.ms, &order, &mut cloths);
+        share_out(budget.plan_ms(), &order, &mut cloths);
     }
     for (_, lod, mut level, mut state) in &mut cloths {
         if lod.validate().is_ok() {

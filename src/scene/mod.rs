@@ -321,7 +321,8 @@ pub struct ClothScene {
     /// The viewer the levels of detail are chosen for; none by default.
     #[serde(default)]
     pub viewer: Option<SceneViewer>,
-    /// A budget for all cloths' steps, ms a frame ([`ClothBudget`]); none by default.
+    /// A budget for all cloths' steps, ms a frame ([`ClothBudget::new`]: 10% headroom); none by
+    /// default.
     #[serde(default)]
     pub budget_ms: Option<f32>,
     /// Further cloths, each a scene of its own (with its colliders, copies and level of detail)
@@ -506,7 +507,7 @@ impl ClothScene {
             world.spawn(viewer.bundle());
         }
         if let Some(ms) = self.budget_ms {
-            world.insert_resource(ClothBudget { ms });
+            world.insert_resource(ClothBudget::new(ms));
         }
         let mut cloths = self.spawn_own(world)?;
         for other in &self.also {
