@@ -306,6 +306,30 @@ fn further_cloths_and_walks_are_checked() {
             "copies.phase",
         ),
         (
+            format!("(cloth: {grid}, lod: Some((hysteresis: 1.5)))"),
+            "lod.hysteresis",
+        ),
+        (
+            format!("(cloth: {grid}, lod: Some((reduced: 50.0)))"),
+            "lod thresholds",
+        ),
+        (
+            format!("(cloth: {grid}, budget_ms: Some(0.0))"),
+            "budget_ms",
+        ),
+        (
+            format!("(cloth: {grid}, viewer: Some((from: (0.0, 0.0, 0.0), seconds: 0.0)))"),
+            "viewer.seconds",
+        ),
+        (
+            format!("(cloth: {grid}, viewer: Some((from: (0.0, 0.0, 0.0), fov_y_degrees: 180.0)))"),
+            "viewer.fov_y_degrees",
+        ),
+        (
+            format!("(cloth: {grid}, also: [(cloth: {grid}, budget_ms: Some(1.0))])"),
+            "also[0]: budget_ms",
+        ),
+        (
             format!("(cloth: {grid}, also: [(cloth: {grid}, dt: 0.01)])"),
             "also[0]: dt",
         ),
@@ -364,5 +388,36 @@ fn walks_start_at_the_placement_and_follow_their_circle() {
             Transform::IDENTITY,
             Transform::from_translation(character::SPINE)
         )
+    );
+}
+
+#[test]
+fn a_scene_viewer_flies_there_and_back_looking_ahead_or_at_its_point() {
+    let viewer = SceneViewer {
+        from: Vec3::ZERO,
+        to: Some(Vec3::new(10.0, 0.0, 0.0)),
+        seconds: 5.0,
+        look_at: None,
+        fov_y_degrees: 45.0,
+        aspect: 1.0,
+    };
+    viewer.validate().unwrap();
+    let at = |t: f32| viewer.pose(t);
+    assert!((at(2.5).translation - Vec3::new(5.0, 0.0, 0.0)).length() < 1e-5);
+    assert!((at(5.0).translation - Vec3::new(10.0, 0.0, 0.0)).length() < 1e-5);
+    // On the way out it looks along +X, back along -X; then it starts over.
+    assert!((at(2.5).forward().as_vec3() - Vec3::X).length() < 1e-5);
+    assert!((at(7.5).translation - Vec3::new(5.0, 0.0, 0.0)).length() < 1e-5);
+    assert!((at(7.5).forward().as_vec3() + Vec3::X).length() < 1e-5);
+    assert!((at(12.5).translation - at(2.5).translation).length() < 1e-4);
+    // Looking at a point wherever it is.
+    let watching = SceneViewer {
+        look_at: Some(Vec3::new(5.0, 0.0, 5.0)),
+        ..viewer
+    };
+    let pose = watching.pose(2.5);
+    assert!(
+        (pose.forward().as_vec3() - Vec3::Z).length() < 1e-5,
+        "{pose:?}"
     );
 }
