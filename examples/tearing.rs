@@ -1,7 +1,8 @@
-//! Tearing: a flag in a rising gale tears from its pole, and a curtain is holed by a thrown ball.
-//! The flag tears under strain ([`Tearing`] on: a spring stretched past 8% splits the cloth there);
-//! the ball punches its hole with a [`ClothCut`] along its path as it reaches the curtain, and
-//! carries off the piece it knocks out. Every tear is logged from its [`ClothTorn`].
+//! Tearing: a flag in a rising gale tears from its pole, a curtain is holed by a thrown ball, and
+//! a 64×64 cloth is cut in two along its middle row. The flag tears under strain ([`Tearing`] on:
+//! a spring stretched past 8% splits the cloth there); the ball punches its hole with a
+//! [`ClothCut`] along its path as it reaches the curtain, and carries off the piece it knocks out;
+//! the square's cut is a plane, its lower half falls. Every tear is logged from its [`ClothTorn`].
 //!
 //! `cargo run --release --features examples --example tearing`
 
@@ -33,7 +34,7 @@ fn main() {
         .add_systems(Startup, setup)
         .add_systems(
             FixedUpdate,
-            (rising_gale, throw_ball).before(ClothSystems::Prepare),
+            (rising_gale, throw_ball, cut_in_two).before(ClothSystems::Prepare),
         )
         .add_systems(Update, log_tears)
         .run();
@@ -47,6 +48,10 @@ struct Ball {
 
 #[derive(Component)]
 struct Curtain;
+
+/// The square cut in two, until it is.
+#[derive(Component)]
+struct ToCut;
 
 fn setup(
     mut commands: Commands,
@@ -126,13 +131,24 @@ fn setup(
             ..default()
         },
         Transform::from_xyz(BALL_START.x, 2.6 - side / 2.0, CURTAIN_Z),
-        MeshMaterial3d(fabric),
+        MeshMaterial3d(fabric.clone()),
     ));
     commands.spawn((
         Mesh3d(meshes.add(Cylinder::new(0.02, side + 0.2))),
         MeshMaterial3d(metal.clone()),
         Transform::from_xyz(BALL_START.x, 2.62, CURTAIN_Z)
             .with_rotation(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2)),
+    ));
+    // The square: 64×64, 2 cm apart, hanging from its top corners, cut along its middle row.
+    let (n, spacing) = (64u32, 0.02);
+    let side = (n - 1) as f32 * spacing;
+    commands.spawn((
+        Name::new("square"),
+        ToCut,
+        Cloth::grid(GridSpec::new(n, n, spacing).with_plane(GridPlane::Vertical)),
+        ClothPins::new([0, n - 1]),
+        Transform::from_xyz(4.9, 2.6 - side / 2.0, CURTAIN_Z - 1.0),
+        MeshMaterial3d(fabric),
     ));
     commands.spawn((
         Ball { holed: false },
@@ -180,6 +196,29 @@ fn throw_ball(
                 });
             }
         }
+    }
+}
+
+/// Cuts the square in two along its middle row (a horizontal plane through its centre, between
+/// rows 31 and 32), 1.2 s in.
+fn cut_in_two(
+    mut commands: Commands,
+    time: Res<Time>,
+    squares: Query<(Entity, &Transform), With<ToCut>>,
+    mut cuts: MessageWriter<ClothCut>,
+) {
+    if time.elapsed_secs() < 1.2 {
+        return;
+    }
+    for (cloth, transform) in &squares {
+        cuts.write(ClothCut {
+            cloth,
+            cut: Cut::Plane {
+                point: transform.translation,
+                normal: Vec3::Y,
+            },
+        });
+        commands.entity(cloth).remove::<ToCut>();
     }
 }
 
