@@ -29,6 +29,7 @@ use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ClothError, non_negative};
+use crate::sim::contact::bounds;
 use crate::skin::Attachment;
 
 /// How much of a cloth's simulation runs, from all of it to none.
@@ -281,8 +282,7 @@ pub struct ClothBudget {
     /// The budget, ms a frame.
     pub ms: f32,
     /// The fraction of the budget the plan leaves free, in `0..1`: a step's time varies from
-    /// frame to frame by about a tenth on a busy machine, so planning for the whole budget
-    /// overruns it in about half the frames.
+    /// frame to frame, so a plan that spends the whole budget overruns it in many frames.
     pub headroom: f32,
 }
 
@@ -392,10 +392,7 @@ impl LodState {
     /// The bounding sphere of `positions`, kept until they move.
     pub fn bound(&mut self, positions: &[Vec3]) -> (Vec3, f32) {
         *self.bound.get_or_insert_with(|| {
-            let (lo, hi) = positions.iter().fold(
-                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |(lo, hi), &p| (lo.min(p), hi.max(p)),
-            );
+            let (lo, hi) = bounds(positions);
             if lo.cmple(hi).all() {
                 (0.5 * (lo + hi), 0.5 * lo.distance(hi))
             } else {

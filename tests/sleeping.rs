@@ -235,3 +235,91 @@ fn a_cloth_in_tolerance_mode_at_rest_sleeps() {
         estimates
     );
 }
+
+#[test]
+fn a_moving_target_wakes_the_cloth() {
+    // No pin: every particle held within 5 cm of its rest position under the cloth's transform
+    // (targets, not pins), so only the targets can wake it.
+    let mut app = app();
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Cloth::grid(GridSpec::new(12, 12, 0.05).with_plane(GridPlane::Vertical)),
+            ClothTargets {
+                weights: TargetWeights::Values(vec![0.05; 144]),
+            },
+            ClothConfig {
+                solver: SolverSettings {
+                    damping: 4.0,
+                    ..default()
+                },
+                ..default()
+            },
+            Transform::from_xyz(0.0, 2.0, 0.0),
+        ))
+        .id();
+    app.update();
+    assert_eq!(sim(&app, cloth).pinned().count(), 0);
+    until_asleep(&mut app, cloth, 900);
+    // The transform moves 1 m; the targets go with it, and the cloth after them.
+    app.world_mut()
+        .get_mut::<Transform>(cloth)
+        .unwrap()
+        .translation
+        .x += 1.0;
+    run(&mut app, 60);
+    assert!(!sim(&app, cloth).slept_last_step());
+    let state = state(&app, cloth);
+    for t in state.targets() {
+        let x = state.positions()[t.particle as usize];
+        assert!(x.distance(t.position) < 0.051, "{x} vs {}", t.position);
+    }
+}
+
+#[test]
+fn a_sleeping_cloth_whose_entity_moves_is_drawn_where_it_is() {
+    // Pinned in the world: moving the entity moves neither pins nor particles, so the cloth
+    // sleeps on; its mesh, written in the entity's space, must be written again.
+    let mut app = app();
+    let cloth = hanging(&mut app, SolverSettings::default());
+    let corners = [0, 11].map(|i| (i, sim(&app, cloth).positions()[i as usize]));
+    app.world_mut().get_mut::<ClothPins>(cloth).unwrap().pins = corners
+        .iter()
+        .map(|&(particle, at)| ClothPin {
+            particle,
+            anchor: PinAnchor::World(at),
+        })
+        .collect();
+    until_asleep(&mut app, cloth, 900);
+    run(&mut app, 2);
+    app.world_mut()
+        .get_mut::<Transform>(cloth)
+        .unwrap()
+        .translation
+        .x += 1.0;
+    run(&mut app, 2);
+    assert!(sim(&app, cloth).slept_last_step());
+    let state = state(&app, cloth);
+    let mesh = app
+        .world()
+        .resource::<Assets<Mesh>>()
+        .get(state.mesh())
+        .unwrap();
+    let local = mesh
+        .attribute(Mesh::ATTRIBUTE_POSITION)
+        .unwrap()
+        .as_float3()
+        .unwrap();
+    let to_local = app
+        .world()
+        .get::<GlobalTransform>(cloth)
+        .unwrap()
+        .affine()
+        .inverse();
+    for (p, x) in local.iter().zip(state.positions()) {
+        assert!(
+            (Vec3::from(*p) - to_local.transform_point3(*x)).length() < 1e-5,
+            "{p:?} {x}"
+        );
+    }
+}

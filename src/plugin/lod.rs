@@ -80,12 +80,16 @@ fn measure(
     (centre, radius): (Vec3, f32),
     viewers: &Query<(&ClothViewer, &GlobalTransform)>,
 ) -> (f32, bool) {
+    if viewers.is_empty() {
+        return match metric {
+            LodMetric::Distance => (0.0, true),
+            LodMetric::ScreenSize => (f32::INFINITY, true),
+        };
+    }
     let mut distance = f32::INFINITY;
     let mut size: f32 = 0.0;
     let mut seen = false;
-    let mut any = false;
     for (viewer, at) in viewers {
-        any = true;
         let to = centre - at.translation();
         let d = to.length();
         distance = distance.min((d - radius).max(0.0));
@@ -95,12 +99,6 @@ fn measure(
             let forward = at.forward().as_vec3();
             let angle = forward.angle_between(to);
             angle <= viewer.half_angle + (radius / d).min(1.0).asin()
-        };
-    }
-    if !any {
-        return match metric {
-            LodMetric::Distance => (0.0, true),
-            LodMetric::ScreenSize => (f32::INFINITY, true),
         };
     }
     match metric {

@@ -117,16 +117,20 @@ fn in_frame(app: &App, pose: &[Vec3], frame: Entity) -> Vec<Vec3> {
     pose.iter().map(|&p| to_frame.transform_point3(p)).collect()
 }
 
+/// One character walking as `walk` says, its cape seen by a viewer 20 m off, in a new App.
+fn cape_seen_from_20_m(walk: &str) -> (App, Entity) {
+    let viewer = "Some((from: (0.0, 1.5, -20.0), look_at: Some((0.0, 1.0, 0.0))))";
+    let mut app = common::app();
+    let cape = crowd(1, viewer, walk)
+        .spawn_copies(app.world_mut())
+        .unwrap()[0];
+    (app, cape)
+}
+
 #[test]
 fn a_frozen_cape_keeps_its_pose_on_its_walking_character() {
-    // A viewer 20 m off: the cape is frozen (between 14 and 30 m) after its first steps.
-    let scene = crowd(
-        1,
-        "Some((from: (0.0, 1.5, -20.0), look_at: Some((0.0, 1.0, 0.0))))",
-        "(speed: 1.2, radius: 2.0, sway: 0.35)",
-    );
-    let mut app = common::app();
-    let cape = scene.spawn_copies(app.world_mut()).unwrap()[0];
+    // The cape is frozen (between 14 and 30 m) after its first steps.
+    let (mut app, cape) = cape_seen_from_20_m("(speed: 1.2, radius: 2.0, sway: 0.35)");
     let root = app
         .world_mut()
         .query_filtered::<Entity, With<Walker>>()
@@ -288,14 +292,8 @@ fn a_budget_lowers_levels_no_further_than_frozen() {
 
 #[test]
 fn an_invalid_or_removed_level_of_detail_leaves_full_quality() {
-    // A viewer 20 m off: the cape freezes.
-    let scene = crowd(
-        1,
-        "Some((from: (0.0, 1.5, -20.0), look_at: Some((0.0, 1.0, 0.0))))",
-        "(speed: 1.2, radius: 2.0)",
-    );
-    let mut app = common::app();
-    let cape = scene.spawn_copies(app.world_mut()).unwrap()[0];
+    // The cape freezes.
+    let (mut app, cape) = cape_seen_from_20_m("(speed: 1.2, radius: 2.0)");
     common::run(&mut app, 3);
     assert_eq!(levels(&app, &[cape]), [LodLevel::Frozen]);
     let steps = common::state(&app, cape).steps();
