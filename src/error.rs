@@ -189,6 +189,13 @@ pub enum ClothError {
         /// What is wrong and where, e.g. `"edge (3, 7) borders only triangle 12: …"`.
         what: String,
     },
+    /// A cloth that has no coarse level of detail was asked to run at one (see
+    /// [`ClothSim::set_coarse`](crate::sim::ClothSim::set_coarse)).
+    #[error("the cloth has no coarse level: {what}")]
+    NoCoarseLevel {
+        /// Why, e.g. `"its particles are not rows and columns of a lattice"`.
+        what: String,
+    },
     /// The simulation produced a non-finite value; the cloth is stopped instead of spreading NaN.
     #[error(
         "simulation diverged at step {step}: particle {particle} became non-finite \

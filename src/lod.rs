@@ -10,12 +10,12 @@
 //! fn spawn(mut commands: Commands) {
 //!     // The camera the levels are chosen for.
 //!     commands.spawn((Transform::from_xyz(0.0, 2.0, 10.0), ClothViewer::perspective(0.8, 16.0 / 9.0)));
-//!     // Full quality within 15 m, half the substeps to 40 m, frozen on its targets to 80 m,
-//!     // culled beyond (and whenever no viewer sees it).
+//!     // Full quality within 15 m, half the substeps to 25 m, every other row and column to 40 m,
+//!     // frozen on its targets to 80 m, culled beyond (and whenever no viewer sees it).
 //!     commands.spawn((
 //!         Cloth::grid(GridSpec::new(16, 16, 0.05)),
 //!         ClothPins::new([0, 15]),
-//!         ClothLod { reduced: 15.0, frozen: 40.0, culled: 80.0, ..default() },
+//!         ClothLod { reduced: 15.0, coarse: 25.0, frozen: 40.0, culled: 80.0, ..default() },
 //!     ));
 //!     // All cloths together: at most 4 ms of steps a frame.
 //!     commands.insert_resource(ClothBudget::new(4.0));
@@ -41,6 +41,11 @@ pub enum LodLevel {
     /// Fewer substeps ([`ClothLod::reduced_detail`] of them; in tolerance mode, a tolerance
     /// that much looser).
     Reduced,
+    /// Every other row and column of a lattice cloth simulated, and the rest of its particles
+    /// (and so its whole render mesh) put between them (see
+    /// [`ClothSim::set_coarse`](crate::sim::ClothSim::set_coarse)); a cloth with no coarse level
+    /// runs at [`Reduced`](Self::Reduced) instead.
+    Coarse,
     /// No simulation: each particle keeps the pose it had when the cloth froze, carried by its
     /// skin (a skinned particle with a target) or by the cloth's transform (the others), so a
     /// character's cloth follows its character. Its mesh is still written.
@@ -53,16 +58,17 @@ pub enum LodLevel {
 
 impl LodLevel {
     /// The levels, finest first.
-    pub const ALL: [LodLevel; 4] = [
+    pub const ALL: [LodLevel; 5] = [
         LodLevel::Full,
         LodLevel::Reduced,
+        LodLevel::Coarse,
         LodLevel::Frozen,
         LodLevel::Culled,
     ];
 
     /// Whether the cloth steps at this level.
     pub fn steps(self) -> bool {
-        self <= LodLevel::Reduced
+        self <= LodLevel::Coarse
     }
 }
 
@@ -92,8 +98,9 @@ pub enum CulledReturn {
 }
 
 /// Chooses a cloth's [`LodLevel`] each step from the [`ClothViewer`]s: by [`metric`](Self::metric)
-/// past the `reduced`, `frozen` and `culled` thresholds (give one `f32::INFINITY` for distance,
-/// or 0 for screen size, to leave its level out), and culled whenever no viewer sees it
+/// past the `reduced`, `coarse`, `frozen` and `culled` thresholds (give one the value of the next,
+/// or `f32::INFINITY` for distance and 0 for screen size to the last ones, to leave its level
+/// out), and culled whenever no viewer sees it
 /// ([`cull_unseen`](Self::cull_unseen)). With no viewer, every cloth runs at full quality.
 /// [`ClothBudget`] may lower the level further. The level is written to [`ClothLodLevel`].
 #[derive(Component, Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
@@ -105,6 +112,8 @@ pub struct ClothLod {
     pub metric: LodMetric,
     /// Past this, [`LodLevel::Reduced`].
     pub reduced: f32,
+    /// Past this, [`LodLevel::Coarse`].
+    pub coarse: f32,
     /// Past this, [`LodLevel::Frozen`].
     pub frozen: f32,
     /// Past this, [`LodLevel::Culled`].
@@ -121,19 +130,21 @@ pub struct ClothLod {
     pub cull_unseen: bool,
     /// Where a culled cloth is when it comes back.
     pub on_return: CulledReturn,
-    /// Frames over which a cloth that was frozen blends from its carried pose into its
-    /// simulation when it steps again (0: at once).
+    /// Frames over which a cloth blends from the pose it had into its simulation when it steps
+    /// again after being frozen, or turns coarse (0: at once).
     pub blend_frames: u32,
 }
 
 impl Default for ClothLod {
     /// By distance: full quality within 15 m, [`Reduced`](LodLevel::Reduced) (half the
-    /// substeps) to 40 m, [`Frozen`](LodLevel::Frozen) to 80 m, culled beyond and when unseen;
-    /// 10% hysteresis; a thawing cloth blends into its simulation over 10 frames.
+    /// substeps) to 25 m, [`Coarse`](LodLevel::Coarse) to 40 m, [`Frozen`](LodLevel::Frozen) to
+    /// 80 m, culled beyond and when unseen; 10% hysteresis; a cloth blends into its simulation
+    /// over 10 frames when it thaws or turns coarse.
     fn default() -> Self {
         Self {
             metric: LodMetric::Distance,
             reduced: 15.0,
+            coarse: 25.0,
             frozen: 40.0,
             culled: 80.0,
             hysteresis: 0.1,
@@ -151,6 +162,7 @@ impl ClothLod {
     pub fn validate(&self) -> Result<(), ClothError> {
         for (field, v) in [
             ("lod.reduced", self.reduced),
+            ("lod.coarse", self.coarse),
             ("lod.frozen", self.frozen),
             ("lod.culled", self.culled),
         ] {
@@ -162,14 +174,16 @@ impl ClothLod {
                 });
             }
         }
-        let ordered = match self.metric {
-            LodMetric::Distance => self.reduced <= self.frozen && self.frozen <= self.culled,
-            LodMetric::ScreenSize => self.reduced >= self.frozen && self.frozen >= self.culled,
-        };
+        let t = [self.reduced, self.coarse, self.frozen, self.culled];
+        let ordered = t.windows(2).all(|w| match self.metric {
+            LodMetric::Distance => w[0] <= w[1],
+            LodMetric::ScreenSize => w[0] >= w[1],
+        });
         if !ordered {
             return Err(ClothError::InvalidValue {
                 field: "lod thresholds",
-                expected: "reduced, frozen, culled in order (rising distances, falling sizes)",
+                expected: "reduced, coarse, frozen, culled in order (rising distances, falling \
+                           sizes)",
                 value: self.frozen as f64,
             });
         }
@@ -194,7 +208,7 @@ impl ClothLod {
     /// The level for `measure` (distance or screen size) for a cloth now at `current`: past a
     /// threshold by the hysteresis to go coarser, back by it to go finer.
     pub fn level_for(&self, measure: f32, current: LodLevel) -> LodLevel {
-        let thresholds = [self.reduced, self.frozen, self.culled];
+        let thresholds = [self.reduced, self.coarse, self.frozen, self.culled];
         // How many thresholds `measure` is past, each scaled by `factor`.
         let past = |factor: f32| -> usize {
             thresholds
@@ -314,10 +328,14 @@ pub(crate) struct LodState {
     pub level: LodLevel,
     /// A culled cloth coming back that is put where its frozen pose would be, this step.
     pub reset: bool,
-    /// The cloth freezes this step: its pose is to be captured.
+    /// The cloth freezes or turns coarse this step: its pose is to be captured.
     pub capture: bool,
-    /// Running estimates of a step at full detail and of a frozen step, ms (0 until measured).
+    /// Frames to blend the captured pose into the simulation over (a cloth turning coarse).
+    pub blend_in: u32,
+    /// Running estimates of a step at full detail, at the coarse level and of a frozen step, ms
+    /// (0 until measured).
     pub full_ms: f32,
+    pub coarse_ms: f32,
     pub frozen_ms: f32,
     /// Bounding sphere of the particles (centre, radius); `None` once they moved.
     pub bound: Option<(Vec3, f32)>,
@@ -345,6 +363,17 @@ pub(crate) struct Blend {
 }
 
 impl Blend {
+    /// A blend from `carried` over `frames`.
+    pub fn from(carried: Carried, frames: u32) -> Self {
+        Self {
+            carried,
+            frames,
+            drawn: 0,
+            target: Vec::new(),
+            positions: Vec::new(),
+        }
+    }
+
     /// Blends `particles` with the carried pose for the next frame drawn into `positions`;
     /// `false` once the blend is over (the particles are drawn as they are).
     pub fn next(&mut self, particles: &[Vec3]) -> bool {
@@ -365,11 +394,14 @@ impl Blend {
 }
 
 impl LodState {
-    /// The level's step cost by the estimates, ms.
+    /// The level's step cost by the estimates, ms; until the coarse level was measured, that of
+    /// the reduced level (which a cloth with no coarse level runs instead).
     pub fn cost(&self, level: LodLevel, reduced_detail: f32) -> f32 {
         match level {
             LodLevel::Full => self.full_ms,
             LodLevel::Reduced => self.full_ms * reduced_detail,
+            LodLevel::Coarse if self.coarse_ms > 0.0 => self.coarse_ms,
+            LodLevel::Coarse => self.full_ms * reduced_detail,
             LodLevel::Frozen => self.frozen_ms,
             LodLevel::Culled => 0.0,
         }
@@ -379,6 +411,7 @@ impl LodState {
     pub fn measured(&mut self, level: LodLevel, detail: f32, ms: f32) {
         let (estimate, value) = match level {
             LodLevel::Full | LodLevel::Reduced => (&mut self.full_ms, ms / detail),
+            LodLevel::Coarse => (&mut self.coarse_ms, ms),
             LodLevel::Frozen => (&mut self.frozen_ms, ms),
             LodLevel::Culled => return,
         };
@@ -473,6 +506,7 @@ mod tests {
     fn levels_change_past_their_thresholds_by_the_hysteresis() {
         let lod = ClothLod {
             reduced: 10.0,
+            coarse: 15.0,
             frozen: 20.0,
             culled: 40.0,
             hysteresis: 0.1,
@@ -481,6 +515,7 @@ mod tests {
         // Out: a level is left only 10% past its threshold.
         assert_eq!(lod.level_for(10.5, Full), Full);
         assert_eq!(lod.level_for(11.5, Full), Reduced);
+        assert_eq!(lod.level_for(17.0, Full), Coarse);
         assert_eq!(lod.level_for(25.0, Full), Frozen);
         assert_eq!(lod.level_for(100.0, Full), Culled);
         // Back: only 10% inside it.
@@ -497,6 +532,7 @@ mod tests {
         let size = ClothLod {
             metric: LodMetric::ScreenSize,
             reduced: 0.2,
+            coarse: 0.1,
             frozen: 0.05,
             culled: 0.01,
             ..lod
@@ -510,6 +546,7 @@ mod tests {
         // A level left out.
         let no_reduced = ClothLod {
             reduced: 20.0,
+            coarse: 20.0,
             ..lod
         };
         assert_eq!(no_reduced.level_for(25.0, Full), Frozen);
@@ -603,6 +640,10 @@ mod tests {
         // A reduced step at half detail counts as a full step of twice its time.
         s.measured(Reduced, 0.5, 2.0);
         assert!((s.cost(Full, 0.5) - 2.2).abs() < 1e-6);
+        // The coarse level costs the reduced one's until it was measured itself.
+        assert!((s.cost(Coarse, 0.5) - 1.1).abs() < 1e-6);
+        s.measured(Coarse, 1.0, 0.3);
+        assert_eq!(s.cost(Coarse, 0.5), 0.3);
         s.measured(Frozen, 1.0, 0.01);
         assert_eq!(s.cost(Frozen, 0.5), 0.01);
         assert_eq!(s.cost(Culled, 0.5), 0.0);

@@ -148,20 +148,25 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
             level.level = to;
         }
     }
+    if to == LodLevel::Coarse && state.sim.set_coarse(true).is_err() {
+        // A cloth with no coarse level runs reduced.
+        to = LodLevel::Reduced;
+        level.level = to;
+    }
+    if to != LodLevel::Coarse {
+        let _ = state.sim.set_coarse(false);
+    }
     let freezes = !to.steps() && (to == LodLevel::Frozen || lod.on_return == CulledReturn::Reset);
+    // Turning coarse moves the particles between the kept rows and columns: drawn blended.
+    let coarsens = to == LodLevel::Coarse && from < LodLevel::Coarse && lod.blend_frames > 0;
     // Captured as the pins and targets are resolved, where the carriers still stand where the
     // particles were stepped to.
-    state.lod.capture = from.steps() && freezes;
+    state.lod.capture = from.steps() && (freezes || coarsens);
+    state.lod.blend_in = if coarsens { lod.blend_frames } else { 0 };
     if to.steps() {
         let carried = state.lod.carried.take();
         if from == LodLevel::Frozen && lod.blend_frames > 0 {
-            state.lod.blend = carried.map(|carried| Blend {
-                carried,
-                frames: lod.blend_frames,
-                drawn: 0,
-                target: Vec::new(),
-                positions: Vec::new(),
-            });
+            state.lod.blend = carried.map(|carried| Blend::from(carried, lod.blend_frames));
         }
         let detail = if to == LodLevel::Reduced {
             lod.reduced_detail
@@ -180,9 +185,10 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
 
 /// Back to full quality, without a level of detail.
 fn full_quality(state: &mut ClothState) {
-    if state.lod.level != LodLevel::Full || state.sim.detail() != 1.0 {
+    if state.lod.level != LodLevel::Full || state.sim.detail() != 1.0 || state.sim.is_coarse() {
         state.lod = Default::default();
         let _ = state.sim.set_detail(1.0);
+        let _ = state.sim.set_coarse(false);
     }
 }
 
@@ -198,9 +204,9 @@ pub(super) fn restore_full_quality(
     }
 }
 
-/// Takes the pose a cloth freezes in from its particles and its carriers as they were after its
-/// last step (`transform`: its transform then), when its level asks for it; a cloth that never
-/// stepped freezes in its rest shape.
+/// Takes the pose a cloth freezes in (or blends from as it turns coarse) from its particles and
+/// its carriers as they were after its last step (`transform`: its transform then), when its
+/// level asks for it; a cloth that never stepped freezes in its rest shape.
 pub(super) fn capture_pose(state: &mut ClothState, transform: &Affine3A) {
     if !std::mem::take(&mut state.lod.capture) {
         return;
@@ -211,7 +217,10 @@ pub(super) fn capture_pose(state: &mut ClothState, transform: &Affine3A) {
     } else {
         Carried::capture(sim.positions(), attachment, transform)
     };
-    state.lod.carried = Some(carried);
+    match std::mem::take(&mut state.lod.blend_in) {
+        0 => state.lod.carried = Some(carried),
+        frames => state.lod.blend = Some(Blend::from(carried, frames)),
+    }
 }
 
 /// Moves a thawing cloth's carried pose to where its carriers are this step.

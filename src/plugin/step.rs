@@ -125,7 +125,7 @@ fn step_one(state: &mut ClothState, dt: f32, env: &Environment, spread: Option<&
             state.step_time = Duration::ZERO;
             return;
         }
-        LodLevel::Full | LodLevel::Reduced => {}
+        LodLevel::Full | LodLevel::Reduced | LodLevel::Coarse => {}
     }
     let started = Instant::now();
     let stepped = match spread {

@@ -91,6 +91,9 @@ impl ClothSim {
             frame: None,
             adaptive: None,
             detail: 1.0,
+            revision: 0,
+            coarse: None,
+            no_coarse: None,
         };
         sim.check_air(settings)?;
         sim.prepare_self_contacts(settings.self_collision)?;
@@ -124,6 +127,7 @@ impl ClothSim {
             self.particles.positions.copy_from_slice(&p.positions);
             self.particles.velocities.copy_from_slice(&p.velocities);
             self.steps = previous.steps;
+            self.coarse_stale();
         }
         same
     }
@@ -151,6 +155,7 @@ impl ClothSim {
     /// layouts, constants and scratch, [`Steppers::prepare`]). Runs at construction and on edits,
     /// never inside a step.
     pub(super) fn apply_settings(&mut self) {
+        self.revision += 1;
         let s = &self.model.springs;
         for (k, kind) in self.stiffness.iter_mut().zip(&s.kind) {
             *k = self.settings.stiffness.of(*kind);

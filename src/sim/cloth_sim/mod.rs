@@ -22,6 +22,7 @@ use super::wind::{WindField, WindScratch};
 
 mod adaptive;
 mod build;
+mod coarse;
 mod pins;
 mod plan;
 mod readout;
@@ -103,6 +104,13 @@ pub struct ClothSim {
     adaptive: Option<Box<adaptive::Adaptive>>,
     /// The fraction of its configured substeps a step takes (see [`Self::set_detail`]).
     detail: f32,
+    /// Moves on whenever settings, masses, pins or topology are applied again: what was derived
+    /// from them before is out of date.
+    revision: u64,
+    /// The coarse level of detail, once built ([`Self::set_coarse`]).
+    coarse: Option<Box<coarse::Coarse>>,
+    /// Why the coarse level could not be built, at which revision.
+    no_coarse: Option<(u64, crate::error::ClothError)>,
 }
 
 /// What surrounds a cloth during one step: colliders (their poses at the start and end of the step),

@@ -58,6 +58,7 @@ impl ClothSim {
             });
         }
         self.particles.velocities.fill(velocity);
+        self.coarse_stale();
         self.wake();
         Ok(())
     }
@@ -87,6 +88,7 @@ impl ClothSim {
         }
         self.particles.positions.copy_from_slice(positions);
         self.particles.velocities.copy_from_slice(velocities);
+        self.coarse_stale();
         self.runaway = Default::default();
         for pin in &mut self.pins {
             pin.from = pin.to;
@@ -202,7 +204,8 @@ impl ClothSim {
 
     /// What the cloth's self-contacts did so far (all zero with self-collision off).
     pub fn self_contact_stats(&self) -> SelfContactStats {
-        self.contacts
+        self.stepping()
+            .contacts
             .self_contacts()
             .map_or(SelfContactStats::default(), |s| {
                 let (vertex_triangle, edge_edge) = s.candidate_count();
@@ -218,18 +221,18 @@ impl ClothSim {
     /// Number of searches for contact candidates with other cloths run so far (see
     /// [`Environment::cloths`]): none while no other cloth comes within reach.
     pub fn cloth_contact_searches(&self) -> u64 {
-        self.contacts.cloths().searches()
+        self.stepping().contacts.cloths().searches()
     }
 
     /// Number of substeps whose contacts with other cloths were resolved so far: every substep
     /// while the cloths approach each other, a few a step while one rests on another.
     pub fn cloth_contact_resolutions(&self) -> u64 {
-        self.contacts.cloths().resolutions()
+        self.stepping().contacts.cloths().resolutions()
     }
 
     /// Number of colliders that passed the broad phase of the last step.
     pub fn active_colliders(&self) -> usize {
-        self.contacts.active_count()
+        self.stepping().contacts.active_count()
     }
 
     /// What the cloth took from each collider it touched during the last step: the sum of the
@@ -237,6 +240,6 @@ impl ClothSim {
     /// (at most once each). The collider took the opposite: a game applies its negation to the
     /// body to make the coupling two-way.
     pub fn reactions(&self) -> impl Iterator<Item = &Reaction> {
-        self.contacts.reactions()
+        self.stepping().contacts.reactions()
     }
 }

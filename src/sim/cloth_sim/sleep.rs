@@ -28,6 +28,9 @@ impl ClothSim {
     /// next step and may fall asleep again after `sleep_steps` quiet steps.
     pub fn wake(&mut self) {
         self.sleep = Sleep::default();
+        if let Some(coarse) = &mut self.coarse {
+            coarse.wake();
+        }
     }
 
     /// Whether the cloth is asleep: its steps are skipped until something wakes it.

@@ -44,6 +44,9 @@ impl ClothSim {
         if !(dt.is_finite() && dt > 0.0) {
             return Ok(());
         }
+        if self.is_coarse() {
+            return self.step_coarse(dt, env, spread);
+        }
         // XPBD takes the air at any stiffness: only the integrators with a stability bound, and
         // the choices of `Auto` and tolerance mode, need the air's frequency.
         let bounded = self.settings.integrator != Integrator::Xpbd || self.adaptive.is_some();

@@ -136,6 +136,17 @@ impl Limits {
         }
     }
 
+    /// Takes the targets of `other`'s particles that `index` maps to a particle here (those
+    /// mapped to `u32::MAX` are left out), with their motion.
+    pub fn restrict_targets(&mut self, other: &Limits, index: &[u32]) {
+        self.touched |= other.touched;
+        self.targets.clear();
+        self.targets.extend(other.targets.iter().filter_map(|t| {
+            let particle = *index.get(t.particle as usize)?;
+            (particle != u32::MAX).then_some(Moving { particle, ..*t })
+        }));
+    }
+
     /// The particles with a target and the target's weight, in order.
     pub fn targeted(&self) -> impl Iterator<Item = (u32, f32)> + '_ {
         self.targets.iter().map(|t| (t.particle, t.weight))

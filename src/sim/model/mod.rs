@@ -11,6 +11,7 @@ use crate::error::{ClothError, indices_in_range, particles_within, positive};
 mod closed;
 mod disc;
 mod grid;
+mod lattice;
 mod normals;
 mod seams;
 mod springs;

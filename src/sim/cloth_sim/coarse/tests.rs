@@ -1,0 +1,165 @@
+use glam::Vec3;
+
+use crate::error::ClothError;
+use crate::sim::model::DiscSpec;
+use crate::sim::{ClothModel, ClothSim, Cut, GridSpec, SolverSettings};
+
+const DT: f32 = 1.0 / 60.0;
+
+/// A sheet of `n` × `n` particles 5 cm apart, held flat by two corners of its first row (and
+/// `more` pins), to swing down.
+fn curtain(n: u32, more: &[u32]) -> ClothSim {
+    let spec = GridSpec::new(n, n, 0.05);
+    let model = ClothModel::grid(&spec).unwrap();
+    let mut sim = ClothSim::new(model, SolverSettings::default(), |p| p).unwrap();
+    let pins: Vec<(u32, Vec3)> = [0, n - 1]
+        .iter()
+        .chain(more)
+        .map(|&i| (i, sim.positions()[i as usize]))
+        .collect();
+    sim.set_pins(pins).unwrap();
+    sim
+}
+
+fn run(sim: &mut ClothSim, steps: usize) {
+    for _ in 0..steps {
+        sim.step(DT).unwrap();
+    }
+}
+
+#[test]
+fn every_particle_follows_the_kept_rows_and_columns_bilinearly() {
+    let mut sim = curtain(9, &[]);
+    sim.set_coarse(true).unwrap();
+    assert!(sim.is_coarse());
+    assert_eq!(sim.coarse_particle_count(), Some(25));
+    run(&mut sim, 40);
+    let x = sim.positions();
+    let at = |i: usize, j: usize| x[j * 9 + i];
+    // It swung down.
+    assert!(
+        at(4, 8).distance(Vec3::new(0.0, 0.0, 0.2)) > 0.3,
+        "{}",
+        at(4, 8)
+    );
+    for j in 0..9 {
+        for i in 0..9 {
+            let (i0, i1) = (i & !1, (i + 1) & !1);
+            let (j0, j1) = (j & !1, (j + 1) & !1);
+            let expect = 0.25 * (at(i0, j0) + at(i1, j0) + at(i0, j1) + at(i1, j1));
+            assert!(at(i, j).distance(expect) < 1e-6, "({i}, {j})");
+        }
+    }
+    // The pins hold.
+    assert_eq!(at(0, 0), Vec3::new(-0.2, 0.0, -0.2));
+    assert_eq!(at(8, 0), Vec3::new(0.2, 0.0, -0.2));
+    // The coarse particles carry the whole mass.
+    let (full, coarse): (f32, f32) = {
+        let c = sim.coarse.as_ref().unwrap();
+        (sim.masses().iter().sum(), c.sim.masses().iter().sum())
+    };
+    assert!((full - coarse).abs() < 1e-5 * full, "{full} {coarse}");
+}
+
+#[test]
+fn a_coarse_curtain_hangs_like_the_full_one() {
+    let (mut full, mut coarse) = (curtain(17, &[]), curtain(17, &[]));
+    coarse.set_coarse(true).unwrap();
+    run(&mut full, 300);
+    run(&mut coarse, 300);
+    let mean = |s: &ClothSim| s.positions().iter().sum::<Vec3>() / s.positions().len() as f32;
+    let lowest = |s: &ClothSim| s.positions().iter().map(|p| p.y).fold(f32::MAX, f32::min);
+    // 0.8 m wide: the centres of mass and the lowest points within 2 cm of each other.
+    let (a, b) = (mean(&full), mean(&coarse));
+    assert!(a.distance(b) < 0.02, "{a} {b}");
+    assert!((lowest(&full) - lowest(&coarse)).abs() < 0.02);
+}
+
+#[test]
+fn a_pin_off_the_kept_lines_keeps_its_row_and_column() {
+    let mut sim = curtain(9, &[3]);
+    sim.set_coarse(true).unwrap();
+    // Columns 0, 2, 3, 4, 6, 8 of every kept row.
+    assert_eq!(sim.coarse_particle_count(), Some(30));
+    let target = sim.positions()[3] + Vec3::new(0.0, 0.0, 0.1);
+    sim.move_pins([sim.positions()[0], sim.positions()[8], target]);
+    run(&mut sim, 10);
+    assert!(sim.positions()[3].distance(target) < 1e-6);
+}
+
+#[test]
+fn an_edge_pinned_along_its_length_keeps_every_other_row() {
+    // The first column held along a pole, as a flag is.
+    let pole: Vec<u32> = (1..9).map(|j| 9 * j).collect();
+    let mut sim = curtain(9, &pole);
+    sim.set_coarse(true).unwrap();
+    assert_eq!(sim.coarse_particle_count(), Some(25));
+    let held: Vec<Vec3> = sim.positions().iter().step_by(9).copied().collect();
+    run(&mut sim, 30);
+    // Pins between kept pinned particles are on their targets all the same.
+    for (j, x) in held.iter().enumerate() {
+        assert_eq!(sim.positions()[9 * j], *x, "row {j}");
+    }
+}
+
+#[test]
+fn back_at_full_resolution_the_cloth_goes_on_from_where_it_was() {
+    let mut sim = curtain(9, &[]);
+    sim.set_coarse(true).unwrap();
+    run(&mut sim, 20);
+    let before = sim.positions().to_vec();
+    let speed = sim
+        .velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0, f32::max);
+    sim.set_coarse(false).unwrap();
+    assert!(!sim.is_coarse());
+    sim.step(DT).unwrap();
+    // No particle jumps: each moves about as far as its speed takes it in a step.
+    let moved = sim
+        .positions()
+        .iter()
+        .zip(&before)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max);
+    assert!(moved < 1.5 * speed * DT + 0.005, "{moved} at {speed} m/s");
+    // And back again: the coarse level takes up the full cloth's motion.
+    sim.set_coarse(true).unwrap();
+    sim.step(DT).unwrap();
+    let moved = sim
+        .positions()
+        .iter()
+        .zip(&before)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max);
+    assert!(moved < 3.0 * speed * DT + 0.01, "{moved}");
+}
+
+#[test]
+fn cloths_that_are_not_lattices_have_no_coarse_level() {
+    let disc = ClothModel::disc(&DiscSpec::new(4, 8, 0.1)).unwrap();
+    let mut sim = ClothSim::new(disc, SolverSettings::default(), |p| p).unwrap();
+    let e = sim.set_coarse(true).unwrap_err();
+    assert!(matches!(e, ClothError::NoCoarseLevel { .. }), "{e}");
+    assert!(e.to_string().contains("lattice"), "{e}");
+    assert!(!sim.is_coarse());
+    let mut small = curtain(2, &[]);
+    assert!(small.set_coarse(true).is_err());
+    assert_eq!(small.coarse_particle_count(), None);
+}
+
+#[test]
+fn a_cloth_torn_at_its_coarse_level_steps_on_at_full_resolution() {
+    let mut sim = curtain(9, &[]);
+    sim.set_coarse(true).unwrap();
+    run(&mut sim, 2);
+    let cut = Cut::Plane {
+        point: Vec3::ZERO,
+        normal: Vec3::Z,
+    };
+    assert!(!sim.tear(&[cut]).unwrap().is_empty());
+    assert!(!sim.is_coarse());
+    assert!(sim.set_coarse(true).is_err());
+    run(&mut sim, 5);
+}
