@@ -130,16 +130,16 @@ pub struct ClothLod {
     pub cull_unseen: bool,
     /// Where a culled cloth is when it comes back.
     pub on_return: CulledReturn,
-    /// Frames over which a cloth blends from the pose it had into its simulation when it steps
-    /// again after being frozen, or turns coarse (0: at once).
+    /// Frames over which a cloth that was frozen blends from its carried pose into its
+    /// simulation when it steps again (0: at once).
     pub blend_frames: u32,
 }
 
 impl Default for ClothLod {
     /// By distance: full quality within 15 m, [`Reduced`](LodLevel::Reduced) (half the
     /// substeps) to 25 m, [`Coarse`](LodLevel::Coarse) to 40 m, [`Frozen`](LodLevel::Frozen) to
-    /// 80 m, culled beyond and when unseen; 10% hysteresis; a cloth blends into its simulation
-    /// over 10 frames when it thaws or turns coarse.
+    /// 80 m, culled beyond and when unseen; 10% hysteresis; a thawing cloth blends into its
+    /// simulation over 10 frames.
     fn default() -> Self {
         Self {
             metric: LodMetric::Distance,
@@ -328,10 +328,8 @@ pub(crate) struct LodState {
     pub level: LodLevel,
     /// A culled cloth coming back that is put where its frozen pose would be, this step.
     pub reset: bool,
-    /// The cloth freezes or turns coarse this step: its pose is to be captured.
+    /// The cloth freezes this step: its pose is to be captured.
     pub capture: bool,
-    /// Frames to blend the captured pose into the simulation over (a cloth turning coarse).
-    pub blend_in: u32,
     /// Running estimates of a step at full detail, at the coarse level and of a frozen step, ms
     /// (0 until measured).
     pub full_ms: f32,

@@ -157,12 +157,9 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
         let _ = state.sim.set_coarse(false);
     }
     let freezes = !to.steps() && (to == LodLevel::Frozen || lod.on_return == CulledReturn::Reset);
-    // Turning coarse moves the particles between the kept rows and columns: drawn blended.
-    let coarsens = to == LodLevel::Coarse && from < LodLevel::Coarse && lod.blend_frames > 0;
     // Captured as the pins and targets are resolved, where the carriers still stand where the
     // particles were stepped to.
-    state.lod.capture = from.steps() && (freezes || coarsens);
-    state.lod.blend_in = if coarsens { lod.blend_frames } else { 0 };
+    state.lod.capture = from.steps() && freezes;
     if to.steps() {
         let carried = state.lod.carried.take();
         if from == LodLevel::Frozen && lod.blend_frames > 0 {
@@ -204,9 +201,9 @@ pub(super) fn restore_full_quality(
     }
 }
 
-/// Takes the pose a cloth freezes in (or blends from as it turns coarse) from its particles and
-/// its carriers as they were after its last step (`transform`: its transform then), when its
-/// level asks for it; a cloth that never stepped freezes in its rest shape.
+/// Takes the pose a cloth freezes in from its particles and its carriers as they were after its
+/// last step (`transform`: its transform then), when its level asks for it; a cloth that never
+/// stepped freezes in its rest shape.
 pub(super) fn capture_pose(state: &mut ClothState, transform: &Affine3A) {
     if !std::mem::take(&mut state.lod.capture) {
         return;
@@ -217,10 +214,7 @@ pub(super) fn capture_pose(state: &mut ClothState, transform: &Affine3A) {
     } else {
         Carried::capture(sim.positions(), attachment, transform)
     };
-    match std::mem::take(&mut state.lod.blend_in) {
-        0 => state.lod.carried = Some(carried),
-        frames => state.lod.blend = Some(Blend::from(carried, frames)),
-    }
+    state.lod.carried = Some(carried);
 }
 
 /// Moves a thawing cloth's carried pose to where its carriers are this step.

@@ -47,7 +47,9 @@ mod state;
 pub mod wind;
 
 pub use aero::{AeroParams, GustSampler, Gusts};
-pub use cloth_sim::{AccuracyReport, ClothSim, Cut, Environment, SelfContactStats, Split};
+pub use cloth_sim::{
+    AccuracyReport, COARSE_FADE_STEPS, ClothSim, Cut, Environment, SelfContactStats, Split,
+};
 pub use contact::{
     Collider, ColliderShape, Friction, OtherCloth, Pose, Reaction, Shape, Surface, Target,
 };

@@ -8,14 +8,14 @@ use bevy_cloth::scene::{ClothScene, Walker};
 
 use crate::common;
 
-/// Capes on walking characters, 6 m apart in a row along +X, each with the default levels of
-/// detail at 6 m (reduced), 14 m (frozen) and 30 m (culled), and a viewer at `viewer`.
+/// Capes on walking characters, 6 m apart in a row along +X, each with levels of detail at 6 m
+/// (reduced), 10 m (coarse), 14 m (frozen) and 30 m (culled), and a viewer at `viewer`.
 fn crowd(count: u32, viewer: &str, walk: &str) -> ClothScene {
     ClothScene::from_ron(&format!(
         "(cloth: Cape(nx: 8, ny: 10), walk: {walk},
           solver: (targets: (max_distance_scale: 0.35), tethers: (enabled: true, slack: 0.05)),
           copies: (count: {count}, columns: Some({count}), spacing: 6.0, phase: 0.4),
-          lod: Some((reduced: 6.0, frozen: 14.0, culled: 30.0)),
+          lod: Some((reduced: 6.0, coarse: 10.0, frozen: 14.0, culled: 30.0)),
           viewer: {viewer})"
     ))
     .unwrap()
@@ -37,7 +37,8 @@ fn the_ten_nearest_cloths_are_bit_identical_to_a_crowd_without_levels() {
     with.copies.columns = Some(5);
     with.lod = with.lod.map(|lod| ClothLod {
         reduced: 30.0,
-        frozen: 35.0,
+        coarse: 33.0,
+        frozen: 36.0,
         culled: 60.0,
         ..lod
     });
@@ -47,7 +48,7 @@ fn the_ten_nearest_cloths_are_bit_identical_to_a_crowd_without_levels() {
     let ca = with.spawn_copies(apps[0].world_mut()).unwrap();
     let cb = without.spawn_copies(apps[1].world_mut()).unwrap();
     let mut full_throughout = vec![true; ca.len()];
-    let mut seen = [0usize; 4];
+    let mut seen = [0usize; 5];
     for _ in 0..120 {
         apps[0].update();
         apps[1].update();
@@ -56,8 +57,8 @@ fn the_ten_nearest_cloths_are_bit_identical_to_a_crowd_without_levels() {
             seen[level as usize] += 1;
         }
     }
-    // The farther ones ran reduced and frozen.
-    assert!(seen[1] > 0 && seen[2] > 0, "{seen:?}");
+    // The farther ones ran reduced, coarse and frozen.
+    assert!(seen[1] > 0 && seen[2] > 0 && seen[3] > 0, "{seen:?}");
     let measure = |k: usize| apps[0].world().get::<ClothLodLevel>(ca[k]).unwrap().measure;
     let mut nearest: Vec<usize> = (0..ca.len()).collect();
     nearest.sort_by(|&a, &b| measure(a).total_cmp(&measure(b)));
@@ -177,6 +178,32 @@ fn a_frozen_cape_keeps_its_pose_on_its_walking_character() {
 }
 
 #[test]
+fn a_coarse_cape_follows_its_character_with_every_vertex() {
+    // 12 m off: coarse (between 10 and 14 m).
+    let viewer = "Some((from: (0.0, 1.5, -12.0), look_at: Some((0.0, 1.0, 0.0))))";
+    let mut app = common::app();
+    let scene = crowd(1, viewer, "(speed: 1.2, radius: 2.0, sway: 0.35)");
+    let cape = scene.spawn_copies(app.world_mut()).unwrap()[0];
+    common::run(&mut app, 90);
+    assert_eq!(levels(&app, &[cape]), [LodLevel::Coarse]);
+    let sim = common::sim(&app, cape);
+    assert!(sim.is_coarse());
+    let state = common::state(&app, cape);
+    // Every particle keeps within its target's reach, the collar's on its skin, kept or not.
+    let reach = 0.35;
+    for t in state.targets() {
+        let off = state.positions()[t.particle as usize].distance(t.position);
+        assert!(
+            off <= t.weight * reach + 1e-4,
+            "particle {}: {off} m",
+            t.particle
+        );
+    }
+    // The mesh drawn is the whole cape's.
+    assert_eq!(rendered(&app, cape).len(), state.positions().len());
+}
+
+#[test]
 fn no_rendered_vertex_jumps_at_a_change_of_level() {
     // One character walking its circle, swaying slowly, settled at full quality for 3 s; then the
     // viewer backs away from 2.5 m to 50 m and comes back over 8 s, taking the cape through every
@@ -261,7 +288,9 @@ fn no_rendered_vertex_jumps_at_a_change_of_level() {
     use LodLevel::*;
     assert_eq!(
         visited,
-        [Full, Reduced, Frozen, Culled, Frozen, Reduced, Full],
+        [
+            Full, Reduced, Coarse, Frozen, Culled, Frozen, Coarse, Reduced, Full
+        ],
         "the levels out and back"
     );
     assert_eq!(returned, 1);

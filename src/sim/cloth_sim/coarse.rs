@@ -29,7 +29,16 @@ pub(super) struct Coarse {
     pub(super) on: bool,
     /// Whether the full cloth's motion changed outside a coarse step (it is taken again).
     pub(super) stale: bool,
+    /// Scratch: the full cloth's positions at the start of a step.
+    start: Vec<Vec3>,
+    /// Where each particle was off the kept lines' interpolation when the level took over, and
+    /// the steps left for that detail to fade (so that taking over moves no particle at once).
+    detail: Vec<Vec3>,
+    fading: u32,
 }
+
+/// Steps over which the detail a cloth had fades when its coarse level takes over.
+pub const COARSE_FADE_STEPS: u32 = 10;
 
 /// Of `0..n`, the lines marked in `kept`, in order.
 fn lines(kept: &[bool]) -> Vec<usize> {
@@ -163,12 +172,15 @@ impl Coarse {
             revision: full.revision,
             on: false,
             stale: true,
+            start: Vec::new(),
+            detail: Vec::new(),
+            fading: 0,
         };
         coarse.take_motion(full);
         Ok(coarse)
     }
 
-    /// Takes the full cloth's motion at the kept particles.
+    /// Takes the full cloth's motion at the kept particles, and the detail between them to fade.
     fn take_motion(&mut self, full: &ClothSim) {
         let p = &mut self.sim.particles;
         for (f, &c) in self.index.iter().enumerate() {
@@ -177,6 +189,15 @@ impl Coarse {
                 p.velocities[c as usize] = full.particles.velocities[f];
             }
         }
+        self.detail.clear();
+        self.detail.extend(
+            full.particles
+                .positions
+                .iter()
+                .zip(&self.stencils)
+                .map(|(x, stencil)| *x - between(&p.positions, stencil)),
+        );
+        self.fading = COARSE_FADE_STEPS;
         self.sim.runaway = Default::default();
         self.sim.wake();
         self.stale = false;
@@ -205,30 +226,53 @@ impl Coarse {
         }
     }
 
-    /// Spreads the coarse cloth's motion to every particle of the full one.
-    fn spread_to(&self, full: &mut ClothSim) {
+    /// Spreads the coarse cloth's motion over a step of `dt` to every particle of the full one,
+    /// held to its pins, targets and tethers as a step of its own would leave it.
+    fn spread_to(&mut self, full: &mut ClothSim, dt: f32) {
+        self.start.clone_from(&full.particles.positions);
         let (x, v) = (
             &self.sim.particles.positions,
             &self.sim.particles.velocities,
         );
         let p = &mut full.particles;
-        for ((pos, vel), (corners, weights)) in p
+        for ((pos, vel), stencil) in p
             .positions
             .iter_mut()
             .zip(&mut p.velocities)
             .zip(&self.stencils)
         {
-            let (mut a, mut b) = (Vec3::ZERO, Vec3::ZERO);
-            for (&c, &w) in corners.iter().zip(weights) {
-                a += w * x[c as usize];
-                b += w * v[c as usize];
+            (*pos, *vel) = (between(x, stencil), between(v, stencil));
+        }
+        if self.fading > 0 {
+            // The detail left shrinks by an equal share each step, and the particles move with it.
+            self.fading -= 1;
+            let left = self.fading as f32 / COARSE_FADE_STEPS as f32;
+            let speed = 1.0 / (COARSE_FADE_STEPS as f32 * dt);
+            for ((pos, vel), d) in p
+                .positions
+                .iter_mut()
+                .zip(&mut p.velocities)
+                .zip(&self.detail)
+            {
+                *pos += left * *d;
+                *vel -= speed * *d;
             }
-            (*pos, *vel) = (a, b);
         }
         for pin in &full.pins {
             p.positions[pin.particle as usize] = pin.to;
         }
+        let state = (&mut p.positions[..], &mut p.velocities[..], &self.start[..]);
+        full.contacts.hold_to_limits(state, &p.inv_mass, dt);
     }
+}
+
+/// The value `stencil` interpolates from `values` at the coarse particles.
+fn between(values: &[Vec3], (corners, weights): &([u32; 4], [f32; 4])) -> Vec3 {
+    corners
+        .iter()
+        .zip(weights)
+        .map(|(&c, &w)| w * values[c as usize])
+        .sum()
 }
 
 impl ClothSim {
@@ -241,7 +285,8 @@ impl ClothSim {
     /// lend it, the same settings, pins and targets). After each of its steps every particle of
     /// the cloth is put where the coarse cloth's motion puts it, bilinearly between the kept rows
     /// and columns, so positions, the render mesh and every readout are still the full cloth's.
-    /// About a quarter of the particles step. Going back to full resolution continues from
+    /// The detail the cloth had between them when the level takes over fades over
+    /// [`COARSE_FADE_STEPS`] steps, so no particle jumps. About a quarter of the particles step. Going back to full resolution continues from
     /// there. The coarse cloth is built on first use and again after pins, settings or topology
     /// change.
     ///
@@ -338,7 +383,7 @@ impl ClothSim {
         coarse.drive(self);
         let result = coarse.sim.step_spread(dt, env, spread);
         if result.is_ok() {
-            coarse.spread_to(self);
+            coarse.spread_to(self, dt);
         }
         // The full cloth's drivers have reached where this step took them.
         for pin in &mut self.pins {

@@ -34,6 +34,7 @@ mod tests;
 mod watchdog;
 
 pub use adaptive::AccuracyReport;
+pub use coarse::COARSE_FADE_STEPS;
 pub use readout::SelfContactStats;
 use sleep::Sleep;
 pub use tear::{Cut, Split};

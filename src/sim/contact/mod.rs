@@ -206,6 +206,25 @@ impl Contacts {
         &mut self.limits
     }
 
+    /// Brings the particles at `x` (which started the step at `start`, velocities `v`) back
+    /// within their targets and tethers as they are at the end of a step of `dt`, as the step's
+    /// last substep would.
+    pub fn hold_to_limits(
+        &self,
+        (x, v, start): (&mut [Vec3], &mut [Vec3], &[Vec3]),
+        inv_mass: &[f32],
+        dt: f32,
+    ) {
+        let mut state = Vectors {
+            x,
+            v,
+            start,
+            inv_mass,
+            touches: None,
+        };
+        self.limits.resolve((0.0, 1.0, dt), &mut state);
+    }
+
     /// Whether anything is resolved this step: a collider or another cloth survived the broad
     /// phase, the cloth collides with itself, or it has targets or tethers.
     pub fn is_active(&self) -> bool {

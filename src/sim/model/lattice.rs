@@ -42,7 +42,7 @@ impl ClothModel {
     /// The lattice of rows of `nx` particles, if the triangles fit it.
     fn fits(&self, nx: usize) -> Option<Lattice> {
         let n = self.particle_count();
-        if nx < 2 || n % nx != 0 || n / nx < 2 {
+        if nx < 2 || !n.is_multiple_of(nx) || n / nx < 2 {
             return None;
         }
         let ny = n / nx;

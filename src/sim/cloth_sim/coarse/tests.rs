@@ -2,7 +2,7 @@ use glam::Vec3;
 
 use crate::error::ClothError;
 use crate::sim::model::DiscSpec;
-use crate::sim::{ClothModel, ClothSim, Cut, GridSpec, SolverSettings};
+use crate::sim::{COARSE_FADE_STEPS, ClothModel, ClothSim, Cut, GridSpec, SolverSettings};
 
 const DT: f32 = 1.0 / 60.0;
 
@@ -134,6 +134,32 @@ fn back_at_full_resolution_the_cloth_goes_on_from_where_it_was() {
         .map(|(a, b)| a.distance(*b))
         .fold(0.0, f32::max);
     assert!(moved < 3.0 * speed * DT + 0.01, "{moved}");
+}
+
+#[test]
+fn the_coarse_level_takes_over_without_moving_a_particle_at_once() {
+    // A sheet at rest with a ripple between the kept columns: every odd column 1 cm up.
+    let mut sim = curtain(17, &[]);
+    let rippled: Vec<Vec3> = (sim.positions().iter().enumerate())
+        .map(|(f, x)| *x + Vec3::Y * if f % 2 == 1 { 0.01 } else { 0.0 })
+        .collect();
+    sim.place(&rippled, &vec![Vec3::ZERO; rippled.len()])
+        .unwrap();
+    sim.set_coarse(true).unwrap();
+    sim.step(DT).unwrap();
+    // The ripple fades by a tenth a step (1 mm), and the sheet falls by g·dt² (2.7 mm) at most.
+    let moved = sim
+        .positions()
+        .iter()
+        .zip(&rippled)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max);
+    assert!(moved < 0.004, "{moved} m");
+    // Once it has faded the odd columns lie between their neighbours.
+    run(&mut sim, COARSE_FADE_STEPS as usize);
+    let x = sim.positions();
+    let at = |i: usize, j: usize| x[j * 17 + i];
+    assert!(at(5, 3).distance(0.5 * (at(4, 3) + at(6, 3))) < 1e-6);
 }
 
 #[test]
