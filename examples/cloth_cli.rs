@@ -113,6 +113,10 @@ enum Command {
         /// A budget for the cloths' steps, ms a frame (`ClothBudget`), in place of the scene's.
         #[arg(long)]
         budget_ms: Option<f32>,
+        /// Hold every cloth at this level of detail (full, reduced, coarse or frozen), seen from
+        /// the scene's viewer (or one 1 km up), without a budget.
+        #[arg(long, value_parser = ["full", "reduced", "coarse", "frozen"])]
+        level: Option<String>,
     },
     /// The stress suite: seeded random cloths at the limits of every setting, checked every step
     /// (no NaN, no panic, bounded energy, nothing inside a collider, pins exact). Prints a table
@@ -395,6 +399,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             first_only,
             budget_ms,
             warm_up,
+            level,
         } => {
             if let Some(threads) = threads {
                 // Before the App exists, so that its TaskPoolPlugin finds this pool.
@@ -414,6 +419,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     first_only,
                     budget_ms,
                     warm_up,
+                    level: level.as_deref().map(|l| match l {
+                        "full" => LodLevel::Full,
+                        "reduced" => LodLevel::Reduced,
+                        "coarse" => LodLevel::Coarse,
+                        _ => LodLevel::Frozen,
+                    }),
                 },
             )?;
             println!("{line}");

@@ -113,7 +113,9 @@ fn inspector_window(
             ui.label(format!("fixed step (solver): {:.2} ms", timing.average_ms));
             ui.label(format!("particles: {particles}"));
             if !levels.is_empty() {
-                ui.label(levels_line(&levels));
+                ui.label(levels_line(levels.iter().map(|(level, state)| {
+                    (level.level, state.last_step_time().as_secs_f32() * 1e3)
+                })));
             }
             // Many cloths: their sections start closed.
             let open = cloths.iter().len() <= 8;
@@ -218,16 +220,20 @@ fn air_line(sim: &crate::sim::ClothSim) -> Option<String> {
 }
 
 /// How many cloths run at each level of detail, and their steps' time together.
-fn levels_line(levels: &Query<(&crate::ClothLodLevel, &ClothState)>) -> String {
-    let mut count = [0usize; 4];
-    let mut ms = [0.0f32; 4];
-    for (level, state) in levels {
-        count[level.level as usize] += 1;
-        ms[level.level as usize] += state.last_step_time().as_secs_f32() * 1e3;
+fn levels_line(levels: impl Iterator<Item = (crate::LodLevel, f32)>) -> String {
+    use crate::LodLevel;
+    let mut count = [0usize; LodLevel::ALL.len()];
+    let mut ms = [0.0f32; LodLevel::ALL.len()];
+    for (level, step_ms) in levels {
+        count[level as usize] += 1;
+        ms[level as usize] += step_ms;
     }
-    let names = ["full", "reduced", "frozen", "culled"];
-    let parts: Vec<String> = (0..4)
-        .map(|k| format!("{} {} ({:.2} ms)", names[k], count[k], ms[k]))
+    let parts: Vec<String> = LodLevel::ALL
+        .iter()
+        .map(|&l| {
+            let k = l as usize;
+            format!("{} {} ({:.2} ms)", l.name(), count[k], ms[k])
+        })
         .collect();
     format!("levels of detail: {}", parts.join(", "))
 }
@@ -381,6 +387,18 @@ fn wind_ui(ui: &mut egui::Ui, w: &mut Wind) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_levels_line_counts_every_level() {
+        use crate::LodLevel::*;
+        let line =
+            levels_line([(Full, 1.0), (Coarse, 0.25), (Culled, 0.0), (Full, 0.5)].into_iter());
+        assert_eq!(
+            line,
+            "levels of detail: full 2 (1.50 ms), reduced 0 (0.00 ms), coarse 1 (0.25 ms), \
+             frozen 0 (0.00 ms), culled 1 (0.00 ms)"
+        );
+    }
 
     /// Draws the panel's widgets for `config`, `subdivision` and `wind` once, with no input.
     fn draw(config: &mut ClothConfig, subdivision: &mut ClothSubdivision, wind: &mut Wind) {

@@ -66,6 +66,17 @@ impl LodLevel {
         LodLevel::Culled,
     ];
 
+    /// The level's name in lower case, as the inspector and `cloth_cli` print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LodLevel::Full => "full",
+            LodLevel::Reduced => "reduced",
+            LodLevel::Coarse => "coarse",
+            LodLevel::Frozen => "frozen",
+            LodLevel::Culled => "culled",
+        }
+    }
+
     /// Whether the cloth steps at this level.
     pub fn steps(self) -> bool {
         self <= LodLevel::Coarse
@@ -335,6 +346,9 @@ pub(crate) struct LodState {
     pub full_ms: f32,
     pub coarse_ms: f32,
     pub frozen_ms: f32,
+    /// The share of its particles the cloth's coarse level steps (`Some(None)`: it has none),
+    /// once asked.
+    pub coarse_share: Option<Option<f32>>,
     /// Bounding sphere of the particles (centre, radius); `None` once they moved.
     pub bound: Option<(Vec3, f32)>,
     /// The pose the cloth froze in, as its carriers see it.
@@ -392,14 +406,19 @@ impl Blend {
 }
 
 impl LodState {
-    /// The level's step cost by the estimates, ms; until the coarse level was measured, that of
-    /// the reduced level (which a cloth with no coarse level runs instead).
+    /// The level's step cost by the estimates, ms. Until the coarse level was measured, its
+    /// share of the particles of a full step; for a cloth with no coarse level, the reduced
+    /// level's, which it runs instead.
     pub fn cost(&self, level: LodLevel, reduced_detail: f32) -> f32 {
         match level {
             LodLevel::Full => self.full_ms,
             LodLevel::Reduced => self.full_ms * reduced_detail,
-            LodLevel::Coarse if self.coarse_ms > 0.0 => self.coarse_ms,
-            LodLevel::Coarse => self.full_ms * reduced_detail,
+            LodLevel::Coarse => match self.coarse_share {
+                Some(None) => self.full_ms * reduced_detail,
+                _ if self.coarse_ms > 0.0 => self.coarse_ms,
+                Some(Some(share)) => self.full_ms * share,
+                None => self.full_ms * reduced_detail,
+            },
             LodLevel::Frozen => self.frozen_ms,
             LodLevel::Culled => 0.0,
         }
@@ -638,10 +657,14 @@ mod tests {
         // A reduced step at half detail counts as a full step of twice its time.
         s.measured(Reduced, 0.5, 2.0);
         assert!((s.cost(Full, 0.5) - 2.2).abs() < 1e-6);
-        // The coarse level costs the reduced one's until it was measured itself.
-        assert!((s.cost(Coarse, 0.5) - 1.1).abs() < 1e-6);
+        // The coarse level costs its share of the particles until it was measured itself, and
+        // the reduced level's where the cloth has none.
+        s.coarse_share = Some(Some(0.25));
+        assert!((s.cost(Coarse, 0.5) - 0.55).abs() < 1e-6);
         s.measured(Coarse, 1.0, 0.3);
         assert_eq!(s.cost(Coarse, 0.5), 0.3);
+        s.coarse_share = Some(None);
+        assert!((s.cost(Coarse, 0.5) - 1.1).abs() < 1e-6);
         s.measured(Frozen, 1.0, 0.01);
         assert_eq!(s.cost(Frozen, 0.5), 0.01);
         assert_eq!(s.cost(Culled, 0.5), 0.0);

@@ -44,6 +44,9 @@ fn load_copies(
             s.lod = None;
         }
     }
+    if let Some(level) = variant.level {
+        hold_at(&mut scene, level);
+    }
     let mut app = try_headless_app(scene.dt)?;
     let entities = if scene.copies.count == 0 {
         Vec::new()
@@ -57,6 +60,29 @@ fn load_copies(
         }
     }
     Ok((app, entities, scene))
+}
+
+/// Holds every cloth of `scene` at `level`: its thresholds below the level at 0 m, the others
+/// out of reach, seen whatever the view, from the scene's viewer or one 1 km up; no budget.
+fn hold_at(scene: &mut ClothScene, level: LodLevel) {
+    let at = |k: LodLevel| if k <= level { 0.0 } else { f32::INFINITY };
+    let held = ClothLod {
+        metric: LodMetric::Distance,
+        reduced: at(LodLevel::Reduced),
+        coarse: at(LodLevel::Coarse),
+        frozen: at(LodLevel::Frozen),
+        culled: f32::INFINITY,
+        cull_unseen: false,
+        ..scene.lod.unwrap_or_default()
+    };
+    scene.lod = Some(held);
+    for s in &mut scene.also {
+        s.lod = Some(held);
+    }
+    scene.budget_ms = None;
+    scene
+        .viewer
+        .get_or_insert_with(|| bevy_cloth::scene::SceneViewer::at(Vec3::new(0.0, 1000.0, 0.0)));
 }
 
 /// Runs `frames` updates (one fixed step each), returning the wall time of each in milliseconds.
@@ -73,7 +99,7 @@ struct Frames {
     /// Cloth-frames skipped asleep.
     slept: u32,
     /// Cloth-frames at each level of detail, finest first.
-    levels: [u32; 4],
+    levels: [u32; LodLevel::ALL.len()],
 }
 
 /// [`run`] for several cloths, also summing the cloths' steps within each frame and counting the
@@ -83,7 +109,7 @@ fn run_frames(app: &mut App, entities: &[Entity], frames: u32) -> Result<Frames,
         frame_ms: Vec::with_capacity(frames as usize),
         solver_ms: Vec::with_capacity(frames as usize),
         slept: 0,
-        levels: [0; 4],
+        levels: [0; LodLevel::ALL.len()],
     };
     for _ in 0..frames {
         let t = Instant::now();
@@ -108,12 +134,12 @@ fn run_frames(app: &mut App, entities: &[Entity], frames: u32) -> Result<Frames,
     Ok(out)
 }
 
-/// Median, 10th and 90th percentile, min and max.
+/// Median, 10th, 90th and 99th percentile, min and max.
 pub fn stats(times: &mut [f64]) -> serde_json::Value {
     times.sort_by(f64::total_cmp);
     let q = |f: f64| times[((times.len() - 1) as f64 * f).round() as usize];
     serde_json::json!({
-        "median_ms": q(0.5), "p10_ms": q(0.1), "p90_ms": q(0.9),
+        "median_ms": q(0.5), "p10_ms": q(0.1), "p90_ms": q(0.9), "p99_ms": q(0.99),
         "min_ms": q(0.0), "max_ms": q(1.0),
     })
 }
@@ -149,6 +175,8 @@ pub struct Variant {
     pub budget_ms: Option<f32>,
     /// Frames run before the timed ones.
     pub warm_up: u32,
+    /// Every cloth held at this level of detail.
+    pub level: Option<LodLevel>,
 }
 
 /// Times `frames` frames of the scene as `variant` says (after its warm-up frames) and returns
@@ -196,6 +224,12 @@ pub fn bench_scene(
     line["copies"] = entities.len().into();
     line["per_cloth_median_ms"] = (median_s * 1e3 / entities.len() as f64).into();
     let mean = solver_ms.iter().sum::<f64>() / solver_ms.len().max(1) as f64;
+    if let Some(budget) = parsed.budget_ms {
+        // The share of frames whose steps took more than 1.1 × the budget.
+        let over = solver_ms.iter().filter(|&&ms| ms > 1.1 * budget as f64);
+        line["budget_ms"] = budget.into();
+        line["frames_over_1_1_budget"] = over.count().into();
+    }
     let mut steps = stats(&mut solver_ms);
     line["cloth_steps_median_ms"] = steps["median_ms"].clone();
     steps["mean_ms"] = mean.into();
@@ -223,8 +257,10 @@ pub fn bench_scene(
     // All springs pooled, as the bevy_silk harness pools all of its sticks.
     line["median_spring_strain"] = median_strain(sim, &SpringKind::ALL).into();
     line["cloth_frames_asleep"] = slept.into();
-    line["cloth_frames_by_level"] = serde_json::json!({
-        "full": levels[0], "reduced": levels[1], "frozen": levels[2], "culled": levels[3],
-    });
+    line["cloth_frames_by_level"] = LodLevel::ALL
+        .iter()
+        .map(|&l| (l.name().to_string(), levels[l as usize].into()))
+        .collect::<serde_json::Map<_, _>>()
+        .into();
     Ok(line)
 }

@@ -349,7 +349,7 @@ fn crowds(folder: &Path) -> Result<String, Box<dyn std::error::Error>> {
     let _ = writeln!(
         w,
         "| scene | cloths | single-threaded frame (ms) | its cloths' steps (ms) | \
-         multi-threaded frame (ms) | single / multi | levels (full / reduced / frozen / culled) \
+         multi-threaded frame (ms) | single / multi | levels (full / reduced / coarse / frozen / culled) \
          | cloth-frames asleep |"
     );
     let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|---|---:|");
@@ -382,7 +382,7 @@ fn crowds(folder: &Path) -> Result<String, Box<dyn std::error::Error>> {
             let level = |name: &str| levels[name].as_u64().unwrap_or(0);
             let _ = writeln!(
                 w,
-                "| `{}`{} | {} | **{:.3}** | {:.3} | **{:.3}** | {:.2} | {} / {} / {} / {} | {} |",
+                "| `{}`{} | {} | **{:.3}** | {:.3} | **{:.3}** | {:.2} | {} / {} / {} / {} / {} | {} |",
                 file_name(path),
                 if full_quality {
                     " `--full-quality`"
@@ -396,6 +396,7 @@ fn crowds(folder: &Path) -> Result<String, Box<dyn std::error::Error>> {
                 number(&single, "median_ms") / number(&multi, "median_ms"),
                 level("full"),
                 level("reduced"),
+                level("coarse"),
                 level("frozen"),
                 level("culled"),
                 single["cloth_frames_asleep"],

@@ -44,6 +44,12 @@ pub(super) fn choose_levels(
             continue;
         }
         let state = &mut *state;
+        if budget.is_some() && state.lod.coarse_share.is_none() {
+            // What the coarse level would cost, for the budget's plan.
+            let n = state.sim.positions().len() as f32;
+            let coarse = state.sim.coarse_particle_count();
+            state.lod.coarse_share = Some(coarse.map(|c| c as f32 / n));
+        }
         let (centre, radius) = state.lod.bound(state.sim.positions());
         let (measure, seen) = measure(lod.metric, (centre, radius), &viewers);
         let mut wanted = lod.level_for(measure, level.wanted);
@@ -150,6 +156,7 @@ fn apply(lod: &ClothLod, level: &mut Mut<ClothLodLevel>, state: &mut ClothState)
     }
     if to == LodLevel::Coarse && state.sim.set_coarse(true).is_err() {
         // A cloth with no coarse level runs reduced.
+        state.lod.coarse_share = Some(None);
         to = LodLevel::Reduced;
         level.level = to;
     }

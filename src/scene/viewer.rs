@@ -48,6 +48,18 @@ fn default_seconds() -> f32 {
 }
 
 impl SceneViewer {
+    /// A viewer standing at `from`, looking down −Z with the default view.
+    pub fn at(from: Vec3) -> Self {
+        Self {
+            from,
+            to: None,
+            seconds: default_seconds(),
+            look_at: None,
+            fov_y_degrees: default_fov(),
+            aspect: default_aspect(),
+        }
+    }
+
     /// Checks the values.
     pub fn validate(&self) -> Result<(), ClothError> {
         finite_vec3(
