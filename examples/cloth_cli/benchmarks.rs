@@ -341,7 +341,7 @@ fn crowds(folder: &Path) -> Result<String, Box<dyn std::error::Error>> {
          assets/scenes/crowd/SCENE --frames {CROWD_FRAMES} --warm-up {CROWD_WARM_UP} \
          [--single-threaded] [--full-quality]`\nmeasures: the whole frame, the cloths' steps \
          summed (CPU time across threads) and the cloth-frames at each level of detail \
-         (full / reduced / frozen / culled), medians of {CROWD_FRAMES} frames. Both columns \
+         (full / reduced / coarse / frozen / culled), medians of {CROWD_FRAMES} frames. Both columns \
          run with Bevy's default task pools, whose compute pool has one thread on a 2-core \
          machine, so the cloths step one after another in both; `--threads 2` gives it both \
          cores (CHANGELOG.md has that figure).\n"
