@@ -277,6 +277,7 @@ impl AirScratch {
             let corners = triangles.chunks_exact(3);
             self.triangles
                 .extend(corners.map(|t| [slot(t[0]), slot(t[1]), slot(t[2])]));
+            spread_out(&mut self.triangles, n);
             // What `volume_gradient`'s unchecked reads and writes rest on.
             assert!(
                 self.triangles.iter().flatten().all(|&i| (i as usize) < n),
@@ -328,6 +329,30 @@ impl AirScratch {
     }
 }
 
+/// Reorders `triangles` (over `n` particles) so that triangles near each other in the list
+/// share no corner: each colour of a greedy colouring (no two triangles of a colour share a
+/// corner) in turn. The gradient's additions to one corner are then never a store and a load
+/// apart, and the processor overlaps them.
+fn spread_out(triangles: &mut Vec<[u32; 3]>, n: usize) {
+    // Per particle, the colours its triangles took, as bits (a corner has few triangles; past
+    // 64 colours, the rest go in the last one, in their order).
+    let mut taken = vec![0u64; n];
+    let mut colours: Vec<Vec<[u32; 3]>> = Vec::new();
+    for &t in triangles.iter() {
+        let used = t.iter().fold(0u64, |u, &i| u | taken[i as usize]);
+        let c = (used.trailing_ones() as usize).min(63);
+        for &i in &t {
+            taken[i as usize] |= 1 << c;
+        }
+        if colours.len() <= c {
+            colours.resize_with(c + 1, Vec::new);
+        }
+        colours[c].push(t);
+    }
+    triangles.clear();
+    triangles.extend(colours.into_iter().flatten());
+}
+
 /// Scratch for [`Air::frequency`], kept between steps: the volume's gradient and the pressure
 /// term's row sums, per particle.
 #[derive(Debug, Clone, Default)]
@@ -351,6 +376,39 @@ mod tests {
     fn tetrahedron() -> (Vec<Vec3>, Vec<u32>) {
         let x = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
         (x, vec![0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
+    }
+
+    #[test]
+    fn triangles_next_to_each_other_share_no_corner() {
+        let model = crate::sim::ClothModel::icosphere(0.3, 3).unwrap();
+        let n = model.particle_count();
+        let mut t: Vec<[u32; 3]> = model
+            .triangles
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect();
+        let touching = |t: &[[u32; 3]]| {
+            t.windows(2)
+                .filter(|w| w[0].iter().any(|i| w[1].contains(i)))
+                .count()
+        };
+        let before = touching(&t);
+        let mut sorted = t.clone();
+        spread_out(&mut t, n);
+        // The same triangles, corners in the same order.
+        let mut after = t.clone();
+        sorted.sort();
+        after.sort();
+        assert_eq!(sorted, after);
+        // Only where one colour ends and the next begins (a corner has at most 6 triangles, so
+        // the greedy colouring needs at most 16 colours).
+        assert!(
+            touching(&t) < 16,
+            "{} of {} (before: {before})",
+            touching(&t),
+            t.len()
+        );
+        assert!(before > 100, "{before}");
     }
 
     #[test]
