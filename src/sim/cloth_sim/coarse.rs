@@ -281,14 +281,16 @@ impl ClothSim {
     /// A cloth whose particles are rows and columns of a lattice (a grid, or a mesh laid out like
     /// one, such as a skinned cape made from a grid of vertices) has a coarse level: every other
     /// row and column, with the last ones and the row and column of each pin that does not lie
-    /// between pinned kept particles, simulated as a cloth of their own (springs from its quads, each coarse particle carrying the mass its neighbours
-    /// lend it, the same settings, pins and targets). After each of its steps every particle of
+    /// between pinned kept particles, simulated as a cloth of their own (springs from its quads,
+    /// each coarse particle carrying the mass its neighbours lend it, the same settings, pins and
+    /// targets). About a quarter of the particles step. After each of its steps every particle of
     /// the cloth is put where the coarse cloth's motion puts it, bilinearly between the kept rows
-    /// and columns, so positions, the render mesh and every readout are still the full cloth's.
-    /// The detail the cloth had between them when the level takes over fades over
-    /// [`COARSE_FADE_STEPS`] steps, so no particle jumps. About a quarter of the particles step. Going back to full resolution continues from
-    /// there. The coarse cloth is built on first use and again after pins, settings or topology
-    /// change.
+    /// and columns, and held to its own targets and tethers, so positions, the render mesh and
+    /// every readout are still the full cloth's. The level takes up the cloth's motion as it is
+    /// when it is turned on; the detail the cloth had between the kept lines then fades over
+    /// [`COARSE_FADE_STEPS`] steps, so no particle jumps. Going back to full resolution continues
+    /// from there. The coarse cloth is built on first use and again after pins, settings or
+    /// topology change.
     ///
     /// A cloth with no coarse level (not a lattice, torn, or too small to keep fewer rows or
     /// columns) is [`ClothError::NoCoarseLevel`] and stays at full resolution.
@@ -300,7 +302,11 @@ impl ClothSim {
             }
             return Ok(());
         }
-        self.coarse_level()?.on = true;
+        let coarse = self.coarse_level()?;
+        if !coarse.on {
+            // It takes up the cloth's motion as it is when it next steps.
+            (coarse.on, coarse.stale) = (true, true);
+        }
         Ok(())
     }
 
