@@ -21,6 +21,14 @@ fn curtain(n: u32, more: &[u32]) -> ClothSim {
     sim
 }
 
+/// The farthest any particle lies from where it was in `before`, m.
+fn farthest(now: &[Vec3], before: &[Vec3]) -> f32 {
+    now.iter()
+        .zip(before)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max)
+}
+
 fn run(sim: &mut ClothSim, steps: usize) {
     for _ in 0..steps {
         sim.step(DT).unwrap();
@@ -104,44 +112,28 @@ fn an_edge_pinned_along_its_length_keeps_every_other_row() {
 
 #[test]
 fn back_at_full_resolution_the_cloth_goes_on_from_where_it_was() {
+    // One step after a switch moves no particle much farther than its speed takes it.
+    let no_jump = |sim: &mut ClothSim, coarse: bool| {
+        let before = sim.positions().to_vec();
+        let speed = sim
+            .velocities()
+            .iter()
+            .map(|v| v.length())
+            .fold(0.0, f32::max);
+        sim.set_coarse(coarse).unwrap();
+        assert_eq!(sim.is_coarse(), coarse);
+        sim.step(DT).unwrap();
+        let moved = farthest(sim.positions(), &before);
+        assert!(moved < 1.5 * speed * DT + 0.005, "{moved} m at {speed} m/s");
+    };
     let mut sim = curtain(9, &[]);
     sim.set_coarse(true).unwrap();
     run(&mut sim, 20);
-    let before = sim.positions().to_vec();
-    let speed = sim
-        .velocities()
-        .iter()
-        .map(|v| v.length())
-        .fold(0.0, f32::max);
-    sim.set_coarse(false).unwrap();
-    assert!(!sim.is_coarse());
-    sim.step(DT).unwrap();
-    // No particle jumps: each moves about as far as its speed takes it in a step.
-    let moved = sim
-        .positions()
-        .iter()
-        .zip(&before)
-        .map(|(a, b)| a.distance(*b))
-        .fold(0.0, f32::max);
-    assert!(moved < 1.5 * speed * DT + 0.005, "{moved} at {speed} m/s");
+    no_jump(&mut sim, false);
     // And back again after a while: the coarse level takes up the full cloth's motion as it
     // is then, not as it was when the level was built.
     run(&mut sim, 30);
-    let before = sim.positions().to_vec();
-    let speed = sim
-        .velocities()
-        .iter()
-        .map(|v| v.length())
-        .fold(0.0, f32::max);
-    sim.set_coarse(true).unwrap();
-    sim.step(DT).unwrap();
-    let moved = sim
-        .positions()
-        .iter()
-        .zip(&before)
-        .map(|(a, b)| a.distance(*b))
-        .fold(0.0, f32::max);
-    assert!(moved < 1.5 * speed * DT + 0.005, "{moved} at {speed} m/s");
+    no_jump(&mut sim, true);
 }
 
 #[test]
@@ -156,12 +148,7 @@ fn the_coarse_level_takes_over_without_moving_a_particle_at_once() {
     sim.set_coarse(true).unwrap();
     sim.step(DT).unwrap();
     // The ripple fades by a tenth a step (1 mm), and the sheet falls by g·dt² (2.7 mm) at most.
-    let moved = sim
-        .positions()
-        .iter()
-        .zip(&rippled)
-        .map(|(a, b)| a.distance(*b))
-        .fold(0.0, f32::max);
+    let moved = farthest(sim.positions(), &rippled);
     assert!(moved < 0.004, "{moved} m");
     // Once it has faded the odd columns lie between their neighbours.
     run(&mut sim, COARSE_FADE_STEPS as usize);
