@@ -30,7 +30,7 @@ impl ClothModel {
                     .filter(|t| t.contains(&0))
                     .flat_map(|t| t.iter().copied())
                     .max()? as usize;
-                return [far - 1, far]
+                return [far.saturating_sub(1), far]
                     .into_iter()
                     .filter(|&nx| nx >= 2)
                     .find_map(|nx| self.fits(nx));
@@ -151,6 +151,10 @@ mod tests {
         let mut holed = mesh(4, 4, false);
         holed.triangles.truncate(holed.triangles.len() - 6);
         assert_eq!(holed.lattice(), None);
+        // A hand-made model whose triangle at particle 0 is all particle 0.
+        let mut point = mesh(3, 3, false);
+        point.triangles[..3].copy_from_slice(&[0, 0, 0]);
+        assert_eq!(point.lattice(), None);
         let disc = ClothModel::disc(&crate::sim::model::DiscSpec::new(4, 8, 0.1)).unwrap();
         assert_eq!(disc.lattice(), None);
     }
