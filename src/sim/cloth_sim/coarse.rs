@@ -292,6 +292,10 @@ impl ClothSim {
     /// from there. The coarse cloth is built on first use and again after pins, settings or
     /// topology change.
     ///
+    /// Colliders and self-collision act on the kept particles only: a particle between them may
+    /// lie inside a convex collider by up to the sag of a chord across two cells (a few
+    /// millimetres on a cape), which is why this is a level for cloths seen from afar.
+    ///
     /// A cloth with no coarse level (not a lattice, torn, or too small to keep fewer rows or
     /// columns) is [`ClothError::NoCoarseLevel`] and stays at full resolution.
     pub fn set_coarse(&mut self, on: bool) -> Result<(), ClothError> {
