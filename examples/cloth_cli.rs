@@ -419,12 +419,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     first_only,
                     budget_ms,
                     warm_up,
-                    level: level.as_deref().map(|l| match l {
-                        "full" => LodLevel::Full,
-                        "reduced" => LodLevel::Reduced,
-                        "coarse" => LodLevel::Coarse,
-                        _ => LodLevel::Frozen,
-                    }),
+                    // One of the names the parser accepted.
+                    level: level.and_then(|l| LodLevel::ALL.into_iter().find(|k| k.name() == l)),
                 },
             )?;
             println!("{line}");

@@ -277,12 +277,12 @@ impl AirScratch {
             let corners = triangles.chunks_exact(3);
             self.triangles
                 .extend(corners.map(|t| [slot(t[0]), slot(t[1]), slot(t[2])]));
-            spread_out(&mut self.triangles, n);
             // What `volume_gradient`'s unchecked reads and writes rest on.
             assert!(
                 self.triangles.iter().flatten().all(|&i| (i as usize) < n),
                 "a triangle's corner past the stepper's {n} particles"
             );
+            spread_out(&mut self.triangles, n);
             self.positions.resize(n, Vec3A::ZERO);
             self.six_gradient.resize(n, Vec3A::ZERO);
         } else {

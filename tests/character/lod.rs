@@ -320,6 +320,37 @@ fn a_budget_lowers_levels_no_further_than_frozen() {
 }
 
 #[test]
+fn a_cloth_with_no_coarse_level_runs_reduced_instead() {
+    // A 2 × 2 grid keeps every row and column: it has no coarse level. Seen from 10 m, between
+    // its coarse and frozen thresholds.
+    let mut app = common::app();
+    app.world_mut()
+        .spawn((Transform::from_xyz(0.0, 0.0, 10.0), ClothViewer::default()));
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Cloth::grid(GridSpec::new(2, 2, 0.1)),
+            ClothLod {
+                reduced: 1.0,
+                coarse: 2.0,
+                frozen: 50.0,
+                culled: 100.0,
+                ..default()
+            },
+        ))
+        .id();
+    common::run(&mut app, 3);
+    let level = *app.world().get::<ClothLodLevel>(cloth).unwrap();
+    assert_eq!(
+        (level.wanted, level.level),
+        (LodLevel::Coarse, LodLevel::Reduced)
+    );
+    let sim = common::sim(&app, cloth);
+    assert!(!sim.is_coarse());
+    assert_eq!(sim.detail(), 0.5);
+}
+
+#[test]
 fn an_invalid_or_removed_level_of_detail_leaves_full_quality() {
     // The cape freezes.
     let (mut app, cape) = cape_seen_from_20_m("(speed: 1.2, radius: 2.0)");

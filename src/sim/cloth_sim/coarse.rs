@@ -334,10 +334,9 @@ impl ClothSim {
         {
             return Err(e.clone());
         }
-        let current = self
-            .coarse
-            .as_ref()
-            .is_some_and(|c| c.revision == self.revision && c.index.len() == self.particle_count());
+        let current = self.coarse.as_ref().is_some_and(|c| {
+            c.revision == self.revision && c.index.len() == self.model.particle_count()
+        });
         if !current {
             let on = self.coarse.take().is_some_and(|c| c.on);
             match Coarse::build(self) {
@@ -360,10 +359,6 @@ impl ClothSim {
             Some(c) if c.on => &c.sim,
             _ => self,
         }
-    }
-
-    fn particle_count(&self) -> usize {
-        self.particles.positions.len()
     }
 
     /// Marks the full cloth's motion as set from outside a coarse step.
