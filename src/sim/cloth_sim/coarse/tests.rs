@@ -181,6 +181,20 @@ fn every_particle_keeps_within_its_own_target() {
 }
 
 #[test]
+fn a_cloth_placed_at_its_coarse_level_goes_on_from_where_it_was_put() {
+    let mut sim = curtain(9, &[]);
+    sim.set_coarse(true).unwrap();
+    run(&mut sim, 10);
+    // Put 1 m aside, at rest, pins moved with it (as a frozen cloth thawing is placed).
+    let aside: Vec<Vec3> = sim.positions().iter().map(|x| *x + Vec3::X).collect();
+    sim.move_pins([aside[0], aside[8]]);
+    sim.place(&aside, &vec![Vec3::ZERO; aside.len()]).unwrap();
+    sim.step(DT).unwrap();
+    let moved = farthest(sim.positions(), &aside);
+    assert!(moved < 0.01, "{moved} m from where it was put");
+}
+
+#[test]
 fn cloths_that_are_not_lattices_have_no_coarse_level() {
     let disc = ClothModel::disc(&DiscSpec::new(4, 8, 0.1)).unwrap();
     let mut sim = ClothSim::new(disc, SolverSettings::default(), |p| p).unwrap();
