@@ -96,7 +96,7 @@ fn run_steps(
     });
     // The energy the cloth stores at the start may turn into motion: the springs are at rest,
     // but air kept at another volume or pressure than it has pushes the cloth there.
-    let (e0, mut stored) = {
+    let (mut e0, mut stored) = {
         let e = sim.energy();
         (e.kinetic + e.gravitational, e.elastic)
     };
@@ -273,12 +273,22 @@ fn run_steps(
         }
         // Tears after the step's checks: splitting a particle keeps its momentum and weight,
         // but a stretched spring along a new edge is one on each side, so a tear may add
-        // elastic energy, counted with what the cloth stored at the start.
+        // elastic energy, counted with what the cloth stored at the start. A copy of a pinned
+        // particle is free, and brings its share of the pinned mass into the energy of the free
+        // particles (a driver letting go of a body): its energy joins the start's.
         if case.settings.tearing.enabled || case.cut.is_some() {
             let cut = case.cut.filter(|(at, _)| *at == step).map(|(_, c)| c);
             match sim.tear(cut.as_slice()) {
                 Ok(splits) if !splits.is_empty() => {
                     stored += (sim.energy().elastic - e.elastic).max(0.0);
+                    let gravity = case.settings.gravity.as_dvec3();
+                    let freed = splits.iter().filter(|s| pinned.contains(&s.particle));
+                    for split in freed {
+                        let i = split.copy as usize;
+                        let m = f64::from(sim.masses()[i]);
+                        let (x, v) = (sim.positions()[i].as_dvec3(), sim.velocities()[i]);
+                        e0 += 0.5 * m * v.as_dvec3().length_squared() - m * gravity.dot(x);
+                    }
                 }
                 Ok(_) => {}
                 Err(e) => {
