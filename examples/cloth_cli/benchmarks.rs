@@ -126,6 +126,7 @@ pub fn run(
         }
     }
     let mut report = render(&rows, frames, runs.max(1), &commit);
+    report.push_str(&first_second(scenes, runs.max(1))?);
     report.push_str(&crowds(&scenes.join("crowd"))?);
     std::fs::write(output, report)?;
     eprintln!("wrote {}", output.display());
@@ -314,6 +315,69 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
          | bevy_silk 0.10 on the same cloth | `compare/bevy_silk/run.sh 5 600` | printed |"
     );
     out
+}
+
+/// The scenes whose first second is timed, without and with self-collision.
+const FIRST_SECOND: [&str; 2] = ["swing64.ron", "swing64_self_collision.ron"];
+
+/// The first second of the swing without and with self-collision: the mean of its 60 steps
+/// from the start, `runs` rounds alternating the two; empty without the scenes.
+fn first_second(scenes: &Path, runs: u32) -> Result<String, Box<dyn std::error::Error>> {
+    let paths = FIRST_SECOND.map(|name| scenes.join(name));
+    if !paths.iter().all(|p| p.exists()) {
+        return Ok(String::new());
+    }
+    let mut means: [Vec<f64>; 2] = Default::default();
+    let mut ratios = Vec::new();
+    for round in 0..runs {
+        let mut mean = [0.0; 2];
+        for (k, path) in paths.iter().enumerate() {
+            let variant = Variant {
+                single_threaded: true,
+                warm_up: 0,
+                ..Variant::default()
+            };
+            let line = bench_scene(path, 60, variant)?;
+            mean[k] = line["cloth_steps"]["mean_ms"].as_f64().unwrap_or(f64::NAN);
+            means[k].push(mean[k]);
+            eprintln!(
+                "round {}/{runs}, first second of {}: {:.3} ms",
+                round + 1,
+                file_name(path),
+                mean[k]
+            );
+        }
+        ratios.push(mean[1] / mean[0]);
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let mut out = String::new();
+    let w = &mut out;
+    let _ = writeln!(
+        w,
+        "\n## A swing's first second, with and without self-collision\n\n\
+         The swing's cloth steps over its first 60 frames, from the start: what\n\
+         `cargo run --release --example cloth_cli -- bench assets/scenes/SCENE --frames 60 \
+         --warm-up 0 --single-threaded` reports as `cloth_steps.mean_ms`, the median of {runs} \
+         rounds that alternate the two scenes; the ratio is the median of the rounds' ratios.\n"
+    );
+    let _ = writeln!(
+        w,
+        "| scene | first second, mean step (ms) | ÷ without self-collision |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|");
+    let ratio = median(&mut ratios);
+    for (k, name) in FIRST_SECOND.iter().enumerate() {
+        let _ = writeln!(
+            w,
+            "| `{name}` | **{:.3}** | {:.2} |",
+            median(&mut means[k]),
+            if k == 0 { 1.0 } else { ratio }
+        );
+    }
+    Ok(out)
 }
 
 /// Frames each crowd row is timed for, and run before (the resting crowd falls asleep in them).
