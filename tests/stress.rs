@@ -3,7 +3,7 @@
 //! runs as many as you like.
 
 use bevy_cloth::harness::stress::{StressCase, StressLimits, StressOutcome, draw_case, run_case};
-use bevy_cloth::sim::Integrator::{self, ImplicitEuler, SymplecticEuler, Verlet, Xpbd};
+use bevy_cloth::sim::Integrator::{self, Auto, ImplicitEuler, SymplecticEuler, Verlet, Xpbd};
 
 const SEED: u64 = 0x5EED_C10A;
 
@@ -86,7 +86,7 @@ fn every_integrator_survives_100_stress_cases_in_tolerance_mode() {
 
 /// Cases of `cloth_cli stress` (full size) that once failed, with what they found: each runs with
 /// the integrator it failed with, at the limits it was drawn with.
-const ONCE_FAILED: [(u64, u64, Integrator, &str); 25] = [
+const ONCE_FAILED: [(u64, u64, Integrator, &str); 26] = [
     (
         45762,
         13,
@@ -236,6 +236,12 @@ const ONCE_FAILED: [(u64, u64, Integrator, &str); 25] = [
         9751,
         Verlet,
         "the tunnelling check took a step of an overstretched cloth for one substep; it ran two",
+    ),
+    (
+        20261207,
+        508,
+        Auto,
+        "XPBD's tethers rounded the move back onto them to the position's resolution: energy",
     ),
 ];
 

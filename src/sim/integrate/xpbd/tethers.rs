@@ -178,16 +178,38 @@ impl Kernel for Project<'_> {
                 between(f1[k], g1[k]),
                 between(f2[k], g2[k]),
             );
-            let (ex, ey, ez) = (x0[k] + d0[k] - ax, x1[k] + d1[k] - ay, x2[k] + d2[k] - az);
+            // The way from the anchor, in f64: its difference of f32 positions is exact there,
+            // and the move back onto the sphere, a small part of it, keeps its precision. In f32
+            // from the end position `x + d`, the move would be rounded to the position's
+            // resolution, a velocity error of that over the substep, which lends a swinging
+            // particle energy (the more, the more substeps).
+            let way = |x: f32, d: f32, a: f32| (f64::from(x) - f64::from(a)) + f64::from(d);
+            let (ex, ey, ez) = (
+                way(x0[k], d0[k], ax),
+                way(x1[k], d1[k], ay),
+                way(x2[k], d2[k], az),
+            );
             let len2 = ex * ex + ey * ey + ez * ez;
-            let limit = length[k];
+            let limit = f64::from(length[k]);
             // Untethered slots have an infinite length; a non-finite position is left alone.
             // Selected, not branched on, so that the loop runs in vectors.
             let past = len2 > limit * limit;
-            let s = limit / len2.sqrt();
-            d0[k] = if past { (ax + ex * s) - x0[k] } else { d0[k] };
-            d1[k] = if past { (ay + ey * s) - x1[k] } else { d1[k] };
-            d2[k] = if past { (az + ez * s) - x2[k] } else { d2[k] };
+            let back = limit / len2.sqrt() - 1.0;
+            d0[k] = if past {
+                d0[k] + (ex * back) as f32
+            } else {
+                d0[k]
+            };
+            d1[k] = if past {
+                d1[k] + (ey * back) as f32
+            } else {
+                d1[k]
+            };
+            d2[k] = if past {
+                d2[k] + (ez * back) as f32
+            } else {
+                d2[k]
+            };
         }
     }
 }
