@@ -195,21 +195,8 @@ impl Kernel for Project<'_> {
             // Selected, not branched on, so that the loop runs in vectors.
             let past = len2 > limit * limit;
             let back = limit / len2.sqrt() - 1.0;
-            d0[k] = if past {
-                d0[k] + (ex * back) as f32
-            } else {
-                d0[k]
-            };
-            d1[k] = if past {
-                d1[k] + (ey * back) as f32
-            } else {
-                d1[k]
-            };
-            d2[k] = if past {
-                d2[k] + (ez * back) as f32
-            } else {
-                d2[k]
-            };
+            let moved = |d: f32, e: f64| if past { d + (e * back) as f32 } else { d };
+            (d0[k], d1[k], d2[k]) = (moved(d0[k], ex), moved(d1[k], ey), moved(d2[k], ez));
         }
     }
 }
