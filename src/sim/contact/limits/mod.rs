@@ -26,6 +26,9 @@ use super::narrow::ContactState;
 use crate::sim::model::compute_normals;
 use crate::sim::settings::{TargetLimits, Tethers};
 use crate::sim::state::between;
+use batch::resolve_targets;
+
+mod batch;
 
 /// A particle tied to an animated target (see [`crate::sim::ClothSim::set_targets`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -67,6 +70,9 @@ pub(crate) struct Limits {
     /// Whether a target may have moved since the last [`Self::end_step`] (when not, none moves
     /// during the next step, and [`Self::moving`] need not look).
     touched: bool,
+    /// Whether no particle has more than one target (then the targets are independent of each
+    /// other and are resolved a batch at a time, see [`resolve_targets`]).
+    distinct: bool,
     tethers: Vec<Tether>,
     settings: TargetLimits,
 }
@@ -89,7 +95,6 @@ impl Limits {
 
     /// Replaces the targets; each starts the next step where it is given (no motion).
     pub fn set_targets(&mut self, targets: impl IntoIterator<Item = Target>) {
-        self.touched = true;
         self.targets.clear();
         self.targets.extend(targets.into_iter().map(|t| Moving {
             particle: t.particle,
@@ -99,6 +104,16 @@ impl Limits {
             normal_from: t.normal,
             normal_to: t.normal,
         }));
+        self.targets_changed();
+    }
+
+    /// Notes that the targeted particles may have changed.
+    fn targets_changed(&mut self) {
+        self.touched = true;
+        let count = self.targets.iter().map(|t| t.particle as usize + 1).max();
+        let mut seen = vec![false; count.unwrap_or(0)];
+        self.distinct =
+            (self.targets.iter()).all(|t| !std::mem::replace(&mut seen[t.particle as usize], true));
     }
 
     /// Moves the targets, in the order [`Self::set_targets`] took them, to `(position, normal)`
@@ -119,12 +134,12 @@ impl Limits {
     pub fn sync_targets(&mut self, other: &Limits) {
         self.touched = true;
         self.targets.clone_from(&other.targets);
+        self.distinct = other.distinct;
     }
 
     /// Takes `other`'s targets and gives each copy a tear made (`(particle, copy)`, in order) the
     /// targets of its particle, after them.
     pub fn inherit_targets(&mut self, other: &Limits, copies: &[(u32, u32)]) {
-        self.touched = true;
         self.targets.clone_from(&other.targets);
         for &(particle, copy) in copies {
             for t in other.targets.iter().filter(|t| t.particle == particle) {
@@ -134,17 +149,20 @@ impl Limits {
                 });
             }
         }
+        self.targets_changed();
     }
 
     /// Takes the targets of `other`'s particles that `index` maps to a particle here (those
     /// mapped to `u32::MAX` are left out), with their motion.
     pub fn restrict_targets(&mut self, other: &Limits, index: &[u32]) {
-        self.touched |= other.touched;
+        let touched = self.touched | other.touched;
         self.targets.clear();
         self.targets.extend(other.targets.iter().filter_map(|t| {
             let particle = *index.get(t.particle as usize)?;
             (particle != u32::MAX).then_some(Moving { particle, ..*t })
         }));
+        self.targets_changed();
+        self.touched = touched;
     }
 
     /// The particles with a target and the target's weight, in order.
@@ -154,8 +172,8 @@ impl Limits {
 
     /// Keeps the targets of the particles `keep` holds to, drops the others.
     pub fn retain_targets(&mut self, keep: impl Fn(u32) -> bool) {
-        self.touched = true;
         self.targets.retain(|t| keep(t.particle));
+        self.targets_changed();
     }
 
     /// Whether a target moves during the next step.
@@ -247,73 +265,106 @@ impl Limits {
             let (centre, velocity) = (state.position(a), state.velocity(a));
             within(state, i, (centre, velocity), t.length);
         }
-        let s = self.settings;
+        if self.distinct {
+            resolve_targets(&self.targets, self.settings, (t0, t1, inv_h), state);
+            return;
+        }
         for t in &self.targets {
-            let i = state.slot(t.particle);
-            if state.inv_mass(i) == 0.0 {
-                continue;
-            }
-            let target = between(t.from, t.to, t1);
-            let velocity = (target - between(t.from, t.to, t0)) * inv_h;
-            within(
-                state,
-                i,
-                (target, velocity),
-                t.weight * s.max_distance_scale,
-            );
-            if s.backstop_radius > 0.0 {
-                let normal = t.normal_from.lerp(t.normal_to, t1).normalize_or_zero();
-                if normal != Vec3::ZERO {
-                    let centre = target - normal * (s.backstop_radius + s.backstop_offset);
-                    outside(state, i, (centre, velocity, normal), s.backstop_radius);
-                }
-            }
+            resolve_target(t, self.settings, (t0, t1, inv_h), state);
         }
     }
 }
 
-/// Keeps the particle at `i` within `radius` of `centre`, which moves at `velocity`.
-fn within<S: ContactState>(state: &mut S, i: usize, (centre, velocity): (Vec3, Vec3), radius: f32) {
-    let x = state.position(i);
-    let offset = x - centre;
-    let distance2 = offset.length_squared();
-    if distance2 <= radius * radius {
+/// Keeps the particle of target `t` within its limits at the end of the substep `[t0, t1]`:
+/// within its maximum distance of the target, then outside the backstop.
+fn resolve_target<S: ContactState>(
+    t: &Moving,
+    s: TargetLimits,
+    (t0, t1, inv_h): (f32, f32, f32),
+    state: &mut S,
+) {
+    let i = state.slot(t.particle);
+    if state.inv_mass(i) == 0.0 {
         return;
     }
-    let n = offset / distance2.sqrt();
-    let mut v = state.velocity(i);
-    let outward = (v - velocity).dot(n);
-    if outward > 0.0 {
-        v -= outward * n;
+    let target = between(t.from, t.to, t1);
+    let velocity = (target - between(t.from, t.to, t0)) * inv_h;
+    within(
+        state,
+        i,
+        (target, velocity),
+        t.weight * s.max_distance_scale,
+    );
+    if s.backstop_radius > 0.0 {
+        let normal = t.normal_from.lerp(t.normal_to, t1).normalize_or_zero();
+        if normal != Vec3::ZERO {
+            let centre = target - normal * (s.backstop_radius + s.backstop_offset);
+            outside(state, i, (centre, velocity, normal), s.backstop_radius);
+        }
     }
-    state.set(i, centre + n * radius, v);
 }
 
-/// Keeps the particle at `i` at least `radius` from `centre`, which moves at `velocity`; a
-/// particle at the centre leaves along `normal`.
-fn outside<S: ContactState>(
-    state: &mut S,
-    i: usize,
+/// [`within`] on a particle at `x` moving at `v`, which it updates; true if it moved.
+#[inline(always)]
+fn within_lane(
+    (centre, velocity): (Vec3, Vec3),
+    radius: f32,
+    (x, v): (&mut Vec3, &mut Vec3),
+) -> bool {
+    let offset = *x - centre;
+    let distance2 = offset.length_squared();
+    if distance2 <= radius * radius {
+        return false;
+    }
+    let n = offset / distance2.sqrt();
+    let outward = (*v - velocity).dot(n);
+    if outward > 0.0 {
+        *v -= outward * n;
+    }
+    *x = centre + n * radius;
+    true
+}
+
+/// [`outside`] on a particle at `x` moving at `v`, which it updates; true if it moved.
+#[inline(always)]
+fn outside_lane(
     (centre, velocity, normal): (Vec3, Vec3, Vec3),
     radius: f32,
-) {
-    let x = state.position(i);
-    let offset = x - centre;
+    (x, v): (&mut Vec3, &mut Vec3),
+) -> bool {
+    let offset = *x - centre;
     let distance = offset.length();
     if distance >= radius {
-        return;
+        return false;
     }
     let n = if distance > 1e-9 * radius {
         offset / distance
     } else {
         normal
     };
-    let mut v = state.velocity(i);
-    let inward = (v - velocity).dot(n);
+    let inward = (*v - velocity).dot(n);
     if inward < 0.0 {
-        v -= inward * n;
+        *v -= inward * n;
     }
-    state.set(i, centre + n * radius, v);
+    *x = centre + n * radius;
+    true
+}
+
+/// Keeps the particle at `i` within `radius` of `centre`, which moves at `velocity`.
+fn within<S: ContactState>(state: &mut S, i: usize, limit: (Vec3, Vec3), radius: f32) {
+    let (mut x, mut v) = (state.position(i), state.velocity(i));
+    if within_lane(limit, radius, (&mut x, &mut v)) {
+        state.set(i, x, v);
+    }
+}
+
+/// Keeps the particle at `i` at least `radius` from `centre`, which moves at `velocity`; a
+/// particle at the centre leaves along `normal`.
+fn outside<S: ContactState>(state: &mut S, i: usize, limit: (Vec3, Vec3, Vec3), radius: f32) {
+    let (mut x, mut v) = (state.position(i), state.velocity(i));
+    if outside_lane(limit, radius, (&mut x, &mut v)) {
+        state.set(i, x, v);
+    }
 }
 
 /// The cosine of the largest angle between the rest shape's normals at the start of a straight
@@ -437,90 +488,4 @@ fn arc_over_chord(cos: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::model::{ClothModel, GridPlane, GridSpec};
-
-    #[test]
-    fn geodesic_distances_run_straight_across_a_flat_cloth_to_the_nearest_pin() {
-        // A 5×4 grid of 0.1 m spacing pinned at its two top corners: each particle is tied to
-        // the corner on its side, at the straight line's length (a path along the edges would
-        // be up to 8% longer).
-        let spec = GridSpec::new(5, 4, 0.1).with_plane(GridPlane::Vertical);
-        let model = ClothModel::grid(&spec).unwrap();
-        let rest = &model.rest_positions;
-        let n = model.particle_count();
-        let top = rest.iter().map(|q| q.y).fold(f32::MIN, f32::max);
-        let corners: Vec<usize> = (0..n)
-            .filter(|&i| rest[i].y == top && (i % 5 == 0 || i % 5 == 4))
-            .collect();
-        assert_eq!(corners.len(), 2);
-        let mut pinned = vec![false; n];
-        for &c in &corners {
-            pinned[c] = true;
-        }
-        let (nearest, distance) = geodesic_to_nearest(&model.triangles, rest, &pinned);
-        for i in 0..n {
-            let a = nearest[i] as usize;
-            assert!(corners.contains(&a), "particle {i} tied to {a}");
-            if i % 5 != 2 {
-                assert_eq!(
-                    a.is_multiple_of(5),
-                    i % 5 < 2,
-                    "particle {i} tied to the far corner {a}"
-                );
-            }
-            let straight = rest[i].distance(rest[a]);
-            assert!(
-                (distance[i] - straight).abs() <= 1e-6 * straight.max(1.0),
-                "particle {i}: {} against the straight line {straight}",
-                distance[i]
-            );
-        }
-        // Nothing pinned: no anchor anywhere.
-        let (nearest, _) = geodesic_to_nearest(&model.triangles, rest, &vec![false; n]);
-        assert!(nearest.iter().all(|&a| a == u32::MAX));
-    }
-
-    #[test]
-    fn geodesic_distances_follow_a_curved_cloth() {
-        // A 24×6 grid of 0.1 m spacing rolled into half a cylinder around its columns, pinned at
-        // one corner: unrolled, the cloth is flat, so each particle's geodesic is the straight
-        // line of the flat grid. Straight lines through the air (the chord) would be up to a
-        // third shorter across the roll, paths along the edges up to 8% longer.
-        let (nx, ny, h) = (24, 6, 0.1);
-        let spec = GridSpec::new(nx, ny, h).with_plane(GridPlane::Vertical);
-        let model = ClothModel::grid(&spec).unwrap();
-        let radius = (nx - 1) as f32 * h / std::f32::consts::PI;
-        let flat = |p: u32| Vec3::new((p % nx) as f32 * h, (p / nx) as f32 * h, 0.0);
-        let rest: Vec<Vec3> = (0..nx * ny)
-            .map(|p| {
-                let f = flat(p);
-                let angle = f.x / radius;
-                Vec3::new(radius * angle.sin(), f.y, radius * (1.0 - angle.cos()))
-            })
-            .collect();
-        let mut pinned = vec![false; rest.len()];
-        pinned[0] = true;
-        let (nearest, distance) = geodesic_to_nearest(&model.triangles, &rest, &pinned);
-        let mut shortest_chord: f32 = 1.0;
-        for p in 1..nx * ny {
-            let i = p as usize;
-            assert_eq!(nearest[i], 0);
-            let geodesic = flat(p).distance(flat(0));
-            // The roll turns the normals by 7.8° a column, so the straight stretches bend at
-            // particles, a little off the geodesic.
-            assert!(
-                (0.99 * geodesic..=1.04 * geodesic).contains(&distance[i]),
-                "particle {p}: {} against the geodesic {geodesic}",
-                distance[i]
-            );
-            assert!(distance[i] >= rest[i].distance(rest[0]) * (1.0 - 1e-6));
-            shortest_chord = shortest_chord.min(rest[i].distance(rest[0]) / geodesic);
-        }
-        assert!(
-            shortest_chord < 0.7,
-            "the roll's chords are {shortest_chord} of its arcs"
-        );
-    }
-}
+mod tests;
