@@ -1,7 +1,12 @@
 //! The wind field a cloth sits in, and the per-cloth scratch that turns it into forces: once per
-//! step the field is sampled at every triangle's centroid and the aerodynamic forces of
-//! [`aero`](super::aero) are evaluated from the positions and velocities at the start of the step;
-//! every substep then applies those forces.
+//! step the field is sampled at every particle, each triangle takes the mean of its corners'
+//! winds, and the aerodynamic forces of [`aero`](super::aero) are evaluated from the positions
+//! and velocities at the start of the step; every substep then applies those forces.
+//!
+//! A triangle's mean wind differs from the wind at its centroid by the field's curvature over a
+//! triangle: gusts vary over metres (their speed over their period), a cloth's triangles measure
+//! centimetres, and sampling the particles (about half as many as the triangles) spares the
+//! centroids and gives each particle the wind its relative-speed cap needs.
 //!
 //! Holding the forces over a step (rather than re-evaluating them every substep) costs a twentieth
 //! of the work at 20 substeps. Drag relaxes a particle's velocity toward the wind at the rate
@@ -12,7 +17,6 @@ use glam::Vec3;
 
 use super::aero::{
     AeroParams, GridAero, GustSampler, GustTable, Gusts, TriangleWind, add_aero_forces_in,
-    triangle_centroids,
 };
 use super::model::ClothModel;
 use crate::error::{ClothError, finite_vec3, non_negative, unit_interval};
@@ -191,39 +195,35 @@ impl WindField {
     }
 }
 
-/// Per-cloth wind scratch: the wind at each triangle for the current step.
+/// Per-cloth wind scratch: the wind at each particle for the current step, and the forces.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct WindScratch {
     /// Whether the current step has wind (and so aerodynamic forces).
     pub active: bool,
     params: AeroParams,
-    centroids: Vec<Vec3>,
-    triangle_wind: Vec<Vec3>,
+    /// The wind at each particle, when it is not the same everywhere.
+    particle_wind: Vec<Vec3>,
     /// Aerodynamic force on each particle for this step, N.
     particle_force: Vec<Vec3>,
-    /// Sum and count of the winds of each particle's triangles (scratch).
-    wind_sum: Vec<(Vec3, u32)>,
     /// The forces row by row, for a cloth that is still the canonical grid.
     grid: Option<GridAero>,
 }
 
 impl WindScratch {
-    /// Buffers for `model`'s particles and triangles.
+    /// Buffers for `model`'s particles.
     pub fn new(model: &ClothModel) -> Self {
-        let (particles, triangles) = (model.particle_count(), model.triangles.len() / 3);
+        let particles = model.particle_count();
         Self {
             active: false,
             params: AeroParams::default(),
-            centroids: vec![Vec3::ZERO; triangles],
-            triangle_wind: vec![Vec3::ZERO; triangles],
+            particle_wind: vec![Vec3::ZERO; particles],
             particle_force: vec![Vec3::ZERO; particles],
-            wind_sum: vec![(Vec3::ZERO, 0); particles],
             grid: GridAero::new(model),
         }
     }
 
-    /// Samples `field` at every triangle of the cloth and evaluates the aerodynamic force on every
-    /// particle for this step (or switches wind off). `coefficients` are the cloth's drag and
+    /// Samples `field` at every particle of the cloth (each triangle taking its corners' mean) and
+    /// evaluates the aerodynamic force on every particle for this step (or switches wind off). `coefficients` are the cloth's drag and
     /// lift; the density comes from the field.
     pub fn begin_step(
         &mut self,
@@ -246,14 +246,13 @@ impl WindScratch {
         };
         let triangles = triangles.as_chunks::<3>().0;
         self.particle_force.fill(Vec3::ZERO);
-        // A uniform field needs no sampling, and its mean around every particle is itself.
+        // A uniform field needs no sampling.
         let uniform = field.is_uniform().then_some(field.velocity);
         let winds = match uniform {
             Some(wind) => TriangleWind::Uniform(wind),
             None => {
-                triangle_centroids(positions, triangles, &mut self.centroids);
-                field.sample_many(&self.centroids, &mut self.triangle_wind);
-                TriangleWind::Each(&self.triangle_wind)
+                field.sample_many(positions, &mut self.particle_wind);
+                TriangleWind::Corners(&self.particle_wind)
             }
         };
         let forces = &mut self.particle_force;
@@ -266,21 +265,10 @@ impl WindScratch {
                 positions,
                 velocities,
                 triangles,
-                |t| winds.at(t),
+                |t| winds.at(triangles[t]),
                 &self.params,
                 forces,
             );
-        }
-        if uniform.is_none() {
-            // The mean wind around each particle.
-            self.wind_sum.fill((Vec3::ZERO, 0));
-            for (tri, w) in triangles.iter().zip(&self.triangle_wind) {
-                for &i in tri {
-                    let slot = &mut self.wind_sum[i as usize];
-                    slot.0 += *w;
-                    slot.1 += 1;
-                }
-            }
         }
         self.limit_to_relative_speed(velocities, inv_mass, dt, uniform);
     }
@@ -288,8 +276,7 @@ impl WindScratch {
     /// Held over a step, drag is an explicit force: at relative speeds where `ρ C_d A |u| dt / m`
     /// nears 2 it would overshoot the wind and grow without bound. The air can at most bring a
     /// particle to its own speed, so each particle's aerodynamic velocity change over the step is
-    /// capped at its speed relative to the mean wind of its triangles (`uniform`, or from
-    /// `wind_sum`). At ordinary speeds (for cloth the rate is a few per second) the cap never
+    /// capped at its speed relative to the wind where it is (`uniform`, or sampled there). At ordinary speeds (for cloth the rate is a few per second) the cap never
     /// binds.
     fn limit_to_relative_speed(
         &mut self,
@@ -317,10 +304,8 @@ impl WindScratch {
                 }
             }
             None => {
-                for (((f, v), w), (sum, n)) in forces.zip(&self.wind_sum) {
-                    if *n > 0 {
-                        limit(f, *v, *w, *sum / *n as f32);
-                    }
+                for (((f, v), w), wind) in forces.zip(&self.particle_wind) {
+                    limit(f, *v, *w, *wind);
                 }
             }
         }
@@ -388,11 +373,10 @@ mod tests {
             wind.begin_step(Some(&field), (1.0, 0.5), x, v, (&inv_mass, dt), triangles);
             let mut capped = 0;
             for (k, f) in wind.particle_forces().iter().enumerate() {
-                let (sum, count) = wind.wind_sum[k];
                 let mean = if field.is_uniform() {
                     field.velocity
                 } else {
-                    sum / count as f32
+                    wind.particle_wind[k]
                 };
                 let (dv, relative) = (
                     (*f * inv_mass[k] * dt).length(),

@@ -15,17 +15,20 @@ use glam::Vec3;
 pub(crate) enum TriangleWind<'a> {
     /// The same air velocity (m/s) at every triangle.
     Uniform(Vec3),
-    /// The air velocity at each triangle, in the model's triangle order.
-    Each(&'a [Vec3]),
+    /// The air velocity at each particle (m/s); a triangle's is the mean of its corners'.
+    Corners(&'a [Vec3]),
 }
 
 impl TriangleWind<'_> {
-    /// The air velocity at triangle `t`.
+    /// The air velocity at the triangle with the corners `tri` (particles), their winds summed in
+    /// its corners' order.
     #[inline(always)]
-    pub fn at(&self, t: usize) -> Vec3 {
+    pub fn at(&self, tri: [u32; 3]) -> Vec3 {
         match self {
             Self::Uniform(w) => *w,
-            Self::Each(each) => each[t],
+            Self::Corners(w) => {
+                (w[tri[0] as usize] + w[tri[1] as usize] + w[tri[2] as usize]) / 3.0
+            }
         }
     }
 }
@@ -51,8 +54,8 @@ pub(crate) struct GridAero {
     lanes: usize,
     /// The inputs and forces of one row of quads' first and second triangles.
     plates: [RowPlates; 2],
-    /// The winds at one row's first and second triangles, when they differ between triangles.
-    winds: [Soa; 2],
+    /// The winds at the particles, one array per coordinate, padded as `x` (when they differ).
+    w: Soa,
     /// The forces (times a third) of each quad's two triangles, `(a, c, b)` and `(b, c, d)`, on a
     /// grid of `(nx + 1) × (ny + 1)` slots: quad `(i, j)` at slot `(i + 1, j + 1)`, the first
     /// and last row and column zero, so that every vertex adds the same six slots whether or not
@@ -94,7 +97,7 @@ impl GridAero {
             v: Soa::new(nx * ny + lanes),
             lanes,
             plates: [plates(), plates()],
-            winds: [Soa::new(lanes), Soa::new(lanes)],
+            w: Soa::new(nx * ny + lanes),
             first: Soa::new(slots),
             second: Soa::new(slots),
             sums: Soa::new(nx * ny),
@@ -103,8 +106,8 @@ impl GridAero {
 
     /// Adds the aerodynamic force of every triangle, a third to each of its vertices, to `forces`
     /// (as [`add_aero_forces`] does, with the same bits when `forces` starts at zero). Returns
-    /// `false`, adding nothing, unless `positions`, `velocities` and `forces` have one entry per
-    /// particle and `wind` one per triangle.
+    /// `false`, adding nothing, unless `positions`, `velocities`, `forces` and the winds of
+    /// [`TriangleWind::Corners`] have one entry per particle.
     pub fn add_forces(
         &mut self,
         positions: &[Vec3],
@@ -114,9 +117,8 @@ impl GridAero {
         forces: &mut [Vec3],
     ) -> bool {
         let n = self.nx * self.ny;
-        let triangles = 2 * (self.nx - 1) * (self.ny - 1);
         if [positions.len(), velocities.len(), forces.len()] != [n; 3]
-            || matches!(wind, TriangleWind::Each(w) if w.len() != triangles)
+            || matches!(wind, TriangleWind::Corners(w) if w.len() != n)
         {
             return false;
         }
@@ -152,7 +154,7 @@ impl Kernel for GridAeroKernel<'_> {
             v,
             lanes,
             plates,
-            winds,
+            w: winds,
             first,
             second,
             sums,
@@ -161,23 +163,18 @@ impl Kernel for GridAeroKernel<'_> {
         // The copies in and out too, so that they are built for the same vector units.
         x.load(self.state.0);
         v.load(self.state.1);
+        if let TriangleWind::Corners(each) = self.wind {
+            winds.load(each);
+        }
         let scale = force_scale(self.params, 1.0 / 3.0);
         for j in 0..ny - 1 {
             // Quad (i, j) has the corners a = (i, j), b = (i + 1, j), c = (i, j + 1) and
             // d = (i + 1, j + 1); its triangles take them in the order (a, c, b) and (b, c, d),
             // as `TriangleLanes::gather` does.
-            let (m, rows) = (nx - 1, j * (nx - 1));
+            let m = nx - 1;
             let wind = match self.wind {
                 TriangleWind::Uniform(wind) => RowWind::Uniform(wind),
-                TriangleWind::Each(each) => {
-                    let each = &each[2 * rows..2 * (rows + m)];
-                    for (t, wind) in winds.iter_mut().enumerate() {
-                        for (i, (x, y, z)) in wind.iter_mut().take(m).enumerate() {
-                            (*x, *y, *z) = each[2 * i + t].into();
-                        }
-                    }
-                    RowWind::Each(winds)
-                }
+                TriangleWind::Corners(_) => RowWind::Corners(winds),
             };
             row_inputs(x, v, (j * nx, nx, lanes), plates, wind);
             // The forces of row j's quads, into slot row j + 1, columns 1..nx.
@@ -233,8 +230,8 @@ const ROW_LANES: usize = 16;
 enum RowWind<'a> {
     /// The same at every triangle.
     Uniform(Vec3),
-    /// At the first and the second triangle of each quad.
-    Each(&'a [Soa; 2]),
+    /// The winds at the particles (padded as the positions), a triangle taking its corners' mean.
+    Corners(&'a Soa),
 }
 
 /// The inputs of the triangles of the row of quads whose corners `a` are particles
@@ -278,9 +275,14 @@ fn row_inputs(
                 let w = w.to_array()[c];
                 row_coordinate(rows(x), rows(v), [first, second], lanes, |_| (w, w));
             }
-            RowWind::Each([w0, w1]) => {
-                let (w0, w1) = (&w0.coordinate(c)[..lanes], &w1.coordinate(c)[..lanes]);
-                row_coordinate(rows(x), rows(v), [first, second], lanes, |i| (w0[i], w1[i]));
+            RowWind::Corners(w) => {
+                let (wa, wc) = rows(w.coordinate(c));
+                // As `TriangleWind::at`, in the triangles' corner orders.
+                let corners = |i: usize| {
+                    let (a, b, c, d) = (wa[i], wa[i + 1], wc[i], wc[i + 1]);
+                    ((a + c + b) / 3.0, (b + c + d) / 3.0)
+                };
+                row_coordinate(rows(x), rows(v), [first, second], lanes, corners);
             }
         }
     }
@@ -315,7 +317,7 @@ fn row_coordinate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::aero::triangles::{add_aero_forces, add_aero_forces_in};
+    use crate::sim::aero::triangles::add_aero_forces;
     use crate::sim::{ClothModel, GridPlane, GridSpec};
 
     /// A grid bent out of its plane, with every particle moving differently, in `wind`. Some
@@ -360,20 +362,14 @@ mod tests {
         ] {
             let (model, x, v) = moving_grid(nx, ny, plane, wind);
             let triangles = model.triangles.as_chunks::<3>().0;
-            let each: Vec<Vec3> = (0..triangles.len())
-                .map(|t| wind + Vec3::new(0.0, (t as f32).sin(), 0.5 * (t as f32).cos()))
+            let each: Vec<Vec3> = (0..x.len())
+                .map(|k| wind + Vec3::new(0.0, (k as f32).sin(), 0.5 * (k as f32).cos()))
                 .collect();
             let mut grid = GridAero::new(&model).expect("a canonical grid");
-            for winds in [TriangleWind::Uniform(wind), TriangleWind::Each(&each)] {
+            for winds in [TriangleWind::Uniform(wind), TriangleWind::Corners(&each)] {
                 let mut expected = vec![Vec3::ZERO; x.len()];
-                match winds {
-                    TriangleWind::Uniform(w) => {
-                        add_aero_forces_in(&x, &v, triangles, |_| w, &params, &mut expected)
-                    }
-                    TriangleWind::Each(e) => {
-                        add_aero_forces(&x, &v, triangles, e, &params, &mut expected)
-                    }
-                }
+                let at: Vec<Vec3> = triangles.iter().map(|t| winds.at(*t)).collect();
+                add_aero_forces(&x, &v, triangles, &at, &params, &mut expected);
                 let mut got = vec![Vec3::ZERO; x.len()];
                 assert!(grid.add_forces(&x, &v, winds, &params, &mut got));
                 let bits = |f: &[Vec3]| -> Vec<[u32; 3]> {
@@ -398,7 +394,7 @@ mod tests {
         assert!(!grid.add_forces(
             &x,
             &v,
-            TriangleWind::Each(&[Vec3::X; 3]),
+            TriangleWind::Corners(&[Vec3::X; 3]),
             &params,
             &mut forces
         ));
