@@ -80,9 +80,9 @@ impl WindZoneShape {
     }
 }
 
-/// Most [`WindField::zones`]: every zone is sampled at every triangle of every cloth in every
+/// Most [`WindField::zones`]: every zone is sampled at every particle of every cloth in every
 /// step (a zone is not culled by its box), so a step's wind costs their number times the
-/// triangles.
+/// particles.
 pub const MAX_WIND_ZONES: usize = 64;
 
 /// The air around the cloths during one step: a global wind (optionally gusty), local zones, and
@@ -104,7 +104,7 @@ pub struct WindField {
 /// Checks a number of wind zones against [`MAX_WIND_ZONES`].
 pub(crate) fn validate_zone_count(zones: usize) -> Result<(), ClothError> {
     crate::error::at_most("wind zones", zones, MAX_WIND_ZONES, || {
-        "MAX_WIND_ZONES: each is sampled at every triangle of every cloth in every step".into()
+        "MAX_WIND_ZONES: each is sampled at every particle of every cloth in every step".into()
     })
 }
 

@@ -55,7 +55,7 @@ pub(crate) struct GridAero {
     /// The inputs and forces of one row of quads' first and second triangles.
     plates: [RowPlates; 2],
     /// The winds at the particles, one array per coordinate, padded as `x` (when they differ).
-    w: Soa,
+    winds: Soa,
     /// The forces (times a third) of each quad's two triangles, `(a, c, b)` and `(b, c, d)`, on a
     /// grid of `(nx + 1) × (ny + 1)` slots: quad `(i, j)` at slot `(i + 1, j + 1)`, the first
     /// and last row and column zero, so that every vertex adds the same six slots whether or not
@@ -97,7 +97,7 @@ impl GridAero {
             v: Soa::new(nx * ny + lanes),
             lanes,
             plates: [plates(), plates()],
-            w: Soa::new(nx * ny + lanes),
+            winds: Soa::new(nx * ny + lanes),
             first: Soa::new(slots),
             second: Soa::new(slots),
             sums: Soa::new(nx * ny),
@@ -154,7 +154,7 @@ impl Kernel for GridAeroKernel<'_> {
             v,
             lanes,
             plates,
-            w: winds,
+            winds,
             first,
             second,
             sums,
@@ -167,15 +167,15 @@ impl Kernel for GridAeroKernel<'_> {
             winds.load(each);
         }
         let scale = force_scale(self.params, 1.0 / 3.0);
+        let m = nx - 1;
+        let wind = match self.wind {
+            TriangleWind::Uniform(wind) => RowWind::Uniform(wind),
+            TriangleWind::Corners(_) => RowWind::Corners(winds),
+        };
         for j in 0..ny - 1 {
             // Quad (i, j) has the corners a = (i, j), b = (i + 1, j), c = (i, j + 1) and
             // d = (i + 1, j + 1); its triangles take them in the order (a, c, b) and (b, c, d),
             // as `TriangleLanes::gather` does.
-            let m = nx - 1;
-            let wind = match self.wind {
-                TriangleWind::Uniform(wind) => RowWind::Uniform(wind),
-                TriangleWind::Corners(_) => RowWind::Corners(winds),
-            };
             row_inputs(x, v, (j * nx, nx, lanes), plates, wind);
             // The forces of row j's quads, into slot row j + 1, columns 1..nx.
             let s = (j + 1) * w + 1..(j + 1) * w + nx;
