@@ -27,7 +27,7 @@ pub use grid::{GridPlane, GridSpec, MAX_PARTICLES};
 pub use normals::GridNormals;
 pub(crate) use normals::two_rows;
 pub use springs::{MAX_SPRINGS_PER_PARTICLE, SpringKind, Springs};
-use springs::{check_spring_counts, face_springs, face_triangles};
+use springs::{check_spring_counts, face_springs, face_triangles, lattice_colors};
 pub use subdivided::SubdividedModel;
 pub(crate) use tear::{Splitter, pull_apart};
 
@@ -284,7 +284,7 @@ impl ClothModel {
         let triangles = face_triangles(indices, face_size);
         check_spring_counts(count, pairs.iter().map(|&(a, b, _)| (a, b)))?;
         let springs = Springs::build(positions, &pairs);
-        Ok(Self {
+        let mut model = Self {
             rest_positions: positions.to_vec(),
             uvs: uvs.map_or_else(|| vec![Vec2::ZERO; count], <[Vec2]>::to_vec),
             triangles,
@@ -293,7 +293,13 @@ impl ClothModel {
             springs,
             grid: None,
             particle_masses: None,
-        })
+        };
+        // A mesh laid out as a grid (a cape made as a grid of vertices) is coloured as the grid.
+        if let Some(lattice) = model.lattice() {
+            let colors = lattice_colors(&pairs, lattice.nx);
+            model.springs = Springs::build_colored(positions, &pairs, &colors);
+        }
+        Ok(model)
     }
 }
 

@@ -41,6 +41,38 @@ fn gathered(model: &ClothModel) -> usize {
 }
 
 #[test]
+fn a_mesh_laid_out_as_a_grid_is_projected_as_vectors() {
+    // A cape made as a grid of 20 × 25 vertices, its cells cut along either diagonal: its
+    // springs (structural, and bend across every edge) are coloured as the grid's, so that as few
+    // are gathered one by one as on the grid.
+    let (nx, ny) = (20u32, 25u32);
+    let positions: Vec<Vec3> = (0..ny)
+        .flat_map(|j| (0..nx).map(move |i| Vec3::new(i as f32 * 0.03, -(j as f32) * 0.03, 0.0)))
+        .collect();
+    for flip in [false, true] {
+        let mut indices = Vec::new();
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let a = j * nx + i;
+                let (b, c, d) = (a + 1, a + nx, a + nx + 1);
+                if flip {
+                    indices.extend([a, c, d, a, d, b]);
+                } else {
+                    indices.extend([a, c, b, b, c, d]);
+                }
+            }
+        }
+        let model = ClothModel::from_mesh(&positions, None, &indices, 3).unwrap();
+        let tails = gathered(&model);
+        assert!(
+            tails < LANES * model.springs.color_count(),
+            "flip {flip}: {tails} of {} springs gathered",
+            model.springs.len()
+        );
+    }
+}
+
+#[test]
 fn grid_springs_are_projected_as_vectors() {
     let model = ClothModel::grid(&GridSpec::new(64, 64, 0.1)).unwrap();
     let p = Projections::new(&model);
