@@ -223,8 +223,8 @@ impl WindScratch {
     }
 
     /// Samples `field` at every particle of the cloth (each triangle taking its corners' mean) and
-    /// evaluates the aerodynamic force on every particle for this step (or switches wind off). `coefficients` are the cloth's drag and
-    /// lift; the density comes from the field.
+    /// evaluates the aerodynamic force on every particle for this step (or switches wind off).
+    /// `coefficients` are the cloth's drag and lift; the density comes from the field.
     pub fn begin_step(
         &mut self,
         field: Option<&WindField>,
@@ -276,8 +276,8 @@ impl WindScratch {
     /// Held over a step, drag is an explicit force: at relative speeds where `ρ C_d A |u| dt / m`
     /// nears 2 it would overshoot the wind and grow without bound. The air can at most bring a
     /// particle to its own speed, so each particle's aerodynamic velocity change over the step is
-    /// capped at its speed relative to the wind where it is (`uniform`, or sampled there). At ordinary speeds (for cloth the rate is a few per second) the cap never
-    /// binds.
+    /// capped at its speed relative to the wind where it is (`uniform`, or sampled there). At
+    /// ordinary speeds (for cloth the rate is a few per second) the cap never binds.
     fn limit_to_relative_speed(
         &mut self,
         velocities: &[Vec3],

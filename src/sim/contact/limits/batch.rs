@@ -171,8 +171,9 @@ impl Kernel for WithinLanes<'_> {
     }
 }
 
-/// [`outside_lane`](super::outside_lane) on every lane (`moved`: whether it moved), for the `backstop` (radius,
-/// offset) behind each target along its normal (not yet normalised), as a [`Kernel`].
+/// [`outside_lane`](super::outside_lane) on every lane (`moved`: whether it moved), for the
+/// `backstop` (radius, offset) behind each target along its normal (not yet normalised), as a
+/// [`Kernel`].
 struct OutsideLanes<'a> {
     limit: (&'a Lanes3, &'a Lanes3, &'a Lanes3),
     backstop: (f32, f32),
