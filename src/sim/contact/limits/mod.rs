@@ -73,6 +73,9 @@ pub(crate) struct Limits {
     /// Whether no particle has more than one target (then the targets are independent of each
     /// other and are resolved a batch at a time, see [`resolve_targets`]).
     distinct: bool,
+    /// Per particle, whether a target was seen (scratch of [`Self::targets_changed`], which a
+    /// coarse cloth calls every step).
+    seen: Vec<bool>,
     tethers: Vec<Tether>,
     settings: TargetLimits,
 }
@@ -111,7 +114,9 @@ impl Limits {
     fn targets_changed(&mut self) {
         self.touched = true;
         let count = self.targets.iter().map(|t| t.particle as usize + 1).max();
-        let mut seen = vec![false; count.unwrap_or(0)];
+        let seen = &mut self.seen;
+        seen.clear();
+        seen.resize(count.unwrap_or(0), false);
         self.distinct =
             (self.targets.iter()).all(|t| !std::mem::replace(&mut seen[t.particle as usize], true));
     }
