@@ -298,15 +298,14 @@ fn sphere_and_wind_after(frames: u32, substeps: u32) -> Vec<Vec3> {
 
 /// Fixed steps after which [`the_sphere_and_wind_scene_is_as_accurate_against_four_times_the_substeps`]
 /// compares: a third of a second, while the distance is the step's error. Later the gusty drape's
-/// own divergence takes over: a change that only rounds differently (a centroid's `/ 3` written
-/// `* (1 / 3)`) leaves the distance at 20 frames within 6·10⁻⁵ of itself, relative, but moves it
-/// by 1.4% at 40 frames and 0.5% at 60, up or down.
+/// own divergence takes over, and a change that only rounds differently moves the distance, up or
+/// down, by more than a change of method would.
 const FRAMES: u32 = 20;
 
 /// What commit ef6d8fd, before the frame-cost work on contacts and wind, gave for
 /// [`the_sphere_and_wind_scene_is_as_accurate_against_four_times_the_substeps`]'s distance
-/// (its own `cloth_cli simulate` of the scene at 20 and at 80 substeps for [`FRAMES`] frames,
-/// 0.0530034 m), m, rounded up in the fourth digit.
+/// (its own `cloth_cli simulate` of the scene at 20 and at 80 substeps for [`FRAMES`] frames),
+/// m, rounded up in the fourth digit.
 const BEFORE_RMS: f32 = 0.05301;
 
 /// The sphere-and-wind scene's error, measured as the RMS distance of its particles after

@@ -104,7 +104,21 @@ pub(crate) fn max_distance(from: &[Vec3], to: &[Vec3], weight: &[f32]) -> f32 {
 /// except that a coordinate that does not move is `from`'s exactly (the blend rounds it by an ulp
 /// at some `t`, which would give a still pin or target a speed).
 pub(crate) fn between(from: Vec3, to: Vec3, t: f32) -> Vec3 {
-    Vec3::select(from.cmpeq(to), from, from.lerp(to, t))
+    Vec3::new(
+        between_coordinate(from.x, to.x, t),
+        between_coordinate(from.y, to.y, t),
+        between_coordinate(from.z, to.z, t),
+    )
+}
+
+/// One coordinate of [`between`], for vector kernels that keep coordinates in arrays.
+#[inline(always)]
+pub(crate) fn between_coordinate(from: f32, to: f32, t: f32) -> f32 {
+    if from == to {
+        from
+    } else {
+        from * (1.0 - t) + to * t
+    }
 }
 
 /// A pin's target at the end of the substep `[t0, t1]` (fractions of the step) of length

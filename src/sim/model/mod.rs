@@ -283,22 +283,24 @@ impl ClothModel {
         let pairs = face_springs(indices, face_size)?;
         let triangles = face_triangles(indices, face_size);
         check_spring_counts(count, pairs.iter().map(|&(a, b, _)| (a, b)))?;
-        let springs = Springs::build(positions, &pairs);
         let mut model = Self {
             rest_positions: positions.to_vec(),
             uvs: uvs.map_or_else(|| vec![Vec2::ZERO; count], <[Vec2]>::to_vec),
             triangles,
             faces: indices.to_vec(),
             face_size,
-            springs,
+            springs: Springs::default(),
             grid: None,
             particle_masses: None,
         };
         // A mesh laid out as a grid (a cape made as a grid of vertices) is coloured as the grid.
-        if let Some(lattice) = model.lattice() {
-            let colors = lattice_colors(&pairs, lattice.nx);
-            model.springs = Springs::build_colored(positions, &pairs, &colors);
-        }
+        model.springs = match model.lattice() {
+            Some(lattice) => {
+                let colors = lattice_colors(&pairs, lattice.nx);
+                Springs::build_colored(positions, &pairs, &colors)
+            }
+            None => Springs::build(positions, &pairs),
+        };
         Ok(model)
     }
 }

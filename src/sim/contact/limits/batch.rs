@@ -6,6 +6,7 @@ use glam::Vec3;
 use super::{Moving, TargetLimits};
 use crate::sim::contact::narrow::ContactState;
 use crate::sim::simd::{self, Build, Kernel};
+use crate::sim::state::between_coordinate as at;
 
 /// Targets resolved together in [`resolve_targets`].
 const TARGET_BATCH: usize = 64;
@@ -115,13 +116,6 @@ impl Kernel for TargetLanes<'_> {
         let (t0, t1, inv_h) = self.times;
         let (target, velocity, normal, radius) = self.out;
         // `between` and `lerp`, coordinate by coordinate.
-        let at = |from: f32, to: f32, t: f32| {
-            if from == to {
-                from
-            } else {
-                from * (1.0 - t) + to * t
-            }
-        };
         for (k, m) in self.batch.iter().enumerate().take(TARGET_BATCH) {
             for c in 0..3 {
                 let end = at(m.from[c], m.to[c], t1);
@@ -134,7 +128,7 @@ impl Kernel for TargetLanes<'_> {
     }
 }
 
-/// [`within_lane`](super::within_lane) on every lane (`moved`: whether it moved), as a [`Kernel`].
+/// [`within`](super::within) on every lane (`moved`: whether it moved), as a [`Kernel`].
 struct WithinLanes<'a> {
     limit: (&'a Lanes3, &'a Lanes3, &'a [f32; TARGET_BATCH]),
     state: (&'a mut Lanes3, &'a mut Lanes3),
@@ -152,7 +146,7 @@ impl Kernel for WithinLanes<'_> {
         for k in 0..TARGET_BATCH {
             let (ox, oy, oz) = (xx[k] - cx[k], xy[k] - cy[k], xz[k] - cz[k]);
             let distance2 = ox * ox + oy * oy + oz * oz;
-            // Out unless within (a NaN is out, as in `within_lane`).
+            // Out unless within (a NaN is out, as in `within`).
             let inside = distance2 <= radius[k] * radius[k];
             let out = !inside;
             let root = distance2.sqrt();
@@ -171,7 +165,7 @@ impl Kernel for WithinLanes<'_> {
     }
 }
 
-/// [`outside_lane`](super::outside_lane) on every lane (`moved`: whether it moved), for the
+/// [`outside`](super::outside) on every lane (`moved`: whether it moved), for the
 /// `backstop` (radius, offset) behind each target along its normal (not yet normalised), as a
 /// [`Kernel`].
 struct OutsideLanes<'a> {
@@ -202,7 +196,7 @@ impl Kernel for OutsideLanes<'_> {
             let (cx, cy, cz) = (tx[k] - ax * depth, ty[k] - ay * depth, tz[k] - az * depth);
             let (ox, oy, oz) = (xx[k] - cx, xy[k] - cy, xz[k] - cz);
             let distance = (ox * ox + oy * oy + oz * oz).sqrt();
-            // Inside unless clear (a NaN is inside, as in `outside_lane`).
+            // Inside unless clear (a NaN is inside, as in `outside`).
             let clear = distance >= radius;
             let inside = some && !clear;
             let off_centre = distance > 1e-9 * radius;

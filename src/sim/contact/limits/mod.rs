@@ -309,67 +309,48 @@ fn resolve_target<S: ContactState>(
     }
 }
 
-/// [`within`] on a particle at `x` moving at `v`, which it updates; true if it moved.
-#[inline(always)]
-fn within_lane(
-    (centre, velocity): (Vec3, Vec3),
-    radius: f32,
-    (x, v): (&mut Vec3, &mut Vec3),
-) -> bool {
-    let offset = *x - centre;
+/// Keeps the particle at `i` within `radius` of `centre`, which moves at `velocity`.
+fn within<S: ContactState>(state: &mut S, i: usize, (centre, velocity): (Vec3, Vec3), radius: f32) {
+    let x = state.position(i);
+    let offset = x - centre;
     let distance2 = offset.length_squared();
     if distance2 <= radius * radius {
-        return false;
+        return;
     }
     let n = offset / distance2.sqrt();
-    let outward = (*v - velocity).dot(n);
+    let mut v = state.velocity(i);
+    let outward = (v - velocity).dot(n);
     if outward > 0.0 {
-        *v -= outward * n;
+        v -= outward * n;
     }
-    *x = centre + n * radius;
-    true
+    state.set(i, centre + n * radius, v);
 }
 
-/// [`outside`] on a particle at `x` moving at `v`, which it updates; true if it moved.
-#[inline(always)]
-fn outside_lane(
+/// Keeps the particle at `i` at least `radius` from `centre`, which moves at `velocity`; a
+/// particle at the centre leaves along `normal`.
+fn outside<S: ContactState>(
+    state: &mut S,
+    i: usize,
     (centre, velocity, normal): (Vec3, Vec3, Vec3),
     radius: f32,
-    (x, v): (&mut Vec3, &mut Vec3),
-) -> bool {
-    let offset = *x - centre;
+) {
+    let x = state.position(i);
+    let offset = x - centre;
     let distance = offset.length();
     if distance >= radius {
-        return false;
+        return;
     }
     let n = if distance > 1e-9 * radius {
         offset / distance
     } else {
         normal
     };
-    let inward = (*v - velocity).dot(n);
+    let mut v = state.velocity(i);
+    let inward = (v - velocity).dot(n);
     if inward < 0.0 {
-        *v -= inward * n;
+        v -= inward * n;
     }
-    *x = centre + n * radius;
-    true
-}
-
-/// Keeps the particle at `i` within `radius` of `centre`, which moves at `velocity`.
-fn within<S: ContactState>(state: &mut S, i: usize, limit: (Vec3, Vec3), radius: f32) {
-    let (mut x, mut v) = (state.position(i), state.velocity(i));
-    if within_lane(limit, radius, (&mut x, &mut v)) {
-        state.set(i, x, v);
-    }
-}
-
-/// Keeps the particle at `i` at least `radius` from `centre`, which moves at `velocity`; a
-/// particle at the centre leaves along `normal`.
-fn outside<S: ContactState>(state: &mut S, i: usize, limit: (Vec3, Vec3, Vec3), radius: f32) {
-    let (mut x, mut v) = (state.position(i), state.velocity(i));
-    if outside_lane(limit, radius, (&mut x, &mut v)) {
-        state.set(i, x, v);
-    }
+    state.set(i, centre + n * radius, v);
 }
 
 /// The cosine of the largest angle between the rest shape's normals at the start of a straight

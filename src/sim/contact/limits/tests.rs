@@ -175,3 +175,39 @@ fn a_batch_of_targets_moves_each_particle_as_one_target_alone_does() {
         assert_eq!(bits(&va), bits(&vb), "velocities, backstop {backstop}");
     }
 }
+
+#[test]
+fn a_particle_with_two_targets_takes_them_one_after_the_other() {
+    use crate::sim::contact::vectors::Vectors;
+    // Particle 1 has two targets on either side of it, each with a reach too short for where it
+    // is: the second target must pull it from where the first left it, not from where it was.
+    let mut limits = Limits::default();
+    limits.set_settings(TargetLimits {
+        max_distance_scale: 1.0,
+        backstop_radius: 0.0,
+        backstop_offset: 0.0,
+    });
+    let target = |particle, x: f32| Target {
+        particle,
+        weight: 0.3,
+        position: Vec3::new(x, 0.0, 0.0),
+        normal: Vec3::Y,
+    };
+    limits.set_targets([target(0, 0.0), target(1, -1.0), target(1, 1.0)]);
+    let (mut x, mut v) = (
+        vec![Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0)],
+        vec![Vec3::ZERO; 2],
+    );
+    let mut state = Vectors {
+        x: &mut x,
+        v: &mut v,
+        start: &[],
+        inv_mass: &[1.0, 1.0],
+        touches: None,
+    };
+    limits.resolve((0.0, 1.0, 0.01), &mut state);
+    // Onto the first target's sphere (towards (-1, 0, 0)), then onto the second's from there.
+    let first = Vec3::new(-1.0, 0.0, 0.0) + Vec3::new(1.0, 1.0, 0.0).normalize() * 0.3;
+    let second = Vec3::X + (first - Vec3::X).normalize() * 0.3;
+    assert!(x[1].distance(second) < 1e-6, "{} against {second}", x[1]);
+}

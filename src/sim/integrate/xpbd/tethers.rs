@@ -12,7 +12,7 @@ use glam::Vec3;
 use crate::sim::integrate::step::Order;
 use crate::sim::simd::{self, Build, Kernel};
 use crate::sim::soa::Soa;
-use crate::sim::state::PinState;
+use crate::sim::state::{PinState, between_coordinate};
 
 /// A cloth's tethers by storage slot, with each slot's anchor's targets over the step. The kernel
 /// reads the anchors' targets from arrays of their own, one value per slot, so that it runs in
@@ -169,9 +169,8 @@ impl Kernel for Project<'_> {
         let [g0, g1, g2] = to.map(|c| &c[..n]);
         let [x0, x1, x2] = x.map(|c| &c[..n]);
         let [d0, d1, d2] = d.map(|c| &mut c[..n]);
-        let s0 = 1.0 - t1;
         // The pin's target at the substep's end, as the pin computes it (`state::between`).
-        let between = |f: f32, g: f32| if f == g { f } else { f * s0 + g * t1 };
+        let between = |f: f32, g: f32| between_coordinate(f, g, t1);
         for k in 0..n {
             let (ax, ay, az) = (
                 between(f0[k], g0[k]),
