@@ -9,7 +9,7 @@ use glam::{Vec3, Vec3A};
 
 use super::grouped::ItemsByGroup;
 use crate::sim::contact::narrow::ContactState;
-use crate::sim::contact::pairs::{CellHasher, cell_of, for_cells, max_or_infinite};
+use crate::sim::contact::pairs::{CellHasher, cell_of, for_cells, largest_root, max_or_infinite};
 use crate::sim::soa::Soa;
 
 /// Cubes along each side of a block of `ParticleCubes`.
@@ -56,6 +56,9 @@ pub(super) struct ParticleCubes {
     /// of one of its particles' displacements from it (scratch).
     pub(super) block_reference: Vec<(Vec3, u32)>,
     pub(super) block_deviation: Vec<f32>,
+    /// Per pair of neighbouring blocks (as `block_pairs`): the bound on how much closer two of
+    /// their particles can have come, which bounds that of every pair of their cubes (scratch).
+    pub(super) block_bound: Vec<f32>,
     /// Per cube: the displacement its particles' displacements are measured from (any point
     /// would do; the cube's mean displacement extrapolated from the last two
     /// [`Self::closing`]s keeps the deviations small).
@@ -168,10 +171,23 @@ impl ParticleCubes {
 
     /// The bound of [`ClosingBounds::mid`] from each pair of cubes in the same or neighbouring blocks
     /// that are not neighbours.
+    ///
+    /// Needs [`Self::block_bounds`] of this check: a pair of blocks whose bound cannot raise the
+    /// largest found so far is passed over (a bound computed in floating point may exceed the
+    /// exact one by a few units in the last place: such a pair is passed over only where its
+    /// bound falls short by more).
     pub(super) fn cubes_apart(&self) -> f32 {
         let (cubes, cell) = (&self.block_cubes, &self.cell);
+        // The pair with the largest bound first (and again in its turn, which changes nothing),
+        // so that the others are compared with its worst.
+        let first = (0..self.block_pairs.len())
+            .max_by(|&a, &b| self.block_bound[a].total_cmp(&self.block_bound[b]));
         let mut worst = 0.0;
-        for &(ba, bb) in &self.block_pairs {
+        for k in first.into_iter().chain(0..self.block_pairs.len()) {
+            if self.block_bound[k] * (1.0 + 1e-5) < worst {
+                continue;
+            }
+            let (ba, bb) = self.block_pairs[k];
             for &a in cubes.of(ba) {
                 let (ra, da, ca) = (
                     self.reference[a as usize],
@@ -196,6 +212,33 @@ impl ParticleCubes {
             }
         }
         worst
+    }
+
+    /// Fills [`Self::block_bound`] from the cubes' references and deviations of this check, and
+    /// returns the largest (infinite for a NaN).
+    fn block_bounds(&mut self) -> f32 {
+        self.block_reference.fill((Vec3::ZERO, 0));
+        self.block_deviation.fill(0.0);
+        for (&b, r) in self.block.iter().zip(&self.reference) {
+            let (sum, count) = &mut self.block_reference[b as usize];
+            *sum += *r;
+            *count += 1;
+        }
+        for (sum, count) in &mut self.block_reference {
+            *sum /= *count as f32;
+        }
+        for ((&b, r), dev) in self.block.iter().zip(&self.reference).zip(&self.deviation) {
+            let d = &mut self.block_deviation[b as usize];
+            *d = max_or_infinite(*d, r.distance(self.block_reference[b as usize].0) + dev);
+        }
+        let (deviation, reference) = (&self.block_deviation, &self.block_reference);
+        self.block_bound.clear();
+        self.block_bound
+            .extend(self.block_pairs.iter().map(|&(a, b)| {
+                let (a, b) = (a as usize, b as usize);
+                deviation[a] + deviation[b] + reference[a].0.distance(reference[b].0)
+            }));
+        self.block_bound.iter().copied().fold(0.0, max_or_infinite)
     }
 
     /// Each cube's sum of [`Self::moved`] and the largest distance of one from its reference (a
@@ -286,39 +329,18 @@ impl ParticleCubes {
         // Two particles of blocks (or cubes) a and b: |d_p − d_q| ≤ dev_a + |ref_a − ref_b| +
         // dev_b, which is at most `far`, and for cubes at most the blocks' bound: the pairs need
         // looking at only where the cloth's parts moved apart more than the limits allow.
-        let blocks = if far <= self.most.max(mid_limit) {
-            far
+        let by_blocks = far > self.most.max(mid_limit);
+        let blocks = if by_blocks {
+            self.block_bounds().min(far)
         } else {
-            self.block_reference.fill((Vec3::ZERO, 0));
-            self.block_deviation.fill(0.0);
-            for (&b, r) in self.block.iter().zip(&self.reference) {
-                let (sum, count) = &mut self.block_reference[b as usize];
-                *sum += *r;
-                *count += 1;
-            }
-            for (sum, count) in &mut self.block_reference {
-                *sum /= *count as f32;
-            }
-            for ((&b, r), dev) in self.block.iter().zip(&self.reference).zip(&self.deviation) {
-                let d = &mut self.block_deviation[b as usize];
-                *d = max_or_infinite(*d, r.distance(self.block_reference[b as usize].0) + dev);
-            }
-            self.block_pairs
-                .iter()
-                .map(|&(a, b)| {
-                    let (a, b) = (a as usize, b as usize);
-                    self.block_deviation[a]
-                        + self.block_deviation[b]
-                        + self.block_reference[a]
-                            .0
-                            .distance(self.block_reference[b].0)
-                })
-                .fold(0.0, max_or_infinite)
-                .min(far)
+            far
         };
         let mid = if blocks <= mid_limit {
             blocks
         } else {
+            if !by_blocks {
+                self.block_bounds();
+            }
             self.cubes_apart().min(blocks)
         };
         let (near, slack) = if blocks <= self.least.min(spare) {
@@ -364,31 +386,10 @@ impl ParticleCubes {
     /// [`Self::closing`] (infinite if a displacement is not finite).
     pub(super) fn edges_closing(&self, edges: &[[u32; 2]]) -> f32 {
         let moved = &self.moved;
-        // Four edges at a time, each into running values of its own, so that one edge's sum
-        // does not wait on the last.
-        let (mut worst, mut total) = ([0.0f32; 4], [0.0f32; 4]);
-        let mut add = |k: usize, [a, b]: [u32; 2]| {
-            let d = moved[a as usize].distance_squared(moved[b as usize]);
-            worst[k] = if d > worst[k] { d } else { worst[k] };
-            total[k] += d;
-        };
-        let mut fours = edges.chunks_exact(4);
-        for four in &mut fours {
-            for (k, &edge) in four.iter().enumerate() {
-                add(k, edge);
-            }
-        }
-        for (k, &edge) in fours.remainder().iter().enumerate() {
-            add(k, edge);
-        }
-        let worst = worst.into_iter().fold(0.0f32, f32::max);
-        let total: f32 = total.into_iter().sum();
-        // The comparison drops a NaN, which the sum keeps (a sum too large counts as one).
-        if total.is_finite() {
-            worst.sqrt()
-        } else {
-            f32::INFINITY
-        }
+        largest_root(edges.len(), |k| {
+            let [a, b] = edges[k];
+            moved[a as usize].distance_squared(moved[b as usize])
+        })
     }
 }
 
@@ -400,7 +401,12 @@ pub(super) fn neighbouring_cells(
     dense: &mut Vec<u32>,
 ) {
     pairs.clear();
-    let mut each = |lookup: &dyn Fn([i32; 3]) -> Option<u32>| {
+    // Generic in the lookup, so that each kind is compiled into the loop.
+    fn each(
+        index: &HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+        pairs: &mut Vec<(u32, u32)>,
+        lookup: impl Fn([i32; 3]) -> Option<u32>,
+    ) {
         for (cell, &a) in index {
             let (lo, hi) = (
                 cell.map(|c| c.saturating_sub(1)),
@@ -414,7 +420,7 @@ pub(super) fn neighbouring_cells(
                 }
             });
         }
-    };
+    }
     // Where the occupied cells fill a good share of their bounding box (a cloth's cubes do), a
     // dense array of it answers the lookups instead of the hash map; the pairs are the same and
     // in the same order.
@@ -448,9 +454,12 @@ pub(super) fn neighbouring_cells(
                     dense[i] = a;
                 }
             }
-            each(&|c| place(c).map(|i| dense[i]).filter(|&b| b != u32::MAX));
+            let dense = &*dense;
+            each(index, pairs, |c| {
+                place(c).map(|i| dense[i]).filter(|&b| b != u32::MAX)
+            });
         }
-        _ => each(&|c| index.get(&c).copied()),
+        _ => each(index, pairs, |c| index.get(&c).copied()),
     }
 }
 

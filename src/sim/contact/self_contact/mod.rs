@@ -168,6 +168,10 @@ pub(crate) struct SelfContacts {
     slot: Vec<u32>,
     /// Positions (by model particle) when the candidates were found; scratch of the search.
     found_at: Vec<Vec3>,
+    /// Each stored particle's position at the start of the substep and its move over it, at
+    /// the search (scratch).
+    path_starts: Vec<Vec3>,
+    path_steps: Vec<Vec3>,
     /// Positions (by stored particle) when the candidates were found.
     found: Vec<Vec3>,
     /// The reach the candidates were found with, m: they hold every pair that can come within the

@@ -7,7 +7,7 @@ use super::SelfContacts;
 use super::cubes::BLOCK_CUBES;
 use crate::sim::contact::narrow::ContactState;
 use crate::sim::contact::pairs::{
-    boxes_meet, boxes_meet_wide, closest_on_segments, max_or_infinite, pair_key,
+    boxes_meet, boxes_meet_wide, closest_on_segments, largest_root, pair_key,
     point_triangle_distance, reorder,
 };
 
@@ -80,17 +80,23 @@ impl SelfContacts {
         self.slot.clear();
         self.slot
             .extend((0..n as u32).map(|p| state.slot(p) as u32));
+        // The substep's paths, as stored, read in one pass.
+        let (starts, steps) = (&mut self.path_starts, &mut self.path_steps);
+        starts.resize(n, Vec3::ZERO);
+        steps.resize(n, Vec3::ZERO);
+        state.paths(|i, start, end| {
+            starts[i] = start;
+            steps[i] = end - start;
+        });
         self.found_at.clear();
         self.found_at
-            .extend(self.slot.iter().map(|&s| state.start(s as usize)));
+            .extend(self.slot.iter().map(|&s| self.path_starts[s as usize]));
         // Found at the substep's start, the candidates must also cover where it ends. A cloth
         // whose parts moved farther apart than the cap within this one substep gets its
         // candidates where the substep ends instead: the pairs within the thickness there, on
         // the wrong side or not, are still found and put right; a pair that passed through
         // each other and far beyond within one substep is not (that needs a continuous test).
-        let moved = spread_about_mean(n, |p| {
-            state.position(self.slot[p] as usize) - self.found_at[p]
-        });
+        let moved = spread_about_mean(n, |p| self.path_steps[self.slot[p] as usize]);
         if moved <= self.reach_cap {
             self.reach = self.step_reach.max(moved);
         } else {
@@ -102,11 +108,10 @@ impl SelfContacts {
         let positions = std::mem::take(&mut self.found_at);
         let cap = self.cap();
         self.searches += 1;
-        let longest = self
-            .edges
-            .iter()
-            .map(|&[a, b]| positions[a as usize].distance(positions[b as usize]))
-            .fold(0.0, max_or_infinite);
+        let longest = largest_root(self.edges.len(), |k| {
+            let [a, b] = self.edges[k];
+            positions[a as usize].distance_squared(positions[b as usize])
+        });
         // Two elements' particles lie within a side of their closest points each: two particles
         // that were not in neighbouring cubes (at least the cubes' size apart) belong to
         // elements that were at least that less two sides apart.
@@ -457,10 +462,7 @@ pub(super) fn spread_about_mean(n: usize, d: impl Fn(usize) -> Vec3) -> f32 {
         return 0.0;
     }
     let mean = (0..n).map(&d).sum::<Vec3>() / n as f32;
-    let worst = (0..n)
-        .map(|p| d(p).distance_squared(mean))
-        .fold(0.0, max_or_infinite);
-    worst.sqrt()
+    largest_root(n, |p| d(p).distance_squared(mean))
 }
 
 /// The widest normal cone (half-angle, radians) of patches whose elements are not paired in a
