@@ -310,8 +310,8 @@ impl ClothSim {
     }
 
     /// Marks the self-contacts' exempt pairs (within the thickness at rest) that no spring joins
-    /// as parting: the two sides of a tear lay together at rest, and collide once they have
-    /// parted.
+    /// as parting: the two sides of a tear lay within the thickness at rest, and are kept apart by
+    /// less until they have parted by it.
     pub(super) fn part_the_sides(&mut self) {
         let s = &self.model.springs;
         let mut linked: Vec<u64> =

@@ -73,7 +73,7 @@ use crate::error::ClothError;
 use cubes::{LastCheck, ParticleCubes};
 use grouped::ItemsByGroup;
 use patches::Patches;
-use search::{MAX_CANDIDATES_PER_TRIANGLE, NO_CULL};
+use search::{MAX_CANDIDATES_PER_TRIANGLE, NO_CULL, is_exempt};
 
 mod cubes;
 mod grouped;
@@ -88,6 +88,12 @@ mod tests;
 /// [`MAX_THICKNESS_PER_EDGE`](crate::sim::MAX_THICKNESS_PER_EDGE) times it; more means a rest
 /// shape in layers closer than the thickness, whose pairs would grow without bound.
 pub(crate) const MAX_EXEMPT_PAIRS_PER_TRIANGLE: usize = 32;
+
+/// Share of the thickness that the two sides of a tear are kept apart until they have parted by
+/// the thickness: they lay within it at rest (pulled apart by most of it where the cloth tore,
+/// less at a jagged corner), so the full thickness would push them apart at once, but nothing
+/// must let them pass through each other.
+const PARTING_SHARE: f32 = 0.5;
 
 /// A cloth's self-contacts: its topology and exempt pairs (built once), this step's candidate
 /// pairs and the scratch of the broad phase. Nothing allocates once the candidate lists have
@@ -111,7 +117,9 @@ pub(crate) struct SelfContacts {
     exempt_vt: Vec<u64>,
     /// Edge–edge pairs exempt, as `low << 32 | high` edge index, sorted.
     exempt_ee: Vec<u64>,
-    /// The exempt pairs across a tear, until they part (see [`Self::mark_parting`]), sorted.
+    /// The pairs across a tear that lay within the thickness at rest, kept only
+    /// [`PARTING_SHARE`] of their distance apart until they part (see [`Self::mark_parting`]),
+    /// sorted.
     parting_vt: Vec<u64>,
     parting_ee: Vec<u64>,
     /// The triangles in patches, whose normal cones cull the search.
@@ -317,10 +325,11 @@ impl SelfContacts {
         Ok(contacts)
     }
 
-    /// Marks the exempt pairs whose elements are not `linked` (no particle of one linked to a
-    /// particle of the other) as parting: a torn cloth's sides lay together at rest and still
-    /// touch where it tore, so they stay exempt until they have parted by the thickness
-    /// ([`Self::release_parted`]), and collide like any other layers from then on.
+    /// Takes the exempt pairs whose elements are not `linked` (no particle of one linked to a
+    /// particle of the other) off the exempt lists, as parting: a torn cloth's sides lay within
+    /// the thickness at rest and still do where it tore, so until they have parted by the
+    /// thickness ([`Self::release_parted`]) they are kept only [`PARTING_SHARE`] of it apart
+    /// (and never let through each other), and from then on like any other layers.
     pub fn mark_parting(&mut self, linked: impl Fn(u32, u32) -> bool) {
         let (tris, edges) = (&self.tris, &self.edges);
         self.parting_vt = self
@@ -341,10 +350,16 @@ impl SelfContacts {
                 !e.iter().any(|&p| f.iter().any(|&q| linked(p, q)))
             })
             .collect();
+        // Both lists are sorted, and the parting ones were taken from the exempt ones in order.
+        let (parting_vt, parting_ee) = (&self.parting_vt, &self.parting_ee);
+        self.exempt_vt
+            .retain(|k| parting_vt.binary_search(k).is_err());
+        self.exempt_ee
+            .retain(|k| parting_ee.binary_search(k).is_err());
     }
 
-    /// Ends the exemption of the parting pairs ([`Self::mark_parting`]) that are now farther
-    /// apart than the thickness, the particles at `x`.
+    /// Keeps the parting pairs ([`Self::mark_parting`]) that are now farther apart than the
+    /// thickness, the particles at `x`, the full thickness apart from now on.
     pub fn release_parted(&mut self, x: &[Vec3]) {
         if self.parting_vt.is_empty() && self.parting_ee.is_empty() {
             return;
@@ -372,15 +387,11 @@ impl SelfContacts {
                 (a + s * (b - a)).distance(c + t * (d - c)) > thickness
             })
             .collect();
-        for (exempt, parting, parted) in [
-            (&mut self.exempt_vt, &mut self.parting_vt, parted_vt),
-            (&mut self.exempt_ee, &mut self.parting_ee, parted_ee),
+        for (parting, parted) in [
+            (&mut self.parting_vt, parted_vt),
+            (&mut self.parting_ee, parted_ee),
         ] {
-            if parted.is_empty() {
-                continue;
-            }
-            // Both lists are sorted, and so is `parted`, taken from `parting` in order.
-            exempt.retain(|k| parted.binary_search(k).is_err());
+            // Both lists are sorted, `parted` taken from `parting` in order.
             parting.retain(|k| parted.binary_search(k).is_err());
         }
     }
@@ -395,6 +406,12 @@ impl SelfContacts {
     #[cfg(test)]
     pub fn exempt_count(&self) -> usize {
         self.exempt_vt.len() + self.exempt_ee.len()
+    }
+
+    /// Number of pairs across a tear not yet parted ([`Self::mark_parting`]).
+    #[cfg(test)]
+    pub fn parting_count(&self) -> usize {
+        self.parting_vt.len() + self.parting_ee.len()
     }
 
     /// Number of candidate pairs (vertex–triangle, edge–edge) the last broad phase found.
@@ -579,10 +596,25 @@ impl SelfContacts {
     /// distance (0: nothing moved); adds what it moved each particle to `drift`.
     fn pair(&self, state: &mut Vectors, k: usize, inv_h: f32, drift: &mut [f32]) -> f32 {
         let quad = map_four(self.quads[k], |i| i as usize);
+        let mut spacing = self.spacing();
+        if self.is_parting(k) {
+            spacing.thickness *= PARTING_SHARE;
+        }
         if k < self.vt.len() {
-            self.spacing().vertex_triangle(state, quad, inv_h, drift)
+            spacing.vertex_triangle(state, quad, inv_h, drift)
         } else {
-            self.spacing().edge_edge(state, quad, inv_h, drift)
+            spacing.edge_edge(state, quad, inv_h, drift)
+        }
+    }
+
+    /// Whether candidate `k` is a pair across a tear not yet parted.
+    fn is_parting(&self, k: usize) -> bool {
+        match self.vt.get(k) {
+            Some(&(p, t)) => is_exempt(&self.parting_vt, pair_key(p, t)),
+            None => {
+                let (e, f) = self.ee[k - self.vt.len()];
+                is_exempt(&self.parting_ee, pair_key(e, f))
+            }
         }
     }
 }
