@@ -341,6 +341,26 @@ fn a_tear_pulls_no_tethered_particle_in() {
 }
 
 #[test]
+fn a_tear_that_pulls_its_sides_apart_moves_energy_the_suite_counts() {
+    // Case 326 of seed 20261212, self-colliding and torn, under Verlet: a 3×3 cloth (203:1
+    // masses) 7 cm thick tears under strain; its sides are pulled apart by 0.6 of the thickness
+    // each, a jump of positions that raised the free particles' gravitational energy past the
+    // suite's tolerance (6.1e-2 J against 5.1e-2 J). The suite counts what a tear moves with the
+    // start's energy, as it counts a freed copy of a pinned particle.
+    let limits = StressLimits::default();
+    let case = draw_case(20261212, 326, &[], &limits)
+        .with_self_collision()
+        .with_tearing();
+    let result = run_case(&case, &limits);
+    assert!(result.splits > 0, "the cloth tore");
+    assert!(
+        !matches!(result.outcome, StressOutcome::Failure(_)),
+        "{:?}",
+        result.outcome
+    );
+}
+
+#[test]
 fn a_copy_of_a_pinned_particle_brings_its_energy_into_the_free_cloth() {
     // Case 89 of seed 20261207, with air and tearing, under XPBD: a ball of gas with checkered
     // masses (835:1) pinned at two particles, cut through its centre. The cut splits the heavy

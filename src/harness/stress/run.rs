@@ -275,19 +275,21 @@ fn run_steps(
         // but a stretched spring along a new edge is one on each side, so a tear may add
         // elastic energy, counted with what the cloth stored at the start. A copy of a pinned
         // particle is free, and brings its share of the pinned mass into the energy of the free
-        // particles (a driver letting go of a body): its energy joins the start's.
+        // particles (a driver letting go of a body); with self-collision on, the tear moves its
+        // sides apart (a jump of positions, not a force). The gravitational energy the tear
+        // moves and the freed copies' kinetic energy join the start's.
         if case.settings.tearing.enabled || case.cut.is_some() {
             let cut = case.cut.filter(|(at, _)| *at == step).map(|(_, c)| c);
             match sim.tear(cut.as_slice()) {
                 Ok(splits) if !splits.is_empty() => {
-                    stored += (sim.energy().elastic - e.elastic).max(0.0);
-                    let gravity = case.settings.gravity.as_dvec3();
+                    let torn = sim.energy();
+                    stored += (torn.elastic - e.elastic).max(0.0);
+                    e0 += torn.gravitational - e.gravitational;
                     let freed = splits.iter().filter(|s| pinned.contains(&s.particle));
                     for split in freed {
                         let i = split.copy as usize;
                         let m = f64::from(sim.masses()[i]);
-                        let (x, v) = (sim.positions()[i].as_dvec3(), sim.velocities()[i]);
-                        e0 += 0.5 * m * v.as_dvec3().length_squared() - m * gravity.dot(x);
+                        e0 += 0.5 * m * sim.velocities()[i].as_dvec3().length_squared();
                     }
                 }
                 Ok(_) => {}
