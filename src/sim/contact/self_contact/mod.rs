@@ -118,8 +118,7 @@ pub(crate) struct SelfContacts {
     /// Edge–edge pairs exempt, as `low << 32 | high` edge index, sorted.
     exempt_ee: Vec<u64>,
     /// The pairs across a tear that lay within the thickness at rest, kept only
-    /// [`PARTING_SHARE`] of their distance apart until they part (see [`Self::mark_parting`]),
-    /// sorted.
+    /// [`PARTING_SHARE`] of it apart until they part (see [`Self::mark_parting`]), sorted.
     parting_vt: Vec<u64>,
     parting_ee: Vec<u64>,
     /// The triangles in patches, whose normal cones cull the search.
