@@ -361,6 +361,24 @@ fn a_tear_that_pulls_its_sides_apart_moves_energy_the_suite_counts() {
 }
 
 #[test]
+fn a_runaway_that_tears_every_step_is_stopped() {
+    // Case 18 of seed 20261211, torn, under Verlet: a sphere at 90 m/s hits an 8×8 cloth that
+    // tears at 0.8% stretch. Its tears quarter the lightest particle's mass, so its bound asks for
+    // more substeps than the cap, and it runs away past it. The runaway watch must stop it with
+    // a typed error; it lost its memory at each tear (the cloth tore every step) and never did,
+    // until the suite's own bound on the kinetic energy failed the case.
+    let limits = StressLimits::default();
+    let case = draw_case(20261211, 18, &[], &limits).with_tearing();
+    let result = run_case(&case, &limits);
+    assert!(result.splits > 0, "the cloth tore");
+    assert!(
+        matches!(result.outcome, StressOutcome::DetectedUnstable(_)),
+        "{:?}",
+        result.outcome
+    );
+}
+
+#[test]
 fn a_copy_of_a_pinned_particle_brings_its_energy_into_the_free_cloth() {
     // Case 89 of seed 20261207, with air and tearing, under XPBD: a ball of gas with checkered
     // masses (835:1) pinned at two particles, cut through its centre. The cut splits the heavy

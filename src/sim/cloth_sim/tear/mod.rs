@@ -301,6 +301,9 @@ impl ClothSim {
         next.release_loose_pieces();
         next.frame = self.frame;
         next.steps = self.steps;
+        // The runaway watch keeps its memory: a cloth that tears every step would otherwise
+        // start it afresh each time and never be stopped.
+        next.runaway = self.runaway;
         next.contact_work = self.contact_work;
         next.detail = self.detail;
         next.part_the_sides();
