@@ -73,7 +73,7 @@ use crate::error::ClothError;
 use cubes::{LastCheck, ParticleCubes};
 use grouped::ItemsByGroup;
 use patches::Patches;
-use search::{MAX_CANDIDATES_PER_TRIANGLE, NO_CULL, is_exempt};
+use search::{MAX_CANDIDATES_PER_TRIANGLE, NO_CULL, is_listed};
 
 mod cubes;
 mod grouped;
@@ -609,10 +609,10 @@ impl SelfContacts {
     /// Whether candidate `k` is a pair across a tear not yet parted.
     fn is_parting(&self, k: usize) -> bool {
         match self.vt.get(k) {
-            Some(&(p, t)) => is_exempt(&self.parting_vt, pair_key(p, t)),
+            Some(&(p, t)) => is_listed(&self.parting_vt, pair_key(p, t)),
             None => {
                 let (e, f) = self.ee[k - self.vt.len()];
-                is_exempt(&self.parting_ee, pair_key(e, f))
+                is_listed(&self.parting_ee, pair_key(e, f))
             }
         }
     }

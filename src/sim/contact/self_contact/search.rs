@@ -279,7 +279,7 @@ impl SelfContacts {
                 let tri = self.tris[t as usize];
                 if tri.contains(&p)
                     || culled(patch, patches.of_triangle(t))
-                    || is_exempt(&self.exempt_vt, pair_key(p, t))
+                    || is_listed(&self.exempt_vt, pair_key(p, t))
                 {
                     return;
                 }
@@ -319,7 +319,7 @@ impl SelfContacts {
                     let [pa, pb, pc, pd] = [a, b, c, d].map(|i| x[i as usize]);
                     let (flo, fhi) = (pc.min(pd), pc.max(pd));
                     if !boxes_meet((flo - grow, fhi + grow), (lo, hi))
-                        || is_exempt(&self.exempt_ee, pair_key(e, f))
+                        || is_listed(&self.exempt_ee, pair_key(e, f))
                     {
                         continue;
                     }
@@ -397,7 +397,7 @@ impl SelfContacts {
                             continue;
                         }
                         let tri = self.tris[t as usize];
-                        if tri.contains(&p) || is_exempt(&self.exempt_vt, pair_key(p, t)) {
+                        if tri.contains(&p) || is_listed(&self.exempt_vt, pair_key(p, t)) {
                             continue;
                         }
                         let [ta, tb, tc] = tri.map(|i| x[i as usize]);
@@ -436,7 +436,7 @@ impl SelfContacts {
                         || fc == eb
                         || fd == ea
                         || fd == eb
-                        || is_exempt(&self.exempt_ee, key)
+                        || is_listed(&self.exempt_ee, key)
                     {
                         continue;
                     }
@@ -479,7 +479,7 @@ pub(super) fn cull_angle(reach: f32, altitude: f32) -> f32 {
     std::f32::consts::FRAC_PI_2 - turn - 0.1
 }
 
-/// Whether `key` is in the sorted `exempt` list.
-pub(super) fn is_exempt(exempt: &[u64], key: u64) -> bool {
-    !exempt.is_empty() && exempt.binary_search(&key).is_ok()
+/// Whether pair `key` is in the sorted list `pairs` (the exempt pairs, or those parting).
+pub(super) fn is_listed(pairs: &[u64], key: u64) -> bool {
+    !pairs.is_empty() && pairs.binary_search(&key).is_ok()
 }
