@@ -549,6 +549,31 @@ pub(super) fn rebuild_render(
         (None, None) => render::mesh_for_model(model),
         (Some(r), _) => render::mesh_for_subdivision(&r.subdivider),
     };
+    Ok(install_mesh(state, mesh, meshes))
+}
+
+/// After a tear, brings a subdivided cloth's render stencils up to date with its torn mesh
+/// ([`Subdivider::follow`]: only the faces around the tear are refined again) and gives it a new
+/// mesh asset; a cloth drawn unsubdivided is set up afresh ([`rebuild_render`]). Fails, changing
+/// nothing, when the torn mesh cannot be refined.
+pub(super) fn follow_render(
+    state: &mut ClothState,
+    subdivision: Option<&ClothSubdivision>,
+    meshes: &mut Assets<Mesh>,
+) -> Result<Handle<Mesh>, ClothError> {
+    let Some(r) = &mut state.subdivision else {
+        return rebuild_render(state, subdivision, (None, false), meshes);
+    };
+    r.subdivider.follow(&state.sim.model().control_mesh()?)?;
+    let n = r.subdivider.refined_vertex_count();
+    r.positions.resize(n, Vec3::ZERO);
+    r.normals.resize(n, Vec3::Y);
+    let mesh = render::mesh_for_subdivision(&r.subdivider);
+    Ok(install_mesh(state, mesh, meshes))
+}
+
+/// Sizes the cloth's render buffers for `mesh`, fills them, and adds `mesh` as its asset.
+fn install_mesh(state: &mut ClothState, mesh: Mesh, meshes: &mut Assets<Mesh>) -> Handle<Mesh> {
     let count = mesh.count_vertices();
     for buffer in [
         &mut state.render_prev,
@@ -565,7 +590,7 @@ pub(super) fn rebuild_render(
     state.normals_prev.copy_from_slice(&state.normals_curr);
     state.dirty = true;
     state.mesh = meshes.add(mesh);
-    Ok(state.mesh.clone())
+    state.mesh.clone()
 }
 
 #[cfg(test)]

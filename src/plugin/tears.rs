@@ -9,7 +9,7 @@ use bevy::log::warn;
 use bevy::mesh::{Mesh, Mesh3d};
 use bevy::transform::components::GlobalTransform;
 
-use super::build::rebuild_render;
+use super::build::{follow_render, rebuild_render};
 use super::edits::{commit_pins, plan_pins};
 use crate::components::{ClothInvalid, ClothPins, ClothState, ClothSubdivision};
 use crate::tearing::{ClothCut, ClothTorn};
@@ -73,7 +73,7 @@ pub(super) fn follow_tears(
             let plan = plan_pins(state, &running, transform)?;
             commit_pins(state, plan)?;
             // A torn mesh the subdivision cannot refine is drawn as it is.
-            rebuild_render(state, subdivision, (None, false), &mut meshes).or_else(|e| {
+            follow_render(state, subdivision, &mut meshes).or_else(|e| {
                 warn!("cloth {entity}: its torn mesh is drawn unsubdivided: {e}");
                 rebuild_render(state, None, (None, false), &mut meshes)
             })

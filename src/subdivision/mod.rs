@@ -42,7 +42,7 @@ pub use rules::{
     subdominant_eigenvalue, tuned_diagonal_weight,
 };
 pub use stencil::StencilTable;
-pub use subdivider::{RefinedTopology, RenderMesh, Subdivider, refine_positions};
+pub use subdivider::{Followed, RefinedTopology, RenderMesh, Subdivider, refine_positions};
 
 /// Highest supported subdivision level.
 pub const MAX_LEVEL: u32 = 6;

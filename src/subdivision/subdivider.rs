@@ -7,8 +7,14 @@
 //! ([`Subdivider::apply`], [`RefinedTopology::compute_normals`],
 //! [`RenderMesh::expand`]) must not allocate.
 
+mod follow;
+#[cfg(test)]
+mod tests;
+
 use std::collections::HashMap;
 
+pub use follow::Followed;
+use follow::Patch;
 use glam::{DVec3, Vec2, Vec3, Vec3A};
 
 use super::grid::{GridEvaluator, GridShape};
@@ -227,6 +233,18 @@ pub struct Subdivider {
     /// For a grid, what [`apply`](Self::apply) evaluates instead of the level tables.
     grid: Option<GridEvaluator>,
     topology: RefinedTopology,
+    /// The control mesh's faces, which [`follow`](Self::follow) compares a changed mesh with.
+    control: ControlFaces,
+    /// The stencils of the vertices that [`follow`](Self::follow) refined again.
+    patch: Option<Patch>,
+}
+
+/// The faces (and corner UVs) of the control mesh a [`Subdivider`] refines.
+#[derive(Debug, Clone)]
+struct ControlFaces {
+    face_offsets: Vec<u32>,
+    face_indices: Vec<u32>,
+    uvs: Option<Vec<Vec2>>,
 }
 
 impl Subdivider {
@@ -315,6 +333,12 @@ impl Subdivider {
             scratch,
             grid,
             topology,
+            control: ControlFaces {
+                face_offsets: mesh.face_offsets().to_vec(),
+                face_indices: mesh.face_indices().to_vec(),
+                uvs: mesh.uvs().map(<[Vec2]>::to_vec),
+            },
+            patch: None,
         })
     }
 
@@ -352,11 +376,25 @@ impl Subdivider {
     /// Errors with [`SubdivisionError::TooLarge`] past
     /// [`MAX_STENCIL_ENTRIES`](super::MAX_STENCIL_ENTRIES) entries.
     pub fn composed_stencils(&self) -> Result<StencilTable, SubdivisionError> {
-        let mut rows = SparseRows::identity(self.control_count);
+        let base = self.base_counts().0;
+        let mut rows = SparseRows::identity(base);
         for table in &self.levels {
-            rows = compose(&rows, &table.sparse_rows(), self.control_count)?;
+            rows = compose(&rows, &table.sparse_rows(), base)?;
+        }
+        if let Some(patch) = &self.patch {
+            rows = patch.compose_with(rows);
         }
         Ok(StencilTable::from_rows(rows, self.control_count))
+    }
+
+    /// The control and refined vertices the level tables (and the grid evaluator) read and give:
+    /// those of the mesh as it was built.
+    fn base_counts(&self) -> (usize, usize) {
+        self.patch
+            .as_ref()
+            .map_or((self.control_count, self.topology.vertex_count), |p| {
+                (p.base_control, p.base_refined)
+            })
     }
 
     /// Connectivity of the refined mesh.
@@ -386,6 +424,16 @@ impl Subdivider {
     pub fn apply(&mut self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
         check_len("control", self.control_count, control.len())?;
         check_len("out", self.refined_vertex_count(), out.len())?;
+        let (base_control, base_refined) = self.base_counts();
+        self.apply_base(&control[..base_control], &mut out[..base_refined])?;
+        match &mut self.patch {
+            Some(patch) => patch.apply(control, out),
+            None => Ok(()),
+        }
+    }
+
+    /// [`apply`](Self::apply) of the mesh as it was built.
+    fn apply_base(&mut self, control: &[Vec3], out: &mut [Vec3]) -> Result<(), SubdivisionError> {
         if let Some(grid) = &mut self.grid {
             grid.apply(control, out);
             return Ok(());
@@ -415,17 +463,24 @@ impl Subdivider {
     pub fn apply_f64(&self, control: &[DVec3], out: &mut [DVec3]) -> Result<(), SubdivisionError> {
         check_len("control", self.control_count, control.len())?;
         check_len("out", self.refined_vertex_count(), out.len())?;
-        let Some((last, inner)) = self.levels.split_last() else {
-            out.copy_from_slice(control);
-            return Ok(());
-        };
-        let mut src = control.to_vec();
-        for table in inner {
-            let mut next = vec![DVec3::ZERO; table.len()];
-            table.apply_f64(&src, &mut next)?;
-            src = next;
+        let (base_control, base_refined) = self.base_counts();
+        let (base_in, base_out) = (&control[..base_control], &mut out[..base_refined]);
+        match self.levels.split_last() {
+            None => base_out.copy_from_slice(base_in),
+            Some((last, inner)) => {
+                let mut src = base_in.to_vec();
+                for table in inner {
+                    let mut next = vec![DVec3::ZERO; table.len()];
+                    table.apply_f64(&src, &mut next)?;
+                    src = next;
+                }
+                last.apply_f64(&src, base_out)?;
+            }
         }
-        last.apply_f64(&src, out)
+        match &self.patch {
+            Some(patch) => patch.apply_f64(control, out),
+            None => Ok(()),
+        }
     }
 
     /// Smooth normals of refined positions (see

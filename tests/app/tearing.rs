@@ -3,6 +3,7 @@
 
 use super::*;
 use bevy_cloth::sim::Cut;
+use bevy_cloth::subdivision::Subdivider;
 
 /// Every [`ClothTorn`] written, in order.
 #[derive(Resource, Default)]
@@ -80,6 +81,75 @@ fn a_cut_message_tears_the_subdivided_cloth_in_two_and_a_torn_message_follows() 
         1,
         "no more tears"
     );
+}
+
+/// A slit in a subdivided 40×40 cloth: its render mesh follows the torn mesh (refined again
+/// around the slit only) and draws the same surface as a subdivision of the torn mesh built
+/// afresh, triangle by triangle.
+#[test]
+fn a_slit_subdivided_cloth_draws_the_refined_surface_of_its_torn_mesh() {
+    let mut app = app_logging_tears();
+    let n = 40u32;
+    let spec = GridSpec::new(n, n, 0.02).with_plane(GridPlane::Vertical);
+    let subdivision = ClothSubdivision::default();
+    let e = spawn_valid(
+        &mut app,
+        (
+            Cloth::grid(spec),
+            ClothPins::new([0, n - 1]),
+            subdivision,
+            ClothConfig {
+                interpolate: false,
+                ..Default::default()
+            },
+            Transform::from_xyz(0.0, 2.0, 0.0),
+        ),
+    );
+    run(&mut app, 10);
+    let at = |app: &App, i: u32| state(app, e).positions()[i as usize];
+    let across = at(&app, 20 * n + 1) - at(&app, 20 * n);
+    let cut = Cut::Segment {
+        start: at(&app, 20 * n) - across,
+        end: at(&app, 20 * n + 10),
+        radius: 0.006,
+    };
+    app.world_mut().write_message(ClothCut { cloth: e, cut });
+    // Ten frames on, the slit has opened.
+    run(&mut app, 10);
+    assert_eq!(app.world().resource::<TornLog>().0.len(), 1, "it tore once");
+
+    let mut fresh = Subdivider::new(
+        &sim(&app, e).model().control_mesh().unwrap(),
+        subdivision.level,
+        subdivision.rule,
+        subdivision.boundary,
+    )
+    .unwrap();
+    // The entity sits at y = 2: the mesh is in its local space.
+    let local: Vec<Vec3> = state(&app, e)
+        .positions()
+        .iter()
+        .map(|p| *p - 2.0 * Vec3::Y)
+        .collect();
+    let mut refined = vec![Vec3::ZERO; fresh.refined_vertex_count()];
+    fresh.apply(&local, &mut refined).unwrap();
+    let layout = fresh.topology().render_mesh();
+    let mut expected = vec![Vec3::ZERO; layout.vertex_count()];
+    layout.expand(&refined, &mut expected).unwrap();
+    let (drawn, _) = mesh_positions(&app, e);
+    let mesh = app
+        .world()
+        .resource::<Assets<Mesh>>()
+        .get(state(&app, e).mesh())
+        .unwrap();
+    let Some(Indices::U32(indices)) = mesh.indices() else {
+        panic!("indices")
+    };
+    assert_eq!(indices.len(), layout.triangle_indices().len());
+    for (&a, &b) in indices.iter().zip(layout.triangle_indices()) {
+        let gap = Vec3::from_array(drawn[a as usize]).distance(expected[b as usize]);
+        assert!(gap < 1e-5, "render vertices {a} and {b}: {gap} m apart");
+    }
 }
 
 /// Heavy particles (0.2 kg) on springs that tear past 5% stretch: a 12×12 cloth hanging from two
