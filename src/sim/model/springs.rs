@@ -3,9 +3,11 @@
 
 use bevy::reflect::Reflect;
 use glam::Vec3;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::hash::BuildHasherDefault;
 
 use crate::error::ClothError;
+use crate::hash::IntHasher;
 use serde::{Deserialize, Serialize};
 
 /// The three spring families of a Provot mass-spring cloth.
@@ -135,7 +137,8 @@ impl Springs {
             .max()
             .map_or(0, |c| c as usize + 1);
         let mut order: Vec<usize> = (0..pairs.len()).collect();
-        order.sort_by_key(|&s| (pairs[s].4, pairs[s].1 - pairs[s].0, pairs[s].0));
+        // No two springs of a colour share a particle, so the keys are distinct.
+        order.sort_unstable_by_key(|&s| (pairs[s].4, pairs[s].1 - pairs[s].0, pairs[s].0));
         let mut springs = Springs {
             a: Vec::with_capacity(pairs.len()),
             b: Vec::with_capacity(pairs.len()),
@@ -234,12 +237,20 @@ pub(crate) fn face_springs(
     indices: &[u32],
     face_size: usize,
 ) -> Result<Vec<(u32, u32, SpringKind)>, ClothError> {
-    // Undirected edge -> its uses, one per face: the face, and for each end of the edge (the
-    // smaller index first) that end's other neighbour in the face (the third corner of a
-    // triangle, for both ends).
-    type Uses = Vec<(usize, [u32; 2])>;
-    let mut edges: HashMap<(u32, u32), Uses> = HashMap::new();
-    let mut edge_order: Vec<(u32, u32)> = Vec::new();
+    // Each undirected edge, in order of first use, with its uses, one per face: the face, and
+    // for each end of the edge (the smaller index first) that end's other neighbour in the face
+    // (the third corner of a triangle, for both ends). Uses past two (a non-manifold edge) are
+    // kept aside for the error.
+    #[derive(Clone, Copy)]
+    struct Edge {
+        ends: (u32, u32),
+        uses: [(usize, [u32; 2]); 2],
+        count: usize,
+    }
+    let mut index: HashMap<u64, u32, BuildHasherDefault<IntHasher>> =
+        HashMap::with_capacity_and_hasher(indices.len(), Default::default());
+    let mut edges: Vec<Edge> = Vec::with_capacity(indices.len());
+    let mut extra_uses: Vec<(u32, usize)> = Vec::new();
     let mut pairs = Vec::new();
     for (f, face) in indices.chunks_exact(face_size).enumerate() {
         for k in 0..face_size {
@@ -249,19 +260,27 @@ pub(crate) fn face_springs(
                 face[(k + face_size - 1) % face_size],
                 face[(k + 2) % face_size],
             );
-            let key = (a.min(b), a.max(b));
+            let ends = (a.min(b), a.max(b));
             let across = if a < b {
                 [before_a, after_b]
             } else {
                 [after_b, before_a]
             };
-            edges
-                .entry(key)
-                .or_insert_with(|| {
-                    edge_order.push(key);
-                    Vec::new()
-                })
-                .push((f, across));
+            let key = u64::from(ends.0) << 32 | u64::from(ends.1);
+            let e = *index.entry(key).or_insert_with(|| {
+                edges.push(Edge {
+                    ends,
+                    uses: [(f, across); 2],
+                    count: 0,
+                });
+                edges.len() as u32 - 1
+            });
+            let edge = &mut edges[e as usize];
+            match edge.uses.get_mut(edge.count) {
+                Some(slot) => *slot = (f, across),
+                None => extra_uses.push((e, f)),
+            }
+            edge.count += 1;
         }
         if face_size == 4 {
             pairs.push((face[0], face[2], SpringKind::Shear));
@@ -270,21 +289,27 @@ pub(crate) fn face_springs(
     }
     // A quad's straight bend spring through a vertex is found from both edges that pass
     // straight through it; make it once.
-    let mut bends = std::collections::HashSet::new();
-    for key in &edge_order {
-        let uses = &edges[key];
-        if uses.len() > 2 {
+    let mut bends: HashSet<u64, BuildHasherDefault<IntHasher>> = HashSet::default();
+    for (e, edge) in edges.iter().enumerate() {
+        let (a, b) = edge.ends;
+        if edge.count > 2 {
+            let more = extra_uses.iter().filter(|&&(x, _)| x as usize == e);
             return Err(ClothError::NonManifoldEdge {
-                a: key.0,
-                b: key.1,
-                faces: uses.iter().map(|&(f, _)| f).collect(),
+                a,
+                b,
+                faces: edge
+                    .uses
+                    .iter()
+                    .map(|&(f, _)| f)
+                    .chain(more.map(|&(_, f)| f))
+                    .collect(),
             });
         }
-        pairs.push((key.0, key.1, SpringKind::Structural));
-        if let [(_, first), (_, second)] = uses[..] {
+        pairs.push((a, b, SpringKind::Structural));
+        if let [(_, first), (_, second)] = edge.uses[..edge.count] {
             let ends = if face_size == 4 { 2 } else { 1 };
             for (p, q) in first.into_iter().zip(second).take(ends) {
-                if p != q && bends.insert((p.min(q), p.max(q))) {
+                if p != q && bends.insert(u64::from(p.min(q)) << 32 | u64::from(p.max(q))) {
                     pairs.push((p, q, SpringKind::Bend));
                 }
             }

@@ -1,8 +1,6 @@
 //! Grids of cells: the spatial hash of boxes that the broad phases search through, and the cell
 //! arithmetic, box tests and hasher that self-contacts' cubes and patches share.
 
-use std::hash::Hasher;
-
 use glam::{Vec3, Vec3A};
 
 /// A spatial hash of boxes no larger than its cells: each box is listed in every cell it meets
@@ -136,30 +134,6 @@ impl SpatialHash {
                 }
             }
         });
-    }
-}
-
-/// the same in every process (the cubes' pairs come out in one order).
-#[derive(Debug, Clone, Copy, Default)]
-pub(in crate::sim::contact) struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        crate::hash::mix64(self.0)
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        // A slice of integers arrives as its bytes: four at a time.
-        for chunk in bytes.chunks(4) {
-            let mut word = [0; 4];
-            word[..chunk.len()].copy_from_slice(chunk);
-            self.write_u32(u32::from_le_bytes(word));
-        }
-    }
-    fn write_u32(&mut self, i: u32) {
-        self.0 = (self.0 ^ u64::from(i)).wrapping_mul(crate::hash::GOLDEN_GAMMA);
-    }
-    fn write_i32(&mut self, i: i32) {
-        self.write_u32(i as u32);
     }
 }
 

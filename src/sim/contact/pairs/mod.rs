@@ -13,9 +13,7 @@ mod snapshots;
 
 pub(super) use bands::{GapBands, reorder};
 pub(super) use geometry::{closest_on_segments, edge_table, pair_key, point_triangle_distance};
-pub(super) use hash_grid::{
-    CellHasher, SpatialHash, boxes_meet, boxes_meet_wide, cell_of, for_cells,
-};
+pub(super) use hash_grid::{SpatialHash, boxes_meet, boxes_meet_wide, cell_of, for_cells};
 #[cfg(test)]
 pub(super) use response::EDGES_APART_SHARE;
 pub(super) use response::{LayerSpacing, later_passes};

@@ -8,8 +8,9 @@ use std::hash::BuildHasherDefault;
 use glam::{Vec3, Vec3A};
 
 use super::grouped::ItemsByGroup;
+use crate::hash::IntHasher;
 use crate::sim::contact::narrow::ContactState;
-use crate::sim::contact::pairs::{CellHasher, cell_of, for_cells, largest_root, max_or_infinite};
+use crate::sim::contact::pairs::{cell_of, for_cells, largest_root, max_or_infinite};
 use crate::sim::soa::Soa;
 
 /// Cubes along each side of a block of `ParticleCubes`.
@@ -39,7 +40,7 @@ pub(super) struct ParticleCubes {
     pub(super) least: f32,
     pub(super) most: f32,
     /// Cube index of each occupied cell.
-    pub(super) index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    pub(super) index: HashMap<[i32; 3], u32, BuildHasherDefault<IntHasher>>,
     /// Each cube's cell.
     pub(super) cell: Vec<[i32; 3]>,
     /// Each cube's block.
@@ -51,7 +52,7 @@ pub(super) struct ParticleCubes {
     /// Pairs of neighbouring blocks (a block with itself too), `a <= b`.
     pub(super) block_pairs: Vec<(u32, u32)>,
     /// Block index of each occupied block cell (scratch of [`Self::assign`]).
-    pub(super) block_index: HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    pub(super) block_index: HashMap<[i32; 3], u32, BuildHasherDefault<IntHasher>>,
     /// Per block: a displacement (the mean of its cubes' references) and the largest distance
     /// of one of its particles' displacements from it (scratch).
     pub(super) block_reference: Vec<(Vec3, u32)>,
@@ -396,14 +397,14 @@ impl ParticleCubes {
 /// Fills `pairs` with the pairs `(a, b)`, `a <= b`, of the cells of `index` (each to its index)
 /// that are the same or neighbours (`dense` is scratch).
 pub(super) fn neighbouring_cells(
-    index: &HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+    index: &HashMap<[i32; 3], u32, BuildHasherDefault<IntHasher>>,
     pairs: &mut Vec<(u32, u32)>,
     dense: &mut Vec<u32>,
 ) {
     pairs.clear();
     // Generic in the lookup, so that each kind is compiled into the loop.
     fn each(
-        index: &HashMap<[i32; 3], u32, BuildHasherDefault<CellHasher>>,
+        index: &HashMap<[i32; 3], u32, BuildHasherDefault<IntHasher>>,
         pairs: &mut Vec<(u32, u32)>,
         lookup: impl Fn([i32; 3]) -> Option<u32>,
     ) {
