@@ -309,9 +309,11 @@ fn render(rows: &[SceneRows], frames: u32, runs: u32, commit: &str) -> String {
          | the stress suite: seeded random cloths at the limits of every setting, every \
          integrator | `cargo run --release --example cloth_cli -- stress --cases 10000 --seed S` \
          | its table, printed |\n\
-         | the solver step, subdivision, the paper's scene and avian, as micro-benchmarks \
-         | `cargo bench --bench step`, `--bench subdivision`, `--bench pipeline`, \
-         `--features avian --bench avian` | criterion's report in `target/criterion/` |\n\
+         | the solver step, subdivision, the paper's scene, avian, a tear (one split, a row \
+         cut, the check when nothing tears), the air of a closed cloth and a crowd, as \
+         micro-benchmarks | `cargo bench --bench step`, `--bench subdivision`, `--bench \
+         pipeline`, `--features avian --bench avian`, `--bench tearing`, `--bench pressure`, \
+         `--bench crowd` | criterion's report in `target/criterion/` |\n\
          | bevy_silk 0.10 on the same cloth | `compare/bevy_silk/run.sh 5 600` | printed |"
     );
     out

@@ -2,10 +2,10 @@
 //! the faces around the change are refined again on their own and their refined vertices spliced
 //! into the refinement, instead of refining the whole mesh.
 //!
-//! A refined vertex's stencil depends on the control mesh within a ring or two of faces around
-//! it, so the faces within [`CHANGED_RINGS`] rings of the re-attached ones get new stencils,
-//! computed from a submesh [`SUPPORT_RINGS`] rings wider, in which their neighbourhoods are
-//! whole. Refined vertices keep their indices where a face that did not change still uses them;
+//! The refined vertices of a control face depend on the positions in the ring of faces around
+//! it, and on the rules of its corners, which their own rings decide. So the faces within
+//! [`CHANGED_RINGS`] ring of the re-attached faces' vertices get new stencils, computed from a
+//! submesh [`SUPPORT_RINGS`] ring wider, in which their neighbourhoods are whole. Refined vertices keep their indices where a face that did not change still uses them;
 //! the others take the indices the changed faces used, or new ones appended. Their stencils over
 //! the control vertices replace the level tables' ([`Patch`]).
 
