@@ -175,6 +175,62 @@ fn a_torn_grid_followed_refines_as_one_refined_afresh() {
     assert!(local >= 4 * 6 - 2, "only {local} of 24 follows were local");
 }
 
+/// Random cuts, one after another, on a 32×32 grid: blades of random lengths and directions
+/// and holes of random sizes, each followed at level 2 and compared with a refinement built
+/// afresh, until the cloth is in tatters.
+#[test]
+fn random_cuts_followed_refine_as_refined_afresh() {
+    const N: u32 = 32;
+    for seed in 0..4u64 {
+        let mut sim = grid(N);
+        let mut sub = Subdivider::new(
+            &sim.model().control_mesh().unwrap(),
+            2,
+            VertexRule::Original,
+            BoundaryMode::EdgeAndCorner,
+        )
+        .unwrap();
+        let mut draw = {
+            let mut k = 0u64;
+            move || {
+                k += 1;
+                let h = crate::hash::splitmix(seed << 32 | k);
+                (h >> 40) as f32 / (1u64 << 24) as f32
+            }
+        };
+        let mut local = 0;
+        for cut in 0..12 {
+            let p = |draw: &mut dyn FnMut() -> f32| {
+                let at = (draw() * (N * N) as f32) as usize % (N * N) as usize;
+                sim.positions()[at]
+            };
+            let cut = if cut % 3 == 2 {
+                Cut::Ray {
+                    origin: p(&mut draw) - Vec3::Z,
+                    direction: Vec3::Z,
+                    radius: 0.01 + 0.05 * draw(),
+                }
+            } else {
+                Cut::Segment {
+                    start: p(&mut draw),
+                    end: p(&mut draw),
+                    radius: 0.006,
+                }
+            };
+            // A blade drawn from a particle to itself is no cut.
+            if cut.validate().is_err() || sim.tear(&[cut]).unwrap().is_empty() {
+                continue;
+            }
+            let mesh = sim.model().control_mesh().unwrap();
+            if let Followed::Locally { .. } = sub.follow(&mesh).unwrap() {
+                local += 1;
+            }
+            assert_same_refinement(&mut sub, &mesh);
+        }
+        assert!(local > 0, "seed {seed}: no follow was local");
+    }
+}
+
 #[test]
 fn a_torn_sphere_followed_refines_as_one_refined_afresh() {
     let model = ClothModel::icosphere(0.3, 3).unwrap();
