@@ -5,7 +5,9 @@
 //!   colouring, steppers, contacts), and the subdivision stencils of the render mesh brought up
 //!   to date ([`Subdivider::follow`]);
 //! - `tear_grid64/row cut`: the same for a cut across the whole cloth (64 splits);
-//! - `tear_grid64/strain check`: the check a step with tearing on makes when nothing tears.
+//! - `tear_grid64/strain check`: the check a step with tearing on makes when nothing tears;
+//! - `tear_grid64/frame, whole` and `frame, cut in two`: one 1/60 s step of the cloth before and
+//!   after the row cut.
 
 use std::hint::black_box;
 
@@ -103,6 +105,19 @@ fn tearing(c: &mut Criterion) {
             BatchSize::LargeInput,
         )
     });
+    // A frame of the cloth before and after the row cut: a torn grid keeps the grid's colouring
+    // and storage order, so its step costs what the grid's does.
+    let mut cut = sim.clone();
+    cut.tear(&[whole]).unwrap();
+    for (name, cloth) in [("frame, whole", &sim), ("frame, cut in two", &cut)] {
+        group.bench_function(name, |b| {
+            b.iter_batched(
+                || cloth.clone(),
+                |mut cloth| cloth.step(1.0 / 60.0).unwrap(),
+                BatchSize::LargeInput,
+            )
+        });
+    }
     group.bench_function("strain check", |b| {
         let mut sim = sim.clone();
         b.iter(|| black_box(sim.tear(&[]).unwrap().len()))

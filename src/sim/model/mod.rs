@@ -58,6 +58,31 @@ pub struct ClothModel {
     /// particle [`SolverSettings::particle_mass`](super::SolverSettings::particle_mass). Set it with
     /// [`ClothModel::with_particle_masses`].
     pub particle_masses: Option<Vec<f32>>,
+    /// For a grid torn by [`ClothSim::tear`](crate::sim::ClothSim::tear): the grid, and for each
+    /// particle past its own (the copies a tear made) the grid particle it was split from, so
+    /// that the torn cloth keeps the grid's spring colours and storage order (its step costs
+    /// what the grid's does). Set by tearing only.
+    pub(crate) torn_grid: Option<TornGrid>,
+}
+
+/// The grid a torn model was, and the grid particle each of its copies was split from.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TornGrid {
+    pub spec: GridSpec,
+    /// The grid particle of each particle `nx · ny + k`.
+    pub origins: Vec<u32>,
+}
+
+impl TornGrid {
+    /// The grid particle that particle `p` is or was split from.
+    pub fn origin(&self, p: u32) -> u32 {
+        let n = self.spec.nx * self.spec.ny;
+        if p < n {
+            p
+        } else {
+            self.origins[(p - n) as usize]
+        }
+    }
 }
 
 impl ClothModel {
@@ -195,6 +220,7 @@ impl ClothModel {
             springs,
             grid: Some(*spec),
             particle_masses: None,
+            torn_grid: None,
         })
     }
 
@@ -292,6 +318,7 @@ impl ClothModel {
             springs: Springs::default(),
             grid: None,
             particle_masses: None,
+            torn_grid: None,
         };
         // A mesh laid out as a grid (a cape made as a grid of vertices) is coloured as the grid.
         model.springs = match model.lattice() {
@@ -435,7 +462,25 @@ impl ClothModel {
                 ));
             }
         }
+        if let Some(torn) = &self.torn_grid {
+            torn.spec.validate()?;
+            let grid = torn.spec.nx as usize * torn.spec.ny as usize;
+            if grid + torn.origins.len() != n || torn.origins.iter().any(|&o| o as usize >= grid) {
+                return bad(format!(
+                    "a torn {}×{} grid whose copies do not match its {n} particles",
+                    torn.spec.nx, torn.spec.ny
+                ));
+            }
+        }
         Ok(())
+    }
+
+    /// The grid whose storage order the solver keeps: the model's, or the one it was torn from
+    /// (its copies stored after the grid's particles).
+    pub(crate) fn storage_grid(&self) -> Option<&GridSpec> {
+        self.grid
+            .as_ref()
+            .or(self.torn_grid.as_ref().map(|t| &t.spec))
     }
 
     /// Builds a cloth of explicit springs and no faces, one particle per position: a chain, a
@@ -495,6 +540,7 @@ impl ClothModel {
             springs: Springs::build(positions, springs),
             grid: None,
             particle_masses: None,
+            torn_grid: None,
         })
     }
 }

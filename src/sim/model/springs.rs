@@ -191,6 +191,34 @@ pub(super) fn lattice_colors(pairs: &[(u32, u32, SpringKind)], nx: usize) -> Vec
         .collect()
 }
 
+/// [`lattice_colors`] for a torn grid's springs, each coloured as the spring between the grid
+/// particles its ends were split from (`origin`). Where both sides of a tear kept a spring to the
+/// same particle, the second takes the smallest colour past the lattice's free at both its ends.
+pub(super) fn torn_lattice_colors(
+    pairs: &[(u32, u32, SpringKind)],
+    nx: usize,
+    origin: impl Fn(u32) -> u32,
+) -> Vec<u32> {
+    let origins: Vec<_> = pairs
+        .iter()
+        .map(|&(a, b, k)| (origin(a), origin(b), k))
+        .collect();
+    let mut colors = lattice_colors(&origins, nx);
+    let spare = colors.iter().max().map_or(0, |c| c + 1);
+    let mut used: HashSet<u64, BuildHasherDefault<IntHasher>> =
+        HashSet::with_capacity_and_hasher(2 * pairs.len(), Default::default());
+    let key = |p: u32, c: u32| u64::from(p) << 32 | u64::from(c);
+    for (&(a, b, _), color) in pairs.iter().zip(&mut colors) {
+        let taken = |c: u32| used.contains(&key(a, c)) || used.contains(&key(b, c));
+        if taken(*color) {
+            *color = (spare..).find(|&c| !taken(c)).unwrap_or(spare);
+        }
+        used.insert(key(a, *color));
+        used.insert(key(b, *color));
+    }
+    colors
+}
+
 /// Whether no two springs of the same colour share a particle.
 fn is_proper_edge_coloring(nodes: usize, pairs: &[(u32, u32, SpringKind)], colors: &[u32]) -> bool {
     let mut seen = std::collections::HashSet::with_capacity(2 * pairs.len().min(nodes * 16));

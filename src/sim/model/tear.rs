@@ -7,8 +7,8 @@
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 
-use super::springs::{check_spring_counts, face_springs, face_triangles};
-use super::{ClothModel, Springs};
+use super::springs::{check_spring_counts, face_springs, face_triangles, torn_lattice_colors};
+use super::{ClothModel, Springs, TornGrid};
 use crate::error::ClothError;
 
 /// The faces of a model being split, with the particles split so far.
@@ -275,7 +275,25 @@ impl<'a> Splitter<'a> {
         pull_apart(&self.faces, size, &mut rest_positions, apart, gap);
         let pairs = face_springs(&self.faces, size)?;
         check_spring_counts(rest_positions.len(), pairs.iter().map(|&(a, b, _)| (a, b)))?;
-        let springs = Springs::build(&rest_positions, &pairs);
+        // A grid torn keeps its colouring: the XPBD kernel's runs, and its step's cost.
+        let torn_grid = model.storage_grid().map(|&spec| {
+            let root = |p: u32| match &model.torn_grid {
+                Some(torn) => torn.origin(p),
+                None => p,
+            };
+            let grid = spec.nx * spec.ny;
+            let origins = (grid..rest_positions.len() as u32)
+                .map(|p| root(self.origin(p)))
+                .collect();
+            TornGrid { spec, origins }
+        });
+        let springs = match &torn_grid {
+            Some(torn) => {
+                let colors = torn_lattice_colors(&pairs, torn.spec.nx as usize, |p| torn.origin(p));
+                Springs::build_colored(&rest_positions, &pairs, &colors)
+            }
+            None => Springs::build(&rest_positions, &pairs),
+        };
         let per_face = size - 2;
         let faces_count = self.faces.len() / size;
         // Each face's triangles follow its corners; a model whose triangles are not its faces'
@@ -305,6 +323,7 @@ impl<'a> Splitter<'a> {
             springs,
             grid: None,
             particle_masses: Some(self.masses),
+            torn_grid,
         })
     }
 }

@@ -151,7 +151,11 @@ impl Projections {
     /// [`Self::set_constants`] before solving.
     pub(super) fn new(model: &ClothModel) -> Self {
         let (springs, particles) = (&model.springs, model.particle_count());
-        let order = model.grid.as_ref().map_or_else(Vec::new, grid_order);
+        let mut order = model.storage_grid().map_or_else(Vec::new, grid_order);
+        // A torn grid's copies follow the grid's particles, in their own order.
+        if !order.is_empty() {
+            order.extend(order.len() as u32..particles as u32);
+        }
         let mut p = Self {
             springs: springs.len(),
             order: Order::new(order),

@@ -101,6 +101,40 @@ fn grid_springs_are_projected_as_vectors() {
 }
 
 #[test]
+fn a_torn_grid_is_projected_as_vectors_as_the_grid_was() {
+    // A 64×64 grid holed by a ray and cut across a row keeps the grid's colours and storage
+    // order: beyond the grid's own tails, only springs at its copies (about five a copy) may be
+    // gathered one by one. Coloured afresh, three times as many are.
+    let spec = GridSpec::new(64, 64, 0.02).with_plane(crate::sim::GridPlane::Vertical);
+    let model = ClothModel::grid(&spec).unwrap();
+    let grid_tails = gathered(&model);
+    let mut sim = crate::sim::ClothSim::new(model, Default::default(), |p| p).unwrap();
+    let at = |sim: &crate::sim::ClothSim, i: usize| sim.positions()[i];
+    let cuts = [
+        crate::sim::Cut::Ray {
+            origin: at(&sim, 20 * 64 + 40) - Vec3::Z,
+            direction: Vec3::Z,
+            radius: 0.1,
+        },
+        crate::sim::Cut::Plane {
+            point: at(&sim, 32 * 64 + 5) + 0.01 * Vec3::Y,
+            normal: Vec3::Y,
+        },
+    ];
+    for cut in cuts {
+        assert!(!sim.tear(&[cut]).unwrap().is_empty());
+    }
+    let torn = sim.model();
+    let copies = torn.particle_count() - 64 * 64;
+    let tails = gathered(torn);
+    assert!(
+        tails < grid_tails + 6 * copies,
+        "{tails} of {} springs gathered ({copies} copies; the grid: {grid_tails})",
+        torn.springs.len()
+    );
+}
+
+#[test]
 fn single_vector_batches_of_a_grid_are_projected_in_pairs() {
     // A 64-column grid's rows leave many runs of 16 or 48 slots: a vector batch each that the
     // kernel would otherwise project with one chain of square root and division in flight.
