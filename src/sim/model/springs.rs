@@ -204,17 +204,24 @@ pub(super) fn torn_lattice_colors(
         .map(|&(a, b, k)| (origin(a), origin(b), k))
         .collect();
     let mut colors = lattice_colors(&origins, nx);
-    let spare = colors.iter().max().map_or(0, |c| c + 1);
-    let mut used: HashSet<u64, BuildHasherDefault<IntHasher>> =
-        HashSet::with_capacity_and_hasher(2 * pairs.len(), Default::default());
-    let key = |p: u32, c: u32| u64::from(p) << 32 | u64::from(c);
+    let spare = colors.iter().max().map_or(0, |c| c + 1) as usize;
+    // A spring's two ends have fewer than 2 · MAX_SPRINGS_PER_PARTICLE other springs, so one of
+    // that many spare colours is free at both.
+    let words = (spare + 2 * MAX_SPRINGS_PER_PARTICLE).div_ceil(64);
+    let particles = pairs.iter().map(|&(a, b, _)| a.max(b) as usize + 1).max();
+    let mut used = vec![0u64; particles.unwrap_or(0) * words];
+    let taken =
+        |used: &[u64], p: u32, c: usize| (used[p as usize * words + c / 64] >> (c % 64)) & 1;
     for (&(a, b, _), color) in pairs.iter().zip(&mut colors) {
-        let taken = |c: u32| used.contains(&key(a, c)) || used.contains(&key(b, c));
-        if taken(*color) {
-            *color = (spare..).find(|&c| !taken(c)).unwrap_or(spare);
+        let free = |c: usize| (taken(&used, a, c) | taken(&used, b, c)) == 0;
+        let c = match *color as usize {
+            c if free(c) => c,
+            _ => (spare..words * 64).find(|&c| free(c)).unwrap_or(spare),
+        };
+        *color = c as u32;
+        for p in [a, b] {
+            used[p as usize * words + c / 64] |= 1 << (c % 64);
         }
-        used.insert(key(a, *color));
-        used.insert(key(b, *color));
     }
     colors
 }
