@@ -230,10 +230,11 @@ impl Subdivider {
             .collect();
         seeds.sort_unstable();
         seeds.dedup();
-        let mut in_region = vec![false; faces];
+        let mut is_changed = vec![false; faces];
         for &f in changed {
-            in_region[f as usize] = true;
+            is_changed[f as usize] = true;
         }
+        let mut in_region = is_changed.clone();
         let mut frontier = seeds.clone();
         grow(topo, &mut in_region, &mut frontier, CHANGED_RINGS);
         let in_changed_rings = in_region.clone();
@@ -282,13 +283,6 @@ impl Subdivider {
         let refined_corners = |offsets: &[u32], f: usize| {
             4 * scale * offsets[f] as usize..4 * scale * offsets[f + 1] as usize
         };
-        let is_changed = {
-            let mut mark = vec![false; faces];
-            for &f in changed {
-                mark[f as usize] = true;
-            }
-            mark
-        };
         let old_corners = &self.topology.face_indices;
         let local_corners = &r.topology.face_indices;
         let mut index_of = vec![UNSET; r.topology.num_vertices];
@@ -323,15 +317,20 @@ impl Subdivider {
         }
         // The changed faces' refined vertices: the index their corner had, unless a face that
         // did not change keeps it, else a new one.
+        let changed_corners: Vec<_> = region
+            .iter()
+            .enumerate()
+            .filter(|&(_, &f)| is_changed[f as usize])
+            .map(|(j, &f)| {
+                (
+                    refined_corners(&self.control.face_offsets, f as usize),
+                    refined_corners(&offsets, j),
+                )
+            })
+            .collect();
         let mut next = self.topology.vertex_count as u32;
-        for (j, &f) in region.iter().enumerate() {
-            if !is_changed[f as usize] {
-                continue;
-            }
-            let (global, local) = (
-                refined_corners(&self.control.face_offsets, f as usize),
-                refined_corners(&offsets, j),
-            );
+        for (global, local) in &changed_corners {
+            let (global, local) = (global.clone(), local.clone());
             for (&g, &s) in old_corners[global].iter().zip(&local_corners[local]) {
                 if index_of[s as usize] == UNSET {
                     index_of[s as usize] = if claimed.insert(g) {
@@ -416,19 +415,8 @@ impl Subdivider {
         if let (Some(old), Some(new)) = (&mut self.control.uvs, mesh.uvs()) {
             old.copy_from_slice(new);
         }
-        let refined_faces: Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> = region
-            .iter()
-            .enumerate()
-            .filter(|&(_, &f)| is_changed[f as usize])
-            .map(|(j, &f)| {
-                (
-                    refined_corners(&self.control.face_offsets, f as usize),
-                    refined_corners(&offsets, j),
-                )
-            })
-            .collect();
         self.topology.splice(
-            &refined_faces,
+            &changed_corners,
             |s| index_of[s as usize],
             local_corners,
             r.uvs.as_deref(),

@@ -419,3 +419,28 @@ fn tear_weights_scale_the_threshold_particle_by_particle() {
     assert!(sim.set_tear_weights(Some(vec![-1.0; 256])).is_err());
     assert!(sim.tear_weights().is_none());
 }
+
+#[test]
+fn a_torn_grid_whose_copies_do_not_match_its_particles_is_refused() {
+    let mut sim = hanging(8, SolverSettings::default());
+    let point = sim.positions()[4 * 8];
+    sim.tear(&[Cut::Plane {
+        point,
+        normal: Vec3::Y,
+    }])
+    .unwrap();
+    let torn = sim.model().clone();
+    assert!(torn.torn_grid.is_some(), "a torn grid remembers its grid");
+    assert_eq!(torn.validate(), Ok(()));
+    let mut extra = torn.clone();
+    extra.torn_grid.as_mut().unwrap().origins.push(0);
+    let mut outside = torn;
+    outside.torn_grid.as_mut().unwrap().origins[0] = 64;
+    for model in [extra, outside] {
+        assert!(
+            matches!(model.validate(), Err(ClothError::InvalidMesh { .. })),
+            "{:?}",
+            model.validate()
+        );
+    }
+}

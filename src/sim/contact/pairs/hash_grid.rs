@@ -1,5 +1,6 @@
 //! Grids of cells: the spatial hash of boxes that the broad phases search through, and the cell
-//! arithmetic, box tests and hasher that self-contacts' cubes and patches share.
+//! arithmetic and box tests that self-contacts' cubes and patches share (their maps hash cells
+//! with [`IntHasher`](crate::hash::IntHasher)).
 
 use glam::{Vec3, Vec3A};
 
